@@ -1,0 +1,28 @@
+//! The `revelio` command line. Each subcommand lives in its own file with its clap `Args` and a
+//! `run` function returning the process exit code (0 ok, 1 findings/errors, 2 usage errors).
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {}
+
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    match cli.command {}
+}

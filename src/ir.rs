@@ -1,0 +1,593 @@
+//! The Domain IR: the one contract between the compiler and everything after it.
+//!
+//! The front end (`syntax` → `check`) lowers `.rev` files into a [`Domain`]. Every later stage
+//! (lattice, oracle, sampler, emitters, renderer, search) reads only this module's types, never
+//! syntax. All collections are in declaration order, and every index (`ConceptId`, `KindId`, …)
+//! is stable for a given source: a concept's index is its bit in a [`ConceptSet`].
+//!
+//! Spans are kept (as byte ranges into a named source file) so that lattice lints can point at
+//! the declaration that causes them.
+
+use serde::{Deserialize, Serialize};
+
+/// Maximum number of concepts a domain may declare (the width of a [`ConceptSet`]).
+pub const MAX_CONCEPTS: usize = 128;
+
+/// A byte range in one source file. `file` indexes [`Domain::files`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub struct Span {
+    pub file: u32,
+    pub start: u32,
+    pub end: u32,
+}
+
+macro_rules! id_type {
+    ($($(#[$m:meta])* $name:ident;)*) => {$(
+        $(#[$m])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+        #[serde(transparent)]
+        pub struct $name(pub u32);
+        impl $name {
+            pub fn index(self) -> usize { self.0 as usize }
+        }
+    )*};
+}
+
+id_type! {
+    /// Index into [`Domain::concepts`]; also the concept's bit in a [`ConceptSet`].
+    ConceptId;
+    /// Index into [`Domain::kinds`].
+    KindId;
+    /// Index into [`Domain::tags`].
+    TagId;
+    /// Index into [`Domain::enums`].
+    EnumId;
+    /// Index into [`Domain::regions`].
+    RegionId;
+    /// Index into [`Domain::questions`].
+    QuestionId;
+    /// Index into [`Domain::rules`].
+    RuleId;
+    /// Index into [`Domain::presets`].
+    PresetId;
+}
+
+/// A set of concepts as a fixed-width bitset (bit i = concept i). Ordered and hashable so that
+/// sets can be used as map keys; the canonical order of sets is defined in `lattice`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
+pub struct ConceptSet(pub u128);
+
+impl ConceptSet {
+    pub const EMPTY: ConceptSet = ConceptSet(0);
+    pub fn single(c: ConceptId) -> Self {
+        ConceptSet(1u128 << c.0)
+    }
+    pub fn from_ids(ids: impl IntoIterator<Item = ConceptId>) -> Self {
+        ids.into_iter().fold(Self::EMPTY, |s, c| s.with(c))
+    }
+    pub fn contains(self, c: ConceptId) -> bool {
+        self.0 >> c.0 & 1 == 1
+    }
+    #[must_use]
+    pub fn with(self, c: ConceptId) -> Self {
+        ConceptSet(self.0 | 1u128 << c.0)
+    }
+    #[must_use]
+    pub fn without(self, c: ConceptId) -> Self {
+        ConceptSet(self.0 & !(1u128 << c.0))
+    }
+    pub fn len(self) -> usize {
+        self.0.count_ones() as usize
+    }
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+    pub fn union(self, o: Self) -> Self {
+        ConceptSet(self.0 | o.0)
+    }
+    pub fn intersection(self, o: Self) -> Self {
+        ConceptSet(self.0 & o.0)
+    }
+    pub fn is_subset_of(self, o: Self) -> bool {
+        self.0 & !o.0 == 0
+    }
+    /// Concept ids in ascending index (declaration) order.
+    pub fn iter(self) -> impl Iterator<Item = ConceptId> {
+        let mut bits = self.0;
+        std::iter::from_fn(move || {
+            if bits == 0 {
+                return None;
+            }
+            let i = bits.trailing_zeros();
+            bits &= bits - 1;
+            Some(ConceptId(i))
+        })
+    }
+    /// Jaccard similarity |a∩b| / |a∪b| (1.0 for two empty sets).
+    pub fn jaccard(self, o: Self) -> f64 {
+        let u = self.union(o).len();
+        if u == 0 {
+            1.0
+        } else {
+            self.intersection(o).len() as f64 / u as f64
+        }
+    }
+}
+
+/// A source file the domain was compiled from (stdlib modules included), for diagnostics.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SourceFile {
+    /// Display name: a path as given by the user, or `std/<module>.rev` for the stdlib.
+    pub name: String,
+    pub text: String,
+}
+
+/// A compiled domain.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Domain {
+    pub name: String,
+    /// Every file that contributed, in load order (the domain file first).
+    pub files: Vec<SourceFile>,
+    pub units: Vec<Unit>,
+    pub relations: Vec<RelationDef>,
+    pub enums: Vec<EnumDef>,
+    pub tags: Vec<TagDef>,
+    pub kinds: Vec<Kind>,
+    /// Attributes of the world (map, weather, intersection ahead, …) with their defaults.
+    pub world: Vec<AttrDef>,
+    /// Named placement regions (lane, sidewalk, counter top, floor, …) in the scene frame.
+    pub regions: Vec<Region>,
+    /// Named bundles of renderer/simulator parameters (weather presets).
+    pub presets: Vec<Preset>,
+    /// Static scenery (road, buildings, kitchen fixtures) drawn in every scene of the domain.
+    pub stage: Vec<StageItem>,
+    /// Concepts and modifiers; the index is the bit index.
+    pub concepts: Vec<Concept>,
+    pub constraints: Vec<Constraint>,
+    pub questions: Vec<Question>,
+    pub selection: Selection,
+    /// Rules in selection order (priority order for `Selection::Priority`; declaration order,
+    /// which is also the tie-break order, for `Selection::BestFit`).
+    pub rules: Vec<Rule>,
+    /// Where the scene's camera sits (renderer).
+    pub camera: Camera,
+}
+
+/// A unit of measure. Numbers are stored in the unit's base (e.g. metres), `scale` converts.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Unit {
+    /// The suffix written in source (`m`, `cm`, `deg`, `s`, `pct`).
+    pub name: String,
+    /// The dimension it measures (`length`, `angle`, `time`, `ratio`).
+    pub dimension: String,
+    /// Multiply a source value by this to get the dimension's base unit.
+    pub scale: f64,
+}
+
+/// A relation name usable in `add … RELATION ego` (`ahead_of`, `on`, `near` …).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RelationDef {
+    pub name: String,
+    /// How it reads ("is ahead of").
+    pub text: String,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct EnumDef {
+    pub name: String,
+    pub variants: Vec<String>,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TagDef {
+    pub name: String,
+    pub doc: String,
+    pub span: Span,
+}
+
+/// The type of an attribute.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum AttrType {
+    Bool,
+    /// A number of a dimension (`length`, …; `""` for a plain number), within `[min, max]`
+    /// (base units).
+    Number { dimension: String, min: f64, max: f64 },
+    Enum(EnumId),
+}
+
+/// A value on the anchor scene graph: a number may be a range (sampled later).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Value {
+    Bool(bool),
+    /// A number in base units.
+    Number(f64),
+    /// An inclusive range in base units, `lo <= hi`.
+    Range(f64, f64),
+    /// An enum variant: (enum, variant index).
+    Enum(EnumId, u32),
+}
+
+impl Value {
+    /// Inclusive bounds of a numeric value.
+    pub fn bounds(&self) -> Option<(f64, f64)> {
+        match *self {
+            Value::Number(x) => Some((x, x)),
+            Value::Range(a, b) => Some((a, b)),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AttrDef {
+    pub name: String,
+    pub ty: AttrType,
+    pub default: Value,
+    pub doc: String,
+    pub span: Span,
+}
+
+/// An entity kind (`Pedestrian`, `Glass`, …). Attributes include those inherited from tags and
+/// parents, already flattened by the checker.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Kind {
+    pub name: String,
+    pub doc: String,
+    /// Direct and inherited tags (parents are tags too: a kind "is a" each of them).
+    pub tags: Vec<TagId>,
+    pub attrs: Vec<AttrDef>,
+    /// Default look in the builtin renderer.
+    pub shape: Vec<ShapePart>,
+    pub span: Span,
+}
+
+impl Kind {
+    pub fn attr(&self, name: &str) -> Option<usize> {
+        self.attrs.iter().position(|a| a.name == name)
+    }
+    pub fn has_tag(&self, t: TagId) -> bool {
+        self.tags.contains(&t)
+    }
+}
+
+/// A placement region in the scene frame: x forward (metres ahead of the ego/camera), y left,
+/// z up. The sampler draws positions uniformly inside; an entity attribute named `distance`
+/// (if the kind has one) overrides x, and `lateral` overrides y.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Region {
+    pub name: String,
+    pub doc: String,
+    pub x: (f64, f64),
+    pub y: (f64, f64),
+    pub z: (f64, f64),
+    /// Scenic placement text for this region (e.g. `on visible ego.lane` or a sidewalk
+    /// specifier); `{distance}` is substituted by the emitter.
+    pub scenic: Option<String>,
+    pub span: Span,
+}
+
+/// A named bundle of numeric parameters (e.g. a CARLA weather preset: cloudiness,
+/// precipitation, fog_density, wetness, sun_altitude_angle, …). World attributes of an enum type
+/// can map each variant to a preset (see [`Domain::presets`] and `Preset::for_variant`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Preset {
+    pub name: String,
+    pub doc: String,
+    /// When `Some((enum, variant))`, this preset applies when a world attribute of that enum
+    /// type has that variant.
+    pub for_variant: Option<(EnumId, u32)>,
+    pub params: Vec<(String, f64)>,
+    pub span: Span,
+}
+
+/// One primitive of a builtin-renderer shape, in the entity's local frame (metres; origin on the
+/// ground under the entity's centre; x forward/away from camera, y left, z up).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShapePart {
+    pub prim: Primitive,
+    /// Full extents along x, y, z (a cylinder/capsule uses x as diameter, z as height).
+    pub size: [f64; 3],
+    /// Centre offset of the primitive from the entity origin.
+    pub at: [f64; 3],
+    /// sRGB colour components in 0..=1 (as written in `#rrggbb[aa]`) plus alpha.
+    pub color: [f64; 4],
+    /// Rotation about z in degrees (yaw), then about x (roll, e.g. a tipped glass).
+    pub yaw_deg: f64,
+    pub roll_deg: f64,
+    /// Material hint: `matte`, `metal`, `glass`, `emissive`, `water`, `flame`, `smoke`.
+    pub material: String,
+    /// Only draw this part when the condition holds for the entity/world (e.g. a lit lamp).
+    pub when: Option<Expr>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Primitive {
+    Box,
+    Cylinder,
+    Capsule,
+    Sphere,
+    /// A flat quad in the xy plane (size z ignored).
+    Plane,
+    /// A cone (traffic cone), base diameter size x, height size z.
+    Cone,
+}
+
+/// A piece of static scenery (the road, buildings, kitchen counter …): shapes placed in the
+/// scene frame, optionally conditional on world attributes (e.g. Town02 buildings).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StageItem {
+    pub name: String,
+    pub parts: Vec<ShapePart>,
+    /// Scene-frame origin of the parts.
+    pub at: [f64; 3],
+    /// Repeat the item `count` times, offset by `step` each time (rows of buildings, lane
+    /// markings).
+    pub repeat: Option<(u32, [f64; 3])>,
+    pub when: Option<Expr>,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Camera {
+    /// Position in the scene frame (metres).
+    pub at: [f64; 3],
+    /// Point looked at.
+    pub look_at: [f64; 3],
+    pub fov_deg: f64,
+    /// Default image size.
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera { at: [0.0, 0.0, 1.4], look_at: [30.0, 0.0, 1.0], fov_deg: 70.0, width: 640, height: 360 }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ConceptKind {
+    /// Adds entities and/or sets world attributes.
+    Concept,
+    /// Overrides attributes of an entity another concept added (or of the world); invalid
+    /// without a target.
+    Modifier,
+}
+
+/// A concept or modifier.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Concept {
+    pub name: String,
+    pub id: ConceptId,
+    pub kind: ConceptKind,
+    /// The sentence a person reads (the paper's table).
+    pub description: String,
+    /// Grouping for reports (the paper's category column).
+    pub category: String,
+    pub probe: Probe,
+    pub effects: Vec<Effect>,
+    /// For modifiers: which entities it can apply to. It applies to the *target entity*: among
+    /// the entities added by the set's concepts that match this filter, the one added by the
+    /// concept declared last (highest index) — the deterministic meaning of the paper's "most
+    /// recently added entity" for unordered sets.
+    pub target: Option<TargetFilter>,
+    pub render: RenderBindings,
+    pub span: Span,
+}
+
+/// Recognition probe (paper appendix G): a positive statement and its counterfactual.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Probe {
+    pub positive: String,
+    pub negative: String,
+}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct RenderBindings {
+    /// Scenic fragment; `{name}` placeholders are filled by the emitter (`{distance}`,
+    /// `{region}`, `{id}` …). For entities, one Scenic statement creating the object.
+    pub scenic: Option<String>,
+    /// Image-generation prompt snippet (verbatim sentence).
+    pub prompt: Option<String>,
+    /// Builtin-renderer shape overriding the kind's default look for the entities this concept
+    /// adds.
+    pub shape: Option<Vec<ShapePart>>,
+}
+
+/// What a concept does to the anchor scene graph.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub enum Effect {
+    /// Add an entity of `kind`, placed in `region`, related to `relation`, with attribute
+    /// overrides (on top of the kind's defaults).
+    Add { name: String, kind: KindId, region: RegionId, relation: Relation, attrs: Vec<(String, Value)>, span: Span },
+    /// Set a world attribute.
+    SetWorld { attr: String, value: Value, span: Span },
+    /// (modifiers) Set an attribute of the target entity.
+    SetTarget { attr: String, value: Value, span: Span },
+    /// (modifiers) Move the target entity to another region.
+    MoveTarget { region: RegionId, span: Span },
+}
+
+/// An edge of the anchor scene graph from an entity to ego / another entity.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Relation {
+    /// Relation name from the stdlib (`ahead_of`, `on`, `near`, `in`, `reaching_into` …).
+    pub name: String,
+    /// `None` = ego / the camera's owner; otherwise the name of an entity added by a concept.
+    pub to: Option<String>,
+}
+
+/// Which entities a modifier can target: any of `kinds` or carrying any of `tags` (empty both =
+/// any entity). `world = true`: the modifier targets the world (always present).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TargetFilter {
+    pub kinds: Vec<KindId>,
+    pub tags: Vec<TagId>,
+    pub world: bool,
+}
+
+/// Compatibility constraints, compiled to bitmasks over concept ids.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Constraint {
+    pub name: String,
+    /// Comment/rationale from source, shown in diagnostics.
+    pub doc: String,
+    pub rule: ConstraintRule,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub enum ConstraintRule {
+    /// At most `max` of `members` may be in a set (exclusive group: `max = 1`).
+    AtMost { members: ConceptSet, max: u32 },
+    /// If the set holds `concept`, it must hold at least one of `any_of`.
+    Requires { concept: ConceptId, any_of: ConceptSet },
+    /// No set may hold all of `all` together.
+    Forbids { all: ConceptSet },
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Question {
+    pub name: String,
+    pub text: String,
+    /// Options in display order; their letters are A, B, C … by position.
+    pub options: Vec<AnswerOption>,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AnswerOption {
+    /// Identifier used by rules (`stop`, `slow`, `go`, `yes`, `no`).
+    pub name: String,
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Selection {
+    /// First matching rule in order decides; all rules share the domain's question.
+    Priority,
+    /// Among the rules whose `when` holds, the highest element-fit score wins; ties go to the
+    /// rule declared first.
+    BestFit,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Rule {
+    pub name: String,
+    pub id: RuleId,
+    /// The rationale (the rule's doc comment).
+    pub rationale: String,
+    pub question: QuestionId,
+    /// Index into the question's options.
+    pub expect: u32,
+    /// Precondition over the anchor scene graph. A rule with no condition always matches.
+    pub when: Option<Expr>,
+    /// Best fit: the concepts whose presence makes this rule specific (its "visual elements");
+    /// the element-fit score is the number of the set's concepts among them.
+    pub elements: ConceptSet,
+    /// Marks a safe-scene rule (expected answer is "no hazard").
+    pub safe: bool,
+    pub span: Span,
+}
+
+/// Rule and shape conditions, evaluated on the anchor scene graph with three-valued logic
+/// (a numeric range that straddles a threshold is *unknown*).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Expr {
+    Bool(bool),
+    Not(Box<Expr>),
+    And(Vec<Expr>),
+    Or(Vec<Expr>),
+    /// The set contains this concept.
+    Has(ConceptId),
+    /// Some entity matching the filter satisfies `cond` (which may use `Attr(Some(var))`).
+    Exists { var: String, filter: TargetFilter, cond: Option<Box<Expr>> },
+    /// Number of entities matching the filter, compared.
+    Count { filter: TargetFilter, op: CmpOp, n: u32 },
+    /// Compare an attribute to a value: entity attribute (`Some(var)`), the current entity in a
+    /// shape condition (`Some("self")`), or a world attribute (`None`).
+    Cmp { var: Option<String>, attr: String, op: CmpOp, value: Value },
+    /// Entity is placed in a region (`x in lane`).
+    InRegion { var: String, region: RegionId },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CmpOp {
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+}
+
+impl Domain {
+    pub fn concept_by_name(&self, name: &str) -> Option<&Concept> {
+        self.concepts.iter().find(|c| c.name == name)
+    }
+    pub fn kind_by_name(&self, name: &str) -> Option<KindId> {
+        self.kinds.iter().position(|k| k.name == name).map(|i| KindId(i as u32))
+    }
+    pub fn tag_by_name(&self, name: &str) -> Option<TagId> {
+        self.tags.iter().position(|t| t.name == name).map(|i| TagId(i as u32))
+    }
+    pub fn region_by_name(&self, name: &str) -> Option<RegionId> {
+        self.regions.iter().position(|r| r.name == name).map(|i| RegionId(i as u32))
+    }
+    pub fn world_attr(&self, name: &str) -> Option<&AttrDef> {
+        self.world.iter().find(|a| a.name == name)
+    }
+    /// Parse a list of concept names into a set; the error names the first unknown one.
+    pub fn parse_set<S: AsRef<str>>(&self, names: &[S]) -> Result<ConceptSet, String> {
+        let mut set = ConceptSet::EMPTY;
+        for n in names {
+            let n = n.as_ref();
+            match self.concept_by_name(n) {
+                Some(c) => set = set.with(c.id),
+                None => return Err(format!("unknown concept `{n}`")),
+            }
+        }
+        Ok(set)
+    }
+    /// Concept names of a set, in index order.
+    pub fn set_names(&self, set: ConceptSet) -> Vec<&str> {
+        set.iter().map(|c| self.concepts[c.index()].name.as_str()).collect()
+    }
+    /// Mask of all modifiers.
+    pub fn modifier_mask(&self) -> ConceptSet {
+        ConceptSet::from_ids(self.concepts.iter().filter(|c| c.kind == ConceptKind::Modifier).map(|c| c.id))
+    }
+    /// The enum variant name of an enum value.
+    pub fn variant_name(&self, e: EnumId, v: u32) -> &str {
+        &self.enums[e.index()].variants[v as usize]
+    }
+}
+
+/// Whether an entity of `kind` matches a target filter.
+impl TargetFilter {
+    pub fn matches(&self, domain: &Domain, kind: KindId) -> bool {
+        if self.kinds.is_empty() && self.tags.is_empty() {
+            return !self.world;
+        }
+        self.kinds.contains(&kind) || self.tags.iter().any(|t| domain.kinds[kind.index()].has_tag(*t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_ops() {
+        let s = ConceptSet::from_ids([ConceptId(0), ConceptId(5), ConceptId(127)]);
+        assert_eq!(s.len(), 3);
+        assert!(s.contains(ConceptId(127)));
+        assert_eq!(s.iter().collect::<Vec<_>>(), vec![ConceptId(0), ConceptId(5), ConceptId(127)]);
+        let t = ConceptSet::from_ids([ConceptId(5), ConceptId(6)]);
+        assert!((s.jaccard(t) - 0.25).abs() < 1e-12);
+        assert!(ConceptSet::single(ConceptId(5)).is_subset_of(s));
+        assert_eq!(s.without(ConceptId(0)).len(), 2);
+    }
+}

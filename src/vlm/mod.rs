@@ -1,0 +1,129 @@
+//! Vision-language model clients behind one trait. The evaluator (`search`) builds a [`Query`]
+//! per observation and gets back a [`Reply`]; it never knows which provider answered.
+//!
+//! Providers: the offline `sim` model (answers from the ground truth it is handed, with planted
+//! failure modes), and the real API clients (OpenAI-compatible, Anthropic, Gemini, Bedrock).
+
+use std::future::Future;
+use std::pin::Pin;
+
+use serde::{Deserialize, Serialize};
+
+use crate::ir::ConceptSet;
+
+pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
+
+/// One question to a model about one image.
+#[derive(Debug, Clone)]
+pub struct Query {
+    /// The encoded image (PNG unless a client re-encodes), or `None` with `--renderer none`.
+    pub image: Option<std::sync::Arc<Vec<u8>>>,
+    /// SHA-256 hex of the image bytes (or of the scene JSON when there is no image).
+    pub image_hash: String,
+    /// The full prompt text sent with the image (question, lettered options, answer format).
+    pub prompt: String,
+    /// Option texts in order; option i has letter `(b'A' + i)`.
+    pub options: Vec<String>,
+    /// Ground truth, handed over for the `sim` model only; real clients must ignore it.
+    pub truth: Option<Truth>,
+}
+
+/// What the `sim` model answers from.
+#[derive(Debug, Clone)]
+pub struct Truth {
+    pub set: ConceptSet,
+    /// Concept names of the set.
+    pub concepts: Vec<String>,
+    /// Index of the expected option.
+    pub expected: u32,
+    /// A deterministic per-observation key (run seed, set, observation index mixed), so a
+    /// simulated answer is the same on a resumed run.
+    pub key: u64,
+}
+
+/// How a model's reply ended, before comparing with the expected answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Answer {
+    /// A parsed option index.
+    Option(u32),
+    /// No option could be read from the reply.
+    Unparsed,
+    /// The reply names more than one option.
+    Ambiguous,
+    /// The model declined to answer.
+    Refusal,
+    /// The provider blocked the prompt or reply (safety filters).
+    Blocked,
+    /// The reply was cut off (max tokens) before an answer.
+    Truncated,
+    /// The call failed (after bounded retries).
+    ApiError,
+}
+
+/// The outcome recorded for an observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Correct,
+    Wrong,
+    Unparsed,
+    Ambiguous,
+    Refusal,
+    Blocked,
+    Truncated,
+    ApiError,
+}
+
+impl Outcome {
+    pub fn from_answer(a: Answer, expected: u32) -> Outcome {
+        match a {
+            Answer::Option(o) if o == expected => Outcome::Correct,
+            Answer::Option(_) => Outcome::Wrong,
+            Answer::Unparsed => Outcome::Unparsed,
+            Answer::Ambiguous => Outcome::Ambiguous,
+            Answer::Refusal => Outcome::Refusal,
+            Answer::Blocked => Outcome::Blocked,
+            Answer::Truncated => Outcome::Truncated,
+            Answer::ApiError => Outcome::ApiError,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Usage {
+    pub input_tokens: u64,
+    /// Output tokens including thinking tokens.
+    pub output_tokens: u64,
+    /// Of the output tokens, how many were thinking.
+    pub thinking_tokens: u64,
+    /// Cost in US dollars from the model's configured prices (0 when unknown or cached).
+    pub cost_usd: f64,
+}
+
+/// A model's reply to one query.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Reply {
+    /// The raw final text (thinking removed), or the error message for `ApiError`.
+    pub raw: String,
+    /// Thinking/reasoning text when the provider returned it separately.
+    pub thinking: Option<String>,
+    pub answer: Answer,
+    pub usage: Usage,
+    pub latency_ms: u64,
+    /// Served from the response cache (cost nothing).
+    pub cached: bool,
+    /// Attempts made (1 = no retry).
+    pub attempts: u32,
+}
+
+/// A vision-language model. Implementations must be cheap to share (`Arc<dyn Model>`) and safe
+/// to call concurrently; they own their rate limits and retries.
+pub trait Model: Send + Sync {
+    /// A stable identifier including the settings that change answers (goes into the run
+    /// configuration and the cache key), e.g. `gemini:gemini-3-flash@thinking=low`.
+    fn id(&self) -> String;
+    /// Ask once. Never panics and never returns an error: failures become `Answer::ApiError`
+    /// with the message in `raw`.
+    fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply>;
+}
