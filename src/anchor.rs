@@ -46,7 +46,8 @@ pub enum AnchorError {
 /// Build the anchor graph of `set`. Constraints are *not* checked here (see `lattice`); only the
 /// structural rule that every modifier needs a target.
 pub fn build(domain: &Domain, set: ConceptSet) -> Result<AnchorGraph, AnchorError> {
-    let mut g = AnchorGraph { set, entities: Vec::new(), world: domain.world.iter().map(|a| a.default.clone()).collect() };
+    let mut g =
+        AnchorGraph { set, entities: Vec::new(), world: domain.world.iter().map(|a| a.default.clone()).collect() };
     for cid in set.iter() {
         let c = &domain.concepts[cid.index()];
         if c.kind == ConceptKind::Modifier {

@@ -106,11 +106,7 @@ impl ConceptSet {
     /// Jaccard similarity |a∩b| / |a∪b| (1.0 for two empty sets).
     pub fn jaccard(self, o: Self) -> f64 {
         let u = self.union(o).len();
-        if u == 0 {
-            1.0
-        } else {
-            self.intersection(o).len() as f64 / u as f64
-        }
+        if u == 0 { 1.0 } else { self.intersection(o).len() as f64 / u as f64 }
     }
 }
 
@@ -193,7 +189,11 @@ pub enum AttrType {
     Bool,
     /// A number of a dimension (`length`, …; `""` for a plain number), within `[min, max]`
     /// (base units).
-    Number { dimension: String, min: f64, max: f64 },
+    Number {
+        dimension: String,
+        min: f64,
+        max: f64,
+    },
     Enum(EnumId),
 }
 
@@ -329,7 +329,7 @@ pub struct StageItem {
     pub span: Span,
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
     /// Position in the scene frame (metres).
     pub at: [f64; 3],
@@ -503,14 +503,30 @@ pub enum Expr {
     /// The set contains this concept.
     Has(ConceptId),
     /// Some entity matching the filter satisfies `cond` (which may use `Attr(Some(var))`).
-    Exists { var: String, filter: TargetFilter, cond: Option<Box<Expr>> },
+    Exists {
+        var: String,
+        filter: TargetFilter,
+        cond: Option<Box<Expr>>,
+    },
     /// Number of entities matching the filter, compared.
-    Count { filter: TargetFilter, op: CmpOp, n: u32 },
+    Count {
+        filter: TargetFilter,
+        op: CmpOp,
+        n: u32,
+    },
     /// Compare an attribute to a value: entity attribute (`Some(var)`), the current entity in a
     /// shape condition (`Some("self")`), or a world attribute (`None`).
-    Cmp { var: Option<String>, attr: String, op: CmpOp, value: Value },
+    Cmp {
+        var: Option<String>,
+        attr: String,
+        op: CmpOp,
+        value: Value,
+    },
     /// Entity is placed in a region (`x in lane`).
-    InRegion { var: String, region: RegionId },
+    InRegion {
+        var: String,
+        region: RegionId,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

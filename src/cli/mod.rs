@@ -26,3 +26,10 @@ pub fn main() -> ExitCode {
     };
     match cli.command {}
 }
+
+/// Compile a domain file for a subcommand, printing diagnostics to stderr on failure.
+/// (Replaced by the front end.)
+pub fn load_domain(path: &std::path::Path) -> Result<crate::ir::Domain, ExitCode> {
+    eprintln!("error: cannot compile `{}`: the front end is not built yet", path.display());
+    Err(ExitCode::from(1))
+}

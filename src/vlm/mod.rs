@@ -127,3 +127,7 @@ pub trait Model: Send + Sync {
     /// with the message in `raw`.
     fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply>;
 }
+
+pub mod prompt;
+pub mod registry;
+pub mod sim;
