@@ -94,8 +94,9 @@ impl Gp {
     /// and conditions on the data.
     pub fn fit(x: &[ConceptSet], y: &[f64], d: usize) -> Result<Gp, GpError> {
         let stats = Stats::new(x, y, d)?;
-        let [log_sigma0, log_noise] = maximise(&Spectrum::new(&stats));
-        Gp::condition(&stats, log_sigma0.exp(), log_noise.exp())
+        // exp(ln 1e-5) is not exactly 1e-5: report a hyperparameter on its bound as the bound.
+        let [sigma0, noise_level] = maximise(&Spectrum::new(&stats)).map(|t| t.exp().clamp(BOUNDS.0, BOUNDS.1));
+        Gp::condition(&stats, sigma0, noise_level)
     }
 
     /// Conditions on the data with fixed hyperparameters (scikit-learn's `optimizer=None`).
