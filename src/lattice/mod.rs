@@ -22,6 +22,7 @@ pub(crate) mod testkit;
 mod validity;
 
 use std::cmp::Ordering;
+use std::ops::ControlFlow;
 
 pub use validity::{ModifierTarget, Validity, Violation, ViolationAt, describe_constraint, validate};
 
@@ -137,37 +138,59 @@ pub fn canonical_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
 /// Call `visit` on every valid set of 1 to `max_size` concepts, in lexicographic order of sorted
 /// concept indices (sizes interleaved), without storing them.
 pub fn for_each_valid(validity: &Validity, max_size: usize, mut visit: impl FnMut(ConceptSet)) {
-    let n = 128 - validity.universe().0.leading_zeros();
-    if max_size > 0 {
-        dfs(validity, 0, 0, n, max_size, &mut visit);
-    }
-}
-
-/// Call `visit` on every valid set of exactly `size` concepts, in canonical order.
-pub fn for_each_of_size(validity: &Validity, size: usize, mut visit: impl FnMut(ConceptSet)) {
-    for_each_valid(validity, size, |s| {
-        if s.len() == size {
-            visit(s)
-        }
+    let _ = try_for_each_valid(validity, max_size, |s| {
+        visit(s);
+        ControlFlow::<()>::Continue(())
     });
 }
 
-fn dfs(v: &Validity, set: u128, next: u32, n: u32, room: usize, visit: &mut impl FnMut(ConceptSet)) {
+/// [`for_each_valid`] that stops as soon as `visit` breaks, returning its value.
+pub fn try_for_each_valid<B>(
+    validity: &Validity,
+    max_size: usize,
+    mut visit: impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    let n = 128 - validity.universe().0.leading_zeros();
+    if max_size == 0 {
+        return ControlFlow::Continue(());
+    }
+    dfs(validity, 0, 0, n, max_size, &mut visit)
+}
+
+/// Call `visit` on every valid set of exactly `size` concepts, in canonical order, until it
+/// breaks.
+pub fn try_for_each_of_size<B>(
+    validity: &Validity,
+    size: usize,
+    mut visit: impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    try_for_each_valid(validity, size, |s| if s.len() == size { visit(s) } else { ControlFlow::Continue(()) })
+}
+
+fn dfs<B>(
+    v: &Validity,
+    set: u128,
+    next: u32,
+    n: u32,
+    room: usize,
+    visit: &mut impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
     for c in next..n {
         let s = set | 1u128 << c;
         if !v.monotone_ok(s) {
             continue;
         }
         if v.closure_ok(s) {
-            visit(ConceptSet(s));
+            visit(ConceptSet(s))?;
         }
         if room > 1 {
             let remaining = if c + 1 >= 128 { 0 } else { v.universe().0 >> (c + 1) << (c + 1) };
             if !v.hopeless(s, remaining) {
-                dfs(v, s, c + 1, n, room - 1, visit);
+                dfs(v, s, c + 1, n, room - 1, visit)?;
             }
         }
     }
+    ControlFlow::Continue(())
 }
 
 #[cfg(test)]
