@@ -128,10 +128,7 @@ pub(crate) fn tiny_domain() -> Domain {
         ),
     ];
     let bindings = [
-        (
-            "{id} = new Pedestrian {region}, with blueprint 'walker.pedestrian.0001', with regionContainedIn None",
-            "A pedestrian stands ahead.",
-        ),
+        ("{id} = new Pedestrian {region}, with blueprint 'walker.pedestrian.0001'", "A pedestrian stands ahead."),
         ("{id} = new Prop {region}, with blueprint 'static.prop.container'", "A large container blocks the lane."),
         ("", "The street is in a compact town."),
         ("", "Heavy rain falls."),
@@ -187,8 +184,22 @@ pub(crate) fn tiny_domain() -> Domain {
             attr("sun", AttrType::Number { dimension: "angle".into(), min: 0.0, max: 90.0 }, Value::Range(40.0, 70.0)),
         ],
         regions: vec![
-            region("lane", (0.0, 60.0), (-1.5, 1.5), Some("at (ego offset by ({right}, {distance}))")),
-            region("sidewalk", (0.0, 60.0), (-6.0, -4.0), Some("on visible network.sidewalkRegion")),
+            region(
+                "lane",
+                (0.0, 60.0),
+                (-1.5, 1.5),
+                Some(
+                    "at ((front of ego) offset along ego.heading by ({right}, {distance})), with regionContainedIn road",
+                ),
+            ),
+            region(
+                "sidewalk",
+                (0.0, 60.0),
+                (-4.0, -3.2),
+                Some(
+                    "at ((front of ego) offset along ego.heading by ({right}, {distance})), with regionContainedIn sidewalk",
+                ),
+            ),
             region("extra_right", (5.0, 60.0), (-12.0, -9.0), None),
         ],
         presets: vec![Preset {

@@ -80,7 +80,7 @@ fn moved_entity_is_placed_in_its_new_region() {
     let scene = sample(&d, set(&d, &["pedestrian", "on_sidewalk"]), 3).unwrap();
     let ped = &scene.entities[0];
     assert_eq!(ped.region, "sidewalk");
-    assert!((-6.0..=-4.0).contains(&ped.position[1]));
+    assert!((-4.0..=-3.2).contains(&ped.position[1]));
 }
 
 #[test]
