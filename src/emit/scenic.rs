@@ -10,8 +10,8 @@
 //! its concept's range (measured from ego's front), so a Scenic sample never contradicts the
 //! ground truth.
 //!
-//! Placeholders in fragments: `{id}` (the entity's Scenic variable), `{region}` (the region's
-//! `scenic` text, itself filled), `{distance}`/`{x}` (metres ahead), `{lateral}`/`{y}` (metres
+//! Placeholders in fragments: `{id}` (the entity's Scenic variable), `{at}` or `{region}` (the
+//! region's `scenic` text, itself filled), `{distance}`/`{x}` (metres ahead), `{lateral}`/`{y}` (metres
 //! to the left), `{right}` (metres to the right: Scenic's x axis), `{z}`, `{yaw}`, every
 //! attribute of the entity by name, and `world.NAME` for world attributes. `{{`/`}}` are
 //! literal braces.
@@ -107,6 +107,9 @@ fn header(out: &mut String, domain: &Domain, scene: &Scene, town: &str, opts: &S
         .collect();
     let _ = writeln!(out, "param weather = {{{}}}", weather.join(", "));
     let _ = writeln!(out, "model scenic.simulators.carla.model\n");
+    // Distances are measured to an object's near (back) face, as "2 m ahead" means the gap a
+    // driver sees; fragments may also create plain points (a junction's signal).
+    out.push_str("def revelioNearEdge(obj):\n    return (back of obj) if isinstance(obj, Object) else obj\n\n");
 }
 
 /// Bounds of a numeric world attribute on the anchor graph.
@@ -173,7 +176,7 @@ fn lookup<'a>(
         let p = e.position;
         Some(match name {
             "id" => id.to_owned(),
-            "region" => {
+            "region" | "at" => {
                 let r = domain.region_by_name(&e.region).map(|r| &domain.regions[r.index()])?;
                 let text = r.scenic.as_deref()?;
                 return fill(text, lookup(domain, scene, entity)).ok();
@@ -190,7 +193,7 @@ fn lookup<'a>(
 
 /// Explain why a fragment could not be filled: the region text is the likely culprit.
 fn fill_error(domain: &Domain, concept: &str, entity: Option<&SceneEntity>, err: String) -> EmitError {
-    if err.contains("`{region}`") {
+    if err.contains("`{region}`") || err.contains("`{at}`") {
         if let Some(e) = entity {
             let region = domain.region_by_name(&e.region).map(|r| &domain.regions[r.index()]);
             return match region.and_then(|r| r.scenic.as_deref()) {
@@ -251,9 +254,9 @@ fn body(
 }
 
 /// Keep each entity's distance from ego within its concept's range. Distances are measured from
-/// ego's front (`front of ego`: "2 m ahead" from the car's centre would be inside the car), where
-/// the scene frame's camera sits. The entity sits `x` ahead and `y` to the side, x in
-/// `lo..=hi`, so its distance lies in `lo..=hypot(hi, y)`.
+/// ego's front (`front of ego`: "2 m ahead" from the car's centre would be inside the car) to the
+/// entity's near face. The entity sits `x` ahead and `y` to the side, x in `lo..=hi`, so its
+/// distance lies in `lo..=hypot(hi, y)`.
 fn requirements(out: &mut String, domain: &Domain, scene: &Scene, anchor: &AnchorGraph, ids: &[String]) {
     let mut first = true;
     for (i, a) in anchor.entities.iter().enumerate() {
@@ -270,7 +273,7 @@ fn requirements(out: &mut String, domain: &Domain, scene: &Scene, anchor: &Ancho
         // Millimetre slack: the program's numbers are rounded to millimetres.
         let (lo, hi) = ((lo - 0.001).max(0.0), hi.hypot(y) + 0.001);
         let id = &ids[i];
-        let d = format!("(distance from (front of ego) to {id})");
+        let d = format!("(distance from (front of ego) to revelioNearEdge({id}))");
         let _ = writeln!(out, "require {d} >= {} and {d} <= {}", num(lo), num(hi));
     }
 }

@@ -70,7 +70,7 @@ fn world_is(attr: &str, value: Value) -> Option<Expr> {
 }
 
 /// Kinds: 0 Pedestrian, 1 Container, 2 Tree (an `Extra`). Regions: 0 lane, 1 sidewalk,
-/// 2 extra_right. Concepts: 0 pedestrian, 1 obstruction_near, 2 town_town02, 3 weather_hard_rain,
+/// 2 verge. Concepts: 0 pedestrian, 1 obstruction_near, 2 town_town02, 3 weather_hard_rain,
 /// 4 near (modifier), 5 on_sidewalk (modifier), 6 holding_sign (modifier).
 pub(crate) fn tiny_domain() -> Domain {
     let town = EnumId(0);
@@ -200,7 +200,7 @@ pub(crate) fn tiny_domain() -> Domain {
                     "at ((front of ego) offset along ego.heading by ({right}, {distance})), with regionContainedIn sidewalk",
                 ),
             ),
-            region("extra_right", (5.0, 60.0), (-12.0, -9.0), None),
+            region("verge", (5.0, 60.0), (-12.0, -9.0), None),
         ],
         presets: vec![Preset {
             name: "hard_rain".into(),

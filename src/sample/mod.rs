@@ -14,10 +14,11 @@
 //! graph (every range replaced by its drawn value), `self` bound to the entity.
 //!
 //! **Extras.** Kinds carrying the tag `Extra` are scenery: each scene gets 0 to [`MAX_EXTRAS`]
-//! of them (kind and count drawn from the seed), placed in the regions whose name starts with
-//! `extra` (e.g. `extra_left`, `extra_right`: roadside verges, the far end of a counter). They
-//! are not in the concept set's anchor graph, so they never change the expected answer. A
-//! domain with no `Extra` kind or no `extra…` region gets no extras.
+//! of them (kind, region and count drawn from the seed), placed in the *scenery regions*: the
+//! regions no concept places anything in (no `add … in R`, no `move R`), so by construction
+//! away from everything the rules look at (the far kerb, the verge behind the sidewalk, the far
+//! end of a counter). They are not in the concept set's anchor graph, so they never change the
+//! expected answer. A domain with no `Extra` kind or no scenery region gets no extras.
 //!
 //! **Determinism.** The stream is ChaCha8 seeded by SHA-256 of (domain hash, set bits, seed);
 //! nothing iterates a hash map. The same inputs give the same scene on any machine.
@@ -30,7 +31,7 @@ use std::collections::BTreeMap;
 use rand_chacha::ChaCha8Rng;
 
 use crate::anchor::{self, AnchorEntity, AnchorGraph, Tri};
-use crate::ir::{ConceptSet, Domain, KindId, Region, RegionId, Relation, ShapePart, StageItem, Value};
+use crate::ir::{ConceptSet, Domain, Effect, KindId, Region, RegionId, Relation, ShapePart, StageItem, Value};
 use crate::scene::{Scene, SceneEntity, SceneValue};
 use place::{Axis, Footprint, Placed};
 pub use rng::domain_hash;
@@ -39,8 +40,6 @@ pub use rng::domain_hash;
 pub const MAX_EXTRAS: u64 = 3;
 /// The tag that marks scenery kinds.
 pub const EXTRA_TAG: &str = "Extra";
-/// Regions whose name starts with this host the extras.
-pub const EXTRA_REGION_PREFIX: &str = "extra";
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
@@ -77,10 +76,16 @@ impl<'d> Sampler<'d> {
             }
             None => Vec::new(),
         };
-        let extra_regions = (0..domain.regions.len() as u32)
-            .map(RegionId)
-            .filter(|r| domain.regions[r.index()].name.starts_with(EXTRA_REGION_PREFIX))
+        let used: Vec<RegionId> = domain
+            .concepts
+            .iter()
+            .flat_map(|c| &c.effects)
+            .filter_map(|e| match e {
+                Effect::Add { region, .. } | Effect::MoveTarget { region, .. } => Some(*region),
+                _ => None,
+            })
             .collect();
+        let extra_regions = (0..domain.regions.len() as u32).map(RegionId).filter(|r| !used.contains(r)).collect();
         Sampler { domain, digest, hash: hex::encode(digest), extra_kinds, extra_regions }
     }
 

@@ -108,7 +108,7 @@ fn environment_follows_weather_and_stage_follows_town() {
 }
 
 #[test]
-fn extras_come_from_extra_kinds_in_extra_regions() {
+fn extras_come_from_extra_kinds_in_scenery_regions() {
     let d = tiny_domain();
     let s = set(&d, &["pedestrian"]);
     let counts: Vec<usize> = (0..100).map(|seed| sample(&d, s, seed).unwrap().extras.len()).collect();
@@ -116,7 +116,7 @@ fn extras_come_from_extra_kinds_in_extra_regions() {
     assert!(counts.iter().any(|&n| n > 0) && counts.contains(&0));
     for seed in 0..50 {
         for x in sample(&d, s, seed).unwrap().extras {
-            assert_eq!((x.kind.as_str(), x.region.as_str(), x.concept), ("Tree", "extra_right", None));
+            assert_eq!((x.kind.as_str(), x.region.as_str(), x.concept), ("Tree", "verge", None));
         }
     }
     let mut no_extra = d.clone();
