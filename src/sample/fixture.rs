@@ -189,7 +189,7 @@ pub(crate) fn tiny_domain() -> Domain {
                 (0.0, 60.0),
                 (-1.5, 1.5),
                 Some(
-                    "at ((front of ego) offset along ego.heading by ({right}, {distance})), with regionContainedIn road",
+                    "ahead of ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading, with regionContainedIn road",
                 ),
             ),
             region(
@@ -197,7 +197,7 @@ pub(crate) fn tiny_domain() -> Domain {
                 (0.0, 60.0),
                 (-4.0, -3.2),
                 Some(
-                    "at ((front of ego) offset along ego.heading by ({right}, {distance})), with regionContainedIn sidewalk",
+                    "ahead of ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading, with regionContainedIn None",
                 ),
             ),
             region("verge", (5.0, 60.0), (-12.0, -9.0), None),
@@ -238,6 +238,7 @@ pub(crate) fn tiny_domain() -> Domain {
         selection: Selection::Priority,
         rules: vec![],
         camera: Camera::default(),
+        allow: vec![],
     }
 }
 
