@@ -50,6 +50,8 @@ codes! {
     MIXED_QUESTIONS = "R0061", "mixed-questions", "`priority` rules that expect options of different questions";
     UNKNOWN_SELECTION = "R0062", "unknown-selection", "a `rules` block whose selection is not `priority` or `best_fit`";
     BAD_REFERENCE = "R0063", "bad-reference", "a reference that is not `VAR.attr`, `world.attr` or `self.attr`, or an unbound variable";
+    BAD_ALLOW = "R0064", "invalid-allow", "`allow` of a code that is not a lattice lint (`R0100`–`R0199`)";
+    ALLOW_WITHOUT_REASON = "R0065", "allow-without-reason", "(warning) an `allow` with no `///` comment saying why";
 }
 
 /// The documented entry of a code.

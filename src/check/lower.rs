@@ -103,6 +103,7 @@ pub(crate) fn lower(files: &[SourceFile], entry: u32, items: &[(u32, &Item)]) ->
     c.lower_constraints(items);
     c.lower_questions(items);
     c.lower_rules(entry, items);
+    c.lower_allows(items);
     let has_errors = c.diags.iter().any(Diagnostic::is_error);
     let Checker { d, diags, .. } = c;
     (if has_errors { None } else { Some(d) }, diags)
@@ -130,6 +131,7 @@ impl<'a> Checker<'a> {
                 selection: Selection::Priority,
                 rules: Vec::new(),
                 camera: Camera::default(),
+                allow: Vec::new(),
             },
             units: Namespace::default(),
             types: Namespace::default(),
@@ -300,6 +302,44 @@ impl<'a> Checker<'a> {
         if self.units.declare(name, info, |_| "a unit", &mut self.diags) {
             let _ = item;
             self.d.units.push(Unit { name: name.name.clone(), dimension: dimension.name.clone(), scale: scale.value });
+        }
+    }
+
+    /// `allow CODE` items: only lattice-lint codes can be silenced, each once, with a reason.
+    fn lower_allows(&mut self, items: &[(u32, &Item)]) {
+        for (_, item) in items {
+            let ItemKind::Allow { code } = &item.kind else { continue };
+            let digits =
+                code.name.strip_prefix("R01").filter(|d| d.len() == 2 && d.bytes().all(|b| b.is_ascii_digit()));
+            if digits.is_none() {
+                self.error(
+                    Diagnostic::error(
+                        codes::BAD_ALLOW,
+                        code.span,
+                        format!("`{}` is not a lattice-lint code", code.name),
+                    )
+                    .with_label("cannot be allowed")
+                    .with_help("only lattice-lint warnings (`R0100`–`R0199`) can be allowed; fix errors instead"),
+                );
+                continue;
+            }
+            if let Some(prev) = self.d.allow.iter().find(|a| a.code == code.name) {
+                let prev = prev.span;
+                self.error(duplicate_statement(&format!("allow {}", code.name), item.span, prev));
+                continue;
+            }
+            if item.doc.trim().is_empty() {
+                self.error(
+                    Diagnostic::warning(
+                        codes::ALLOW_WITHOUT_REASON,
+                        item.span,
+                        format!("`allow {}` gives no reason", code.name),
+                    )
+                    .with_label("no `///` comment above")
+                    .with_help("say in a `///` comment why this lint does not apply to the domain"),
+                );
+            }
+            self.d.allow.push(Allow { code: code.name.clone(), reason: item.doc.clone(), span: item.span });
         }
     }
 

@@ -11,7 +11,7 @@ mod concepts;
 pub mod diagnostic;
 mod expr;
 mod lower;
-mod names;
+pub(crate) mod names;
 mod rules;
 mod shapes;
 
@@ -22,7 +22,11 @@ use crate::syntax::{self, ast};
 use diagnostic::Diagnostic;
 
 /// The standard library, embedded in the binary: `use std::NAME` loads `stdlib/NAME.rev`.
-pub const STDLIB: &[(&str, &str)] = &[("core", include_str!("../../stdlib/core.rev"))];
+pub const STDLIB: &[(&str, &str)] = &[
+    ("core", include_str!("../../stdlib/core.rev")),
+    ("driving", include_str!("../../stdlib/driving.rev")),
+    ("kitchen", include_str!("../../stdlib/kitchen.rev")),
+];
 
 /// The result of compiling a domain (or a library module).
 #[derive(Debug, Clone)]

@@ -38,13 +38,13 @@ pub fn run(args: CheckArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f)).collect();
-    let mut reports: Vec<Report> =
-        compiled.iter().flat_map(|c| c.diagnostics.iter().map(|d| Report::new(&c.files, d))).collect();
+    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
     reports.sort_by(|a, b| a.key().cmp(&b.key()));
     reports.dedup_by(|a, b| a.key() == b.key());
     let errors = reports.iter().filter(|r| r.diag.is_error()).count();
-    let warnings = reports.len() - errors;
+    let allowed = reports.iter().filter(|r| r.allowed).count();
+    let warnings = reports.len() - errors - allowed;
     let out = match args.format {
         Format::Human => {
             let theme = if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
@@ -52,25 +52,49 @@ pub fn run(args: CheckArgs) -> ExitCode {
             } else {
                 GraphicalTheme::unicode_nocolor()
             };
-            let mut s: String = reports.iter().map(|r| r.human(&theme)).collect();
-            let _ = writeln!(s, "{}", summary(files.len(), errors, warnings));
+            let mut s: String = reports.iter().filter(|r| !r.allowed).map(|r| r.human(&theme)).collect();
+            let _ = writeln!(s, "{}", summary(files.len(), errors, warnings, allowed));
             s
         }
-        Format::Plain => reports.iter().map(Report::plain).collect(),
+        Format::Plain => reports.iter().filter(|r| !r.allowed).map(Report::plain).collect(),
         Format::Json => reports.iter().map(|r| r.json() + "\n").collect(),
     };
-    print!("{out}");
+    write_stdout(&out);
     if errors > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }
 
-fn summary(files: usize, errors: usize, warnings: usize) -> String {
-    let plural = |n: usize, w: &str| if n == 1 { format!("1 {w}") } else { format!("{n} {w}s") };
-    format!("checked {}: {}, {}", plural(files, "file"), plural(errors, "error"), plural(warnings, "warning"))
+/// Print to stdout; a closed pipe (`revelio check … | head`) is not an error worth a panic.
+pub fn write_stdout(s: &str) {
+    use std::io::Write as _;
+    let _ = std::io::stdout().lock().write_all(s.as_bytes());
 }
 
-/// Compile one file from disk: `use "…"` paths are read relative to it; lattice lints run on
-/// domain files that compiled without errors.
-pub fn compile_path(path: &Path) -> Compiled {
+fn summary(files: usize, errors: usize, warnings: usize, allowed: usize) -> String {
+    let plural = |n: usize, w: &str| if n == 1 { format!("1 {w}") } else { format!("{n} {w}s") };
+    let mut s =
+        format!("checked {}: {}, {}", plural(files, "file"), plural(errors, "error"), plural(warnings, "warning"));
+    if allowed > 0 {
+        let _ = write!(s, " ({allowed} allowed)");
+    }
+    s
+}
+
+/// The reports of one compilation; lints silenced by the domain's `allow` items are marked.
+pub fn reports_of(c: &Compiled) -> Vec<Report<'_>> {
+    let allowed: Vec<&str> = c.domain.iter().flat_map(|d| d.allow.iter().map(|a| a.code.as_str())).collect();
+    c.diagnostics
+        .iter()
+        .map(|d| {
+            let mut r = Report::new(&c.files, d);
+            r.allowed = d.severity == Severity::Warning && allowed.contains(&d.code);
+            r
+        })
+        .collect()
+}
+
+/// Compile one file from disk: `use "…"` paths are read relative to it. With `lints`, the
+/// lattice lints run on domain files that compiled without errors.
+pub fn compile_path(path: &Path, lints: bool) -> Compiled {
     let name = path.to_string_lossy().into_owned();
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
@@ -85,7 +109,7 @@ pub fn compile_path(path: &Path) -> Compiled {
         }
     };
     let mut compiled = check::compile(&name, &text, &|p| std::fs::read_to_string(p).ok());
-    if let Some(domain) = compiled.domain.as_ref().filter(|d| !d.name.is_empty()) {
+    if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
         compiled.diagnostics.extend(crate::lattice::lints::lint_domain(domain));
         check::sort_diagnostics(&mut compiled.diagnostics);
     }
@@ -133,6 +157,8 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
 pub struct Report<'a> {
     pub diag: &'a Diagnostic,
     files: &'a [SourceFile],
+    /// A lattice lint the domain silences with `allow CODE`: counted, shown only in JSON.
+    pub allowed: bool,
 }
 
 /// Line and column (1-based; columns count characters) of a byte offset.
@@ -146,7 +172,7 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 
 impl<'a> Report<'a> {
     pub fn new(files: &'a [SourceFile], diag: &'a Diagnostic) -> Self {
-        Report { diag, files }
+        Report { diag, files, allowed: false }
     }
 
     fn file(&self, span: Span) -> Option<&'a SourceFile> {
@@ -209,6 +235,7 @@ impl<'a> Report<'a> {
         let mut obj = serde_json::json!({
             "code": d.code,
             "severity": severity_word(d.severity),
+            "allowed": self.allowed,
             "message": d.message,
             "label": d.label,
             "help": d.help,
@@ -348,7 +375,7 @@ impl miette::Diagnostic for MietteDiag {
 
 /// Render all diagnostics of a compilation as human output (for `load_domain`).
 pub fn render_human(compiled: &Compiled, theme: &GraphicalTheme) -> String {
-    compiled.diagnostics.iter().map(|d| Report::new(&compiled.files, d).human(theme)).collect()
+    reports_of(compiled).iter().filter(|r| !r.allowed).map(|r| r.human(theme)).collect()
 }
 
 #[cfg(test)]

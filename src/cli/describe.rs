@@ -30,9 +30,9 @@ pub fn run(args: DescribeArgs) -> ExitCode {
         Err(code) => return code,
     };
     if args.json {
-        println!("{}", to_json(&domain));
+        super::check::write_stdout(&format!("{}\n", to_json(&domain)));
     } else {
-        print!("{}", summary(&domain));
+        super::check::write_stdout(&summary(&domain));
     }
     ExitCode::SUCCESS
 }

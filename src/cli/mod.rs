@@ -7,6 +7,9 @@ use clap::{Parser, Subcommand};
 
 pub mod check;
 pub mod describe;
+pub mod emit;
+pub mod lattice;
+pub mod oracle;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -21,6 +24,12 @@ pub enum Command {
     Check(check::CheckArgs),
     /// Show what a domain file compiles to (concepts, constraints, questions, rules)
     Describe(describe::DescribeArgs),
+    /// Count or list the valid concept sets of a domain
+    Lattice(lattice::LatticeArgs),
+    /// Show the ground truth (question, expected answer, deciding rule) of a concept set
+    Oracle(oracle::OracleArgs),
+    /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
+    Emit(emit::EmitArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -35,21 +44,23 @@ pub fn main() -> ExitCode {
     match cli.command {
         Command::Check(a) => check::run(a),
         Command::Describe(a) => describe::run(a),
+        Command::Lattice(args) => lattice::run(args),
+        Command::Oracle(args) => oracle::run(args),
+        Command::Emit(a) => emit::run(a),
     }
 }
 
 /// Compile a domain file for a subcommand. Diagnostics (errors and warnings) go to stderr as
 /// human output; on errors the subcommand should exit with the returned code (1).
 pub fn load_domain(path: &std::path::Path) -> Result<crate::ir::Domain, ExitCode> {
-    let compiled = check::compile_path(path);
-    if !compiled.diagnostics.is_empty() {
-        let theme = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-            miette::GraphicalTheme::unicode()
-        } else {
-            miette::GraphicalTheme::unicode_nocolor()
-        };
-        eprint!("{}", check::render_human(&compiled, &theme));
-    }
+    // No lattice lints here: they enumerate the lattice, which is `check`'s job.
+    let compiled = check::compile_path(path, false);
+    let theme = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        miette::GraphicalTheme::unicode()
+    } else {
+        miette::GraphicalTheme::unicode_nocolor()
+    };
+    eprint!("{}", check::render_human(&compiled, &theme));
     match compiled.domain {
         Some(d) if d.name.is_empty() => {
             eprintln!("error: `{}` is a library module, not a domain (it has no `domain NAME` line)", path.display());

@@ -137,6 +137,10 @@ pub enum ItemKind {
         selection: Ident,
         rules: Vec<RuleDecl>,
     },
+    /// `allow CODE`: silence a lattice-lint code for the domain.
+    Allow {
+        code: Ident,
+    },
     /// Text that is no item; its diagnostic was reported by the parser.
     Error,
 }

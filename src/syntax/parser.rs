@@ -129,6 +129,7 @@ fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_question => "question",
         kw_rules => "rules",
         kw_rule => "rule",
+        kw_allow => "allow",
         kw_description => "description",
         kw_category => "category",
         kw_add => "add",
@@ -189,6 +190,7 @@ pub const ITEM_KEYWORDS: &[&str] = &[
     "constraint",
     "question",
     "rules",
+    "allow",
 ];
 
 /// End of the token starting at `pos`: a word, or one character.
@@ -269,6 +271,7 @@ impl<'t> Builder<'t> {
                 let name = self.ident(c.next());
                 ItemKind::Question { name, stmts: c.rest().filter_map(|p| self.question_stmt(p)).collect() }
             }
+            Rule::allow_item => ItemKind::Allow { code: self.ident(c.next()) },
             Rule::rules_item => {
                 let selection = self.ident(c.next());
                 let rules = c.rest().filter_map(|p| self.rule_item(p)).collect();
@@ -792,15 +795,25 @@ impl<'t> Builder<'t> {
         let found = describe_found(self.text, pos);
         let span = self.span_at(pos, token_end(self.text, pos).max(pos));
         if pos == start || expected.is_empty() {
-            let mut d = Diagnostic::error(codes::SYNTAX, span, format!("expected {what}, found {found}"));
-            if rule.is_none() || what == "an item" {
-                d = d.with_help(format!("an item starts with one of: {}", ITEM_KEYWORDS.join(", ")));
+            let d = Diagnostic::error(codes::SYNTAX, span, format!("expected {what}, found {found}"))
+                .with_label(format!("expected {what}"));
+            let word = &self.text[pos..token_end(self.text, pos)];
+            let d = keyword_typo_help(d, word, &statement_keywords(rule));
+            if d.help.is_none() && what == "an item" {
+                return d.with_help(format!("an item starts with one of: {}", ITEM_KEYWORDS.join(", ")));
             }
-            return d.with_label(format!("expected {what}"));
+            return d;
+        }
+        if expected.len() > MAX_EXPECTED {
+            // A long list (typically "any statement or item may follow") reads worse than none.
+            return Diagnostic::error(codes::SYNTAX, span, format!("unexpected {found}"))
+                .with_label("unexpected here")
+                .with_help(format!("a statement ends here; expected {what} or `}}` next"));
         }
         let list = join_or(&expected);
-        Diagnostic::error(codes::SYNTAX, span, format!("expected {list}, found {found}"))
-            .with_label(format!("expected {list}"))
+        let d = Diagnostic::error(codes::SYNTAX, span, format!("expected {list}, found {found}"))
+            .with_label(format!("expected {list}"));
+        keyword_typo_help(d, &self.text[pos..token_end(self.text, pos)], &expected)
     }
 }
 
@@ -826,6 +839,7 @@ fn item_rule(text: &str, pos: usize) -> Option<Rule> {
         "constraint" => Rule::constraint_item,
         "question" => Rule::question_item,
         "rules" => Rule::rules_item,
+        "allow" => Rule::allow_item,
         _ => return None,
     })
 }
@@ -847,6 +861,7 @@ fn expected_list(e: &pest::error::Error<Rule>) -> Vec<String> {
             }
         }
     }
+    out.retain(|t| t != "`_`");
     out.sort();
     out.dedup();
     out
@@ -897,8 +912,41 @@ fn describe_rule(r: Rule) -> Option<String> {
     )
 }
 
+/// More expected tokens than this are not listed.
+const MAX_EXPECTED: usize = 6;
+
+/// "did you mean `description`?" when the bad word is a near miss of an expected keyword.
+fn keyword_typo_help(d: Diagnostic, word: &str, expected: &[String]) -> Diagnostic {
+    if word.is_empty() || !word.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return d;
+    }
+    let keywords = expected.iter().filter_map(|e| e.strip_prefix('`').and_then(|e| e.strip_suffix('`')));
+    match crate::check::names::suggest(word, keywords) {
+        Some(k) => d.with_help(format!("did you mean `{k}`?")),
+        None => d,
+    }
+}
+
+/// The keywords a statement of this rule may start with, quoted as in expected lists.
+fn statement_keywords(rule: Option<Rule>) -> Vec<String> {
+    let words: &[&str] = match rule {
+        None | Some(Rule::domain_item) => ITEM_KEYWORDS,
+        Some(Rule::concept_stmt) => {
+            &["description", "category", "add", "set", "probe", "scenic", "prompt", "shape", "target", "move"]
+        }
+        Some(Rule::rule_stmt) => &["when", "expect", "elements", "safe"],
+        Some(Rule::question_stmt) => &["text", "option"],
+        Some(Rule::camera_stmt) => &["at", "look_at", "fov", "size"],
+        Some(Rule::rule_item) => &["rule"],
+        Some(Rule::shape_part) => &["box", "cylinder", "capsule", "sphere", "plane", "cone"],
+        Some(Rule::region_stmt) => &["scenic"],
+        _ => &[],
+    };
+    words.iter().map(|w| format!("`{w}`")).collect()
+}
+
 fn join_or(items: &[String]) -> String {
-    const MAX: usize = 6;
+    const MAX: usize = MAX_EXPECTED;
     let shown: Vec<&str> = items.iter().take(MAX).map(String::as_str).collect();
     match shown.len() {
         0 => String::new(),
