@@ -15,11 +15,11 @@ impl Checker<'_> {
     pub(crate) fn lower_concepts(&mut self, items: &[(u32, &Item)]) {
         for (_, item) in items {
             let ItemKind::Concept { modifier, name, stmts } = &item.kind else { continue };
-            if self.concepts.span(&name.name) != Some(name.span) {
-                continue; // a duplicate, already reported
-            }
             let concept = self.lower_concept(item, *modifier, name, stmts);
-            self.d.concepts.push(concept);
+            // A duplicate (already reported) is still checked, but takes no bit.
+            if self.concepts.span(&name.name) == Some(name.span) {
+                self.d.concepts.push(concept);
+            }
         }
     }
 
@@ -40,7 +40,7 @@ impl Checker<'_> {
         let what = if modifier { "modifier" } else { "concept" };
         // The target first: `set ATTR` and `shape` statements are checked against it wherever
         // they appear in the body.
-        let target_kinds = if modifier { self.lower_target(&mut c, name, stmts) } else { Vec::new() };
+        let target_kinds = if modifier { self.lower_target(&mut c, item, name, stmts) } else { Vec::new() };
         let mut seen: Vec<(&'static str, Span)> = Vec::new();
         let mut entities: Namespace<()> = Namespace::default();
         let mut added_kinds: Vec<KindId> = Vec::new();
@@ -115,7 +115,7 @@ impl Checker<'_> {
             }
         }
         for (needed, hint) in [("description", "description \"…\""), ("probe", "probe \"…\" not \"…\"")] {
-            if !seen.iter().any(|(k, _)| *k == needed) {
+            if !item.broken && !seen.iter().any(|(k, _)| *k == needed) {
                 self.error(
                     Diagnostic::warning(
                         codes::MISSING_TEXT,
@@ -135,10 +135,13 @@ impl Checker<'_> {
     }
 
     /// Resolve a modifier's `target`; returns the kinds it can apply to.
-    fn lower_target(&mut self, c: &mut Concept, name: &Ident, stmts: &[ConceptStmt]) -> Vec<KindId> {
+    fn lower_target(&mut self, c: &mut Concept, item: &Item, name: &Ident, stmts: &[ConceptStmt]) -> Vec<KindId> {
         let Some(ConceptStmt::Target { world, filter, .. }) =
             stmts.iter().find(|s| matches!(s, ConceptStmt::Target { .. }))
         else {
+            if item.broken {
+                return Vec::new(); // the `target` may be the statement that failed to parse
+            }
             self.error(
                 Diagnostic::error(
                     codes::MISSING_STATEMENT,

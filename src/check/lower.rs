@@ -538,7 +538,9 @@ impl<'a> Checker<'a> {
 
     fn lower_attr(&mut self, a: &ast::AttrDecl, owner: &str) -> Option<AttrDef> {
         let ty = self.attr_type(a)?;
-        let default = self.lower_value(&a.default, &ty, &a.name.name)?;
+        // A bad default is reported; the attribute still exists, so uses of it are checked
+        // instead of failing as unknown.
+        let default = self.lower_value(&a.default, &ty, &a.name.name).unwrap_or_else(|| placeholder(&ty));
         let _ = owner;
         Some(AttrDef { name: a.name.name.clone(), ty, default, doc: a.doc.clone(), span: a.span })
     }
@@ -780,7 +782,7 @@ impl<'a> Checker<'a> {
             }
         }
         for (i, axis) in ["x", "y"].iter().enumerate() {
-            if spans[i].is_none() {
+            if spans[i].is_none() && !item.broken {
                 self.error(
                     Diagnostic::error(
                         codes::MISSING_STATEMENT,
@@ -958,6 +960,21 @@ fn empty_range(span: Span) -> Diagnostic {
         .with_help("write ranges low to high, `a..b` with `a <= b`")
 }
 
+/// A value of the type, standing in for a default that had an error (never reaches the IR).
+fn placeholder(ty: &AttrType) -> Value {
+    match ty {
+        AttrType::Bool => Value::Bool(false),
+        AttrType::Enum(e) => Value::Enum(*e, 0),
+        AttrType::Number { min, max, .. } => Value::Number(0f64.clamp(*min, *max)),
+    }
+}
+
+/// "a `length`", "an `angle`".
+fn a_dim(dim: &str) -> String {
+    let article = if dim.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
+    format!("{article} `{dim}`")
+}
+
 fn dimension_mismatch(n: &Num, expected: &str, found: &str, example: Option<String>) -> Diagnostic {
     let written = match &n.unit {
         Some(u) => format!("{}{}", fmt_num(n.value), u.name),
@@ -965,25 +982,29 @@ fn dimension_mismatch(n: &Num, expected: &str, found: &str, example: Option<Stri
     };
     let (message, help) = match (expected.is_empty(), found.is_empty()) {
         (true, _) => {
-            (format!("expected a plain number, found `{written}` (a `{found}`)"), "remove the unit".to_string())
+            (format!("expected a plain number, found `{written}` ({})", a_dim(found)), "remove the unit".to_string())
         }
         (false, true) => (
-            format!("expected a `{expected}`, found `{written}` with no unit"),
+            format!("expected {}, found `{written}` with no unit", a_dim(expected)),
             match example {
-                Some(u) => format!("add a `{expected}` unit, e.g. `{written}{u}`"),
-                None => format!("add a `{expected}` unit"),
+                Some(u) => format!("add {} unit, e.g. `{written}{u}`", a_dim(expected)),
+                None => format!("add {} unit", a_dim(expected)),
             },
         ),
         (false, false) => (
-            format!("expected a `{expected}`, found `{written}` (a `{found}`)"),
+            format!("expected {}, found `{written}` ({})", a_dim(expected), a_dim(found)),
             match example {
-                Some(u) => format!("use a `{expected}` unit such as `{u}`"),
-                None => format!("use a `{expected}` unit"),
+                Some(u) => format!("use {} unit such as `{u}`", a_dim(expected)),
+                None => format!("use {} unit", a_dim(expected)),
             },
         ),
     };
     Diagnostic::error(codes::DIMENSION_MISMATCH, n.span, message)
-        .with_label(format!("expected a `{expected}`"))
+        .with_label(if expected.is_empty() {
+            "expected a plain number".to_string()
+        } else {
+            format!("expected {}", a_dim(expected))
+        })
         .with_help(help)
 }
 

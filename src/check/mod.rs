@@ -250,6 +250,36 @@ mod tests {
     }
 
     #[test]
+    fn more_concepts_than_a_set_holds_is_an_error() {
+        let mut text = String::from("domain big\nworld { on: bool = false }\n");
+        for i in 0..=ir::MAX_CONCEPTS {
+            text.push_str(&format!("concept c{i} {{ description \"c\" probe \"p\" not \"n\" set world.on = true }}\n"));
+        }
+        text.push_str(
+            "question q { text \"q\" option a \"a\" option b \"b\" }\nrules priority { rule r { expect q.a } }\n",
+        );
+        let diags = compile_source("big.rev", &text).unwrap_err();
+        assert_eq!(diags.len(), 1, "{diags:?}");
+        assert_eq!(diags[0].code, codes::TOO_MANY_CONCEPTS);
+        assert!(diags[0].message.contains("at most 128"));
+    }
+
+    #[test]
+    fn use_loads_files_relative_to_the_user_once() {
+        let files = |p: &str| match p {
+            "d/lib.rev" => Some("use \"sub/deep.rev\"\nenum E { a, b }".to_string()),
+            "d/sub/deep.rev" => Some("use \"../lib.rev\"\ntag Deep".to_string()),
+            _ => None,
+        };
+        let c = compile("d/main.rev", "use \"lib.rev\"\nuse \"sub/deep.rev\"\nkind K: Deep { e: E = a }", &files);
+        assert!(c.diagnostics.is_empty(), "{:?}", c.diagnostics);
+        let names: Vec<&str> = c.files.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["d/main.rev", "std/core.rev", "d/lib.rev", "d/sub/deep.rev"]);
+        let d = c.domain.unwrap();
+        assert_eq!(d.name, "", "a library module compiles to a nameless domain");
+    }
+
+    #[test]
     fn small_domain_compiles() {
         let text = include_str!("../../tests/corpus/good/small_driving.rev");
         let d = match compile_source("small_driving.rev", text) {

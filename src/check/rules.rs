@@ -33,7 +33,9 @@ impl Checker<'_> {
                     }
                 }
             }
-            if text.is_none() {
+            if item.broken {
+                // A statement that failed to parse may be the missing one.
+            } else if text.is_none() {
                 self.error(
                     Diagnostic::error(
                         codes::MISSING_STATEMENT,
@@ -44,7 +46,7 @@ impl Checker<'_> {
                     .with_help("add `text \"…\"` with the question put to the model"),
                 );
             }
-            if options.len() < 2 {
+            if !item.broken && options.len() < 2 {
                 self.error(
                     Diagnostic::error(
                         codes::MISSING_STATEMENT,
@@ -88,14 +90,14 @@ impl Checker<'_> {
                     );
                 }
                 if let ItemKind::Rules { selection, rules } = &first.kind {
-                    self.lower_rule_block(selection, rules);
+                    self.lower_rule_block(selection, rules, first.broken);
                 }
             }
             (None, None) => {}
         }
     }
 
-    fn lower_rule_block(&mut self, selection: &ast::Ident, rules: &[ast::RuleDecl]) {
+    fn lower_rule_block(&mut self, selection: &ast::Ident, rules: &[ast::RuleDecl], broken: bool) {
         self.d.selection = match selection.name.as_str() {
             "priority" => Selection::Priority,
             "best_fit" => Selection::BestFit,
@@ -122,12 +124,12 @@ impl Checker<'_> {
             if !names.declare(&r.name, (), |_| "a rule", &mut self.diags) {
                 continue;
             }
-            let Some((rule, expect_span)) = self.lower_rule(r) else { continue };
-            if self.d.selection == Selection::Priority {
+            let (rule, expect) = self.lower_rule(r, broken);
+            if let (Selection::Priority, Some((question, expect_span))) = (self.d.selection, expect) {
                 match first_expect {
-                    None => first_expect = Some((rule.question, expect_span)),
-                    Some((q, span)) if q != rule.question => {
-                        let (a, b) = (&self.d.questions[q.index()].name, &self.d.questions[rule.question.index()].name);
+                    None => first_expect = Some((question, expect_span)),
+                    Some((q, span)) if q != question => {
+                        let (a, b) = (&self.d.questions[q.index()].name, &self.d.questions[question.index()].name);
                         let d = Diagnostic::error(
                             codes::MIXED_QUESTIONS,
                             expect_span,
@@ -144,11 +146,14 @@ impl Checker<'_> {
                     Some(_) => {}
                 }
             }
-            self.d.rules.push(rule);
+            if let Some(rule) = rule {
+                self.d.rules.push(rule);
+            }
         }
     }
 
-    fn lower_rule(&mut self, r: &ast::RuleDecl) -> Option<(Rule, Span)> {
+    /// The rule (`None` on errors) and, when its `expect` resolved, the question it uses.
+    fn lower_rule(&mut self, r: &ast::RuleDecl, broken: bool) -> (Option<Rule>, Option<(QuestionId, Span)>) {
         let mut when: Option<Span> = None;
         let mut expect: Option<(QuestionId, u32, Span)> = None;
         let mut expect_seen: Option<Span> = None;
@@ -204,6 +209,9 @@ impl Checker<'_> {
             }
         }
         if expect_seen.is_none() {
+            if broken {
+                return (None, None); // the `expect` may be the statement that failed to parse
+            }
             self.error(
                 Diagnostic::error(
                     codes::MISSING_STATEMENT,
@@ -213,12 +221,12 @@ impl Checker<'_> {
                 .with_label("what is the right answer?")
                 .with_help("add `expect QUESTION.OPTION`"),
             );
-            return None;
+            return (None, None);
         }
-        let (q, o, span) = expect?;
+        let Some((q, o, span)) = expect else { return (None, None) };
         rule.question = q;
         rule.expect = o;
-        ok.then_some((rule, span))
+        (ok.then_some(rule), Some((q, span)))
     }
 
     /// Resolve `QUESTION.OPTION` to the question and the option's index.

@@ -65,6 +65,9 @@ pub struct Item {
     pub doc: String,
     pub span: Span,
     pub kind: ItemKind,
+    /// The item holds a syntax error; checks for missing statements skip it, since the
+    /// statement may be the one that failed to parse.
+    pub broken: bool,
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -225,6 +225,7 @@ impl<'t> Builder<'t> {
         let span = self.span(&p);
         let doc = doc_before(self.text, span.start as usize);
         let rule = p.as_rule();
+        let errors_before = self.diagnostics.len();
         let mut c = Children::of(p.clone());
         let kind = match rule {
             Rule::domain_item => ItemKind::Domain(self.ident(c.next())),
@@ -282,7 +283,7 @@ impl<'t> Builder<'t> {
                 ItemKind::Error
             }
         };
-        Item { doc, span, kind }
+        Item { doc, span, kind, broken: self.diagnostics.len() > errors_before }
     }
 
     fn use_item(&mut self, p: Pair<Rule>) -> ItemKind {
@@ -782,11 +783,8 @@ impl<'t> Builder<'t> {
                 (start + consumed, Vec::new())
             }
             Err(e) => {
-                let pos = match e.location {
-                    pest::error::InputLocation::Pos(p) => p,
-                    pest::error::InputLocation::Span((s, _)) => s,
-                };
-                (start + pos, expected_list(&e))
+                let (pos, expected) = failure_point(&e);
+                (start + pos, expected)
             }
         });
         let (pos, expected) = failure.unwrap_or((start, Vec::new()));
@@ -844,27 +842,42 @@ fn item_rule(text: &str, pos: usize) -> Option<Rule> {
     })
 }
 
-/// What pest expected at the failure point, as readable words, sorted and deduplicated.
-fn expected_list(e: &pest::error::Error<Rule>) -> Vec<String> {
+/// Where a parse failed and what was expected there, as readable words (sorted, deduplicated).
+/// pest's own location is where the outermost failing rule started; its parse attempts know the
+/// furthest position reached, which is where the mistake is.
+fn failure_point(e: &pest::error::Error<Rule>) -> (usize, Vec<String>) {
+    let mut pos = match e.location {
+        pest::error::InputLocation::Pos(p) => p,
+        pest::error::InputLocation::Span((s, _)) => s,
+    };
     let mut out: Vec<String> = Vec::new();
-    if let pest::error::ErrorVariant::ParsingError { positives, .. } = &e.variant {
+    let attempts = e.parse_attempts();
+    let further = attempts.as_ref().is_some_and(|a| a.max_position > pos);
+    if !further && let pest::error::ErrorVariant::ParsingError { positives, .. } = &e.variant {
         out.extend(positives.iter().filter_map(|r| describe_rule(*r)));
     }
-    if let Some(attempts) = e.parse_attempts() {
+    if let Some(attempts) = attempts {
+        pos = pos.max(attempts.max_position);
+        for stack in attempts.call_stacks() {
+            if let Some(r) = stack.deepest.get_rule().or(stack.parent.as_ref()) {
+                out.extend(describe_rule(*r));
+            }
+        }
         // pest does not export its token type; its display is the literal, `a..z` for a
         // character range and `BUILTIN_RULE` for builtins, which say nothing to a user.
         for t in attempts.expected_tokens() {
             let token = t.to_string();
             let is_range = token.chars().count() == 4 && token.chars().nth(1) == Some('.');
-            if !token.trim().is_empty() && token != "//" && token != "BUILTIN_RULE" && !is_range {
+            let noise = token.trim_matches(|c: char| c.is_whitespace() || c == '\u{feff}').is_empty()
+                || matches!(token.as_str(), "//" | "BUILTIN_RULE" | "_" | "\"" | "\"\"\"");
+            if !noise && !is_range {
                 out.push(format!("`{token}`"));
             }
         }
     }
-    out.retain(|t| t != "`_`");
     out.sort();
     out.dedup();
-    out
+    (pos, out)
 }
 
 fn describe_rule(r: Rule) -> Option<String> {
