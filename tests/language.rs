@@ -135,6 +135,17 @@ fn shipped_rev_files_check_without_errors() {
 }
 
 #[test]
+fn every_stdlib_file_is_embedded() {
+    for f in rev_files(&root().join("stdlib")) {
+        let stem = f.file_stem().unwrap().to_string_lossy().into_owned();
+        let Some((_, text)) = check::STDLIB.iter().find(|(n, _)| *n == stem) else {
+            panic!("stdlib/{stem}.rev is not in `check::STDLIB`; add a line for it in src/check/mod.rs");
+        };
+        assert_eq!(*text, std::fs::read_to_string(&f).unwrap(), "embedded std::{stem} differs from the file");
+    }
+}
+
+#[test]
 fn every_code_is_documented_once() {
     let doc = std::fs::read_to_string(root().join("docs/diagnostics.md")).unwrap();
     for c in CODES {
@@ -304,11 +315,14 @@ fn mutated_inputs_never_panic() {
 
 #[test]
 fn deep_nesting_is_a_diagnostic_not_a_crash() {
-    let text = format!(
-        "domain d\nrules priority {{ rule r {{ when {}true{} expect q.a }} }}",
-        "(".repeat(50_000),
-        ")".repeat(50_000)
-    );
-    let c = check::compile("deep.rev", &text, &|_| None);
-    assert!(c.diagnostics.iter().any(|d| d.code == "R0003"), "{:?}", c.diagnostics.first());
+    let deep = |open: &str, close: &str, n: usize| {
+        format!("domain d\nrules priority {{ rule r {{ when {}true{} expect q.a }} }}", open.repeat(n), close.repeat(n))
+    };
+    for text in [deep("(", ")", 50_000), deep("not ", "", 5_000), deep("not (", ")", 250), deep("{", "}", 300)] {
+        let c = check::compile("deep.rev", &text, &|_| None);
+        assert!(c.diagnostics.iter().any(|d| d.code == "R0003"), "{:?}", c.diagnostics.first());
+    }
+    // Reasonable nesting is fine.
+    let c = check::compile("ok.rev", &deep("(", ")", 100), &|_| None);
+    assert!(c.diagnostics.iter().all(|d| d.code != "R0003"));
 }

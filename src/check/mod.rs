@@ -21,7 +21,8 @@ use crate::ir::{self, SourceFile};
 use crate::syntax::{self, ast};
 use diagnostic::Diagnostic;
 
-/// The standard library, embedded in the binary: `use std::NAME` loads `stdlib/NAME.rev`.
+/// The standard library, embedded in the binary: `use std::NAME` loads `stdlib/NAME.rev`. Every
+/// file in `stdlib/` must have a line here (a test in `tests/language.rs` checks).
 pub const STDLIB: &[(&str, &str)] = &[
     ("core", include_str!("../../stdlib/core.rev")),
     ("driving", include_str!("../../stdlib/driving.rev")),

@@ -39,6 +39,12 @@ pub fn parse(file: u32, text: &str) -> Parsed {
     pest::set_call_limit(NonZeroUsize::new(CALL_LIMIT));
     pest::set_error_detail(true);
     let mut b = Builder { file, text, diagnostics: Vec::new() };
+    if let Some(pos) = too_deep_at(text) {
+        // The tree builder and the checker recurse over nesting; refuse before either runs.
+        let span = b.span_at(pos, pos + 1);
+        b.diagnostics.push(too_deep(span));
+        return Parsed { file: File { items: Vec::new() }, diagnostics: b.diagnostics };
+    }
     let items = match RevParser::parse(Rule::file, text) {
         Ok(mut pairs) => {
             let file_pair = pairs.next().expect("the file rule yields one pair");
@@ -50,14 +56,65 @@ pub fn parse(file: u32, text: &str) -> Parsed {
                 pest::error::InputLocation::Span((s, _)) => s,
             };
             let span = b.span_at(pos, token_end(text, pos));
-            b.diagnostics.push(
-                Diagnostic::error(codes::TOO_DEEP, span, "the input nests too deeply to parse")
-                    .with_help("split deeply nested expressions into several rules or `and` terms"),
-            );
+            b.diagnostics.push(too_deep(span));
             Vec::new()
         }
     };
     Parsed { file: File { items }, diagnostics: b.diagnostics }
+}
+
+/// Deepest `(`/`{` nesting accepted; real files stay below 10.
+pub const MAX_NESTING: usize = 200;
+
+fn too_deep(span: Span) -> Diagnostic {
+    Diagnostic::error(codes::TOO_DEEP, span, "the input nests too deeply to parse")
+        .with_label(format!("more than {MAX_NESTING} levels of `(` and `{{`"))
+        .with_help("split deeply nested expressions into several rules or `and` terms")
+}
+
+/// How many `not`s are chained at this node.
+fn not_chain(mut p: Pair<Rule>) -> usize {
+    let mut depth = 0;
+    while p.as_rule() == Rule::not_expr {
+        depth += 1;
+        match Children::of(p).rest().next() {
+            Some(inner) => p = inner,
+            None => break,
+        }
+    }
+    depth
+}
+
+/// Where `(`/`{` nesting first exceeds [`MAX_NESTING`], outside strings and comments.
+fn too_deep_at(text: &str) -> Option<usize> {
+    let bytes = text.as_bytes();
+    let (mut depth, mut i) = (0usize, 0usize);
+    while i < bytes.len() {
+        match bytes[i] {
+            b'(' | b'{' => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Some(i);
+                }
+            }
+            b')' | b'}' => depth = depth.saturating_sub(1),
+            b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                i += text[i..].find('\n').unwrap_or(text.len() - i);
+            }
+            b'"' if text[i..].starts_with("\"\"\"") => {
+                i += 3 + text[i + 3..].find("\"\"\"").map_or(text.len() - i - 3, |e| e + 2);
+            }
+            b'"' => {
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
 }
 
 struct Builder<'t> {
@@ -611,6 +668,11 @@ impl<'t> Builder<'t> {
     fn expr(&mut self, p: Pair<Rule>) -> Expr {
         let span = self.span(&p);
         let rule = p.as_rule();
+        if rule == Rule::not_expr && not_chain(p.clone()) > MAX_NESTING {
+            // `not not not …` nests without parentheses; the same limit applies.
+            self.diagnostics.push(too_deep(span));
+            return Expr { kind: ExprKind::Bool(false), span };
+        }
         let mut c = Children::of(p);
         let kind = match rule {
             Rule::expr | Rule::and_expr => {
