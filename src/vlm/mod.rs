@@ -128,6 +128,7 @@ pub trait Model: Send + Sync {
     fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply>;
 }
 
+pub mod parse;
 pub mod prompt;
 pub mod registry;
 pub mod sim;
