@@ -148,6 +148,10 @@ impl Protocol for Anthropic {
         })
     }
 
+    fn secrets(&self) -> Vec<&str> {
+        vec![self.key.0.as_str()]
+    }
+
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
         let v: Value = serde_json::from_slice(body).unwrap_or(Value::Null);
         let kind = j::str_at(&v, &["error", "type"]).unwrap_or("");

@@ -53,6 +53,17 @@ pub trait Protocol: Send + Sync + 'static {
     fn parse(&self, body: &[u8]) -> Result<Parsed, String>;
     /// Read a non-2xx body.
     fn error(&self, status: u16, body: &[u8]) -> ProviderError;
+    /// The credentials this protocol sends, scrubbed from every message and reply text in case
+    /// a server echoes them back.
+    fn secrets(&self) -> Vec<&str>;
+}
+
+/// Replace every occurrence of the secrets in `text`.
+pub fn redact(text: String, secrets: &[&str]) -> String {
+    secrets
+        .iter()
+        .filter(|s| s.len() >= 4)
+        .fold(text, |t, s| if t.contains(*s) { t.replace(*s, "[redacted]") } else { t })
 }
 
 /// A secret (API key, AWS secret) whose `Debug` never shows the value.
@@ -237,7 +248,10 @@ impl<P: Protocol> Model for ApiModel<P> {
                 self.ledger.record(&hit.usage, true, false);
                 return hit;
             }
-            let reply = self.ask_uncached(query).await;
+            let mut reply = self.ask_uncached(query).await;
+            let secrets = self.proto.secrets();
+            reply.raw = redact(std::mem::take(&mut reply.raw), &secrets);
+            reply.thinking = reply.thinking.map(|t| redact(t, &secrets));
             self.ledger.record(&reply.usage, false, reply.answer == Answer::ApiError);
             if let (Some(c), Some(k)) = (&self.cache, &key)
                 && let Err(e) = c.put(k, &reply)
@@ -321,6 +335,12 @@ mod tests {
         s.temperature = Some(0.0);
         s.image_format = ImageFormat::Jpeg;
         assert_eq!(model_id("gemini:g", &s), "gemini:g@thinking=low,temperature=0,image=jpeg90");
+    }
+
+    #[test]
+    fn redaction() {
+        assert_eq!(redact("bad key sk-abcdef given".into(), &["sk-abcdef"]), "bad key [redacted] given");
+        assert_eq!(redact("x".into(), &[""]), "x");
     }
 
     #[test]

@@ -160,6 +160,12 @@ impl Protocol for Bedrock {
         })
     }
 
+    fn secrets(&self) -> Vec<&str> {
+        let mut s = vec![self.creds.secret_access_key.0.as_str()];
+        s.extend(self.creds.session_token.iter().map(|t| t.0.as_str()));
+        s
+    }
+
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
         let v: Value = serde_json::from_slice(body).unwrap_or(Value::Null);
         let message = j::str_at(&v, &["message"])

@@ -188,7 +188,7 @@ pub fn settings_for(spec: &str, file: Option<&Path>, thinking: Option<&str>) -> 
             parse_file(&text).map_err(|e| format!("invalid model config `{}`: {e}", path.display()))?
         }
     };
-    Ok(select(parsed, spec, thinking)?)
+    select(parsed, spec, thinking)
 }
 
 fn parse_file(text: &str) -> Result<File, String> {

@@ -166,6 +166,10 @@ impl Protocol for Gemini {
         Ok(parsed)
     }
 
+    fn secrets(&self) -> Vec<&str> {
+        self.key.iter().map(|k| k.0.as_str()).collect()
+    }
+
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
         error(body)
     }

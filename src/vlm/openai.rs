@@ -122,6 +122,10 @@ impl Protocol for OpenAi {
         })
     }
 
+    fn secrets(&self) -> Vec<&str> {
+        self.key.iter().map(|k| k.0.as_str()).collect()
+    }
+
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
         let v: Value = serde_json::from_slice(body).unwrap_or(Value::Null);
         let code = j::str_at(&v, &["error", "code"]).or_else(|| j::str_at(&v, &["error", "type"])).unwrap_or("");
