@@ -597,3 +597,97 @@ fn missing_keys_and_bad_specs_are_clear_errors() {
             .contains("invalid base URL `ftp://x`")
     );
 }
+
+fn scene() -> revelio::scene::Scene {
+    revelio::scene::Scene {
+        domain: "driving".into(),
+        domain_hash: "0".repeat(64),
+        concepts: vec!["debris_far".into()],
+        seed: 1,
+        world: Default::default(),
+        environment: Default::default(),
+        entities: vec![],
+        extras: vec![],
+        stage: vec![],
+        camera: Default::default(),
+    }
+}
+
+fn renderer(spec: &str, server: &MockServer, cache: &Path) -> Arc<dyn revelio::render::Renderer> {
+    init_env();
+    let opts = revelio::render::RendererOptions {
+        size: Some((96, 54)),
+        cache_dir: Some(cache.to_path_buf()),
+        base_url: Some(server.uri()),
+    };
+    revelio::render::build_renderer(spec, &opts).unwrap().unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn imagegen_gemini_and_openai() {
+    let b64 = base64::engine::general_purpose::STANDARD.encode(png(160, 90));
+    let prompt = "A foggy two-lane road with debris far ahead, photographed from the driver's seat.";
+
+    // Gemini: 503 first (retried), then an image; the second render comes from the cache.
+    let server = MockServer::start().await;
+    let image = ok(
+        json!({"candidates": [{"content": {"parts": [{"text": "Here is the image."}, {"inlineData": {"mimeType": "image/png", "data": b64}}], "role": "model"}, "finishReason": "STOP"}]}),
+    );
+    mount(
+        &server,
+        "/v1beta/models/gemini-image-test:generateContent",
+        Sequence::new(vec![ResponseTemplate::new(503), image]),
+    )
+    .await;
+    let dir = tempfile::tempdir().unwrap();
+    let r = renderer("imagegen:gemini:gemini-image-test", &server, dir.path());
+    let first = r.render(&scene(), prompt).await.unwrap();
+    let img = image::load_from_memory_with_format(&first.png, image::ImageFormat::Png).unwrap();
+    assert_eq!((img.width(), img.height()), (96, 54), "resized to the requested size");
+    let second = r.render(&scene(), prompt).await.unwrap();
+    assert!(!first.cached && second.cached);
+    assert_eq!(first.png, second.png);
+    let reqs = server.received_requests().await.unwrap();
+    assert_eq!(reqs.len(), 2);
+    assert_eq!(reqs[1].headers.get("x-goog-api-key").unwrap(), KEY);
+    let b = body_of(&reqs[1]);
+    assert_eq!(b["generationConfig"]["responseModalities"], json!(["IMAGE"]));
+    assert_eq!(b["generationConfig"]["imageConfig"]["aspectRatio"], "16:9");
+    assert_eq!(b["contents"][0]["parts"][0]["text"], prompt);
+
+    // Gemini: a safety block is an error that says so, and is not retried.
+    let server = MockServer::start().await;
+    mount(
+        &server,
+        "/v1beta/models/g:generateContent",
+        Sequence::new(vec![ok(json!({"candidates": [{"finishReason": "IMAGE_SAFETY", "index": 0}]}))]),
+    )
+    .await;
+    let err = renderer("imagegen:gemini:g", &server, dir.path()).render(&scene(), prompt).await.unwrap_err();
+    assert!(err.0.contains("blocked by the provider (IMAGE_SAFETY)"), "{}", err.0);
+    assert_eq!(server.received_requests().await.unwrap().len(), 1);
+
+    // OpenAI images API: b64_json output; a moderation block is reported as such.
+    let server = MockServer::start().await;
+    let mut replies: HashMap<&'static str, ResponseTemplate> = HashMap::new();
+    replies.insert("ok", ok(json!({"created": 1_700_000_000, "data": [{"b64_json": b64}], "usage": {"input_tokens": 50, "output_tokens": 4000}})));
+    replies.insert(
+        "bad",
+        ResponseTemplate::new(400).set_body_json(json!({"error": {"message": "Your request was rejected by the safety system.", "type": "image_generation_user_error", "code": "moderation_blocked"}})),
+    );
+    mount(&server, "/images/generations", ByTag(replies)).await;
+    let r = renderer("imagegen:openai:gpt-image-1", &server, dir.path());
+    let got = r.render(&scene(), "tag:ok; a road").await.unwrap();
+    assert!(!got.cached);
+    let err = r.render(&scene(), "tag:bad; a road").await.unwrap_err();
+    assert!(err.0.contains("blocked by the provider's safety system"), "{}", err.0);
+    let b = body_of(&server.received_requests().await.unwrap()[0]);
+    assert_eq!(
+        (b["model"].as_str(), b["size"].as_str(), b["n"].as_u64()),
+        (Some("gpt-image-1"), Some("1536x1024"), Some(1))
+    );
+    assert!(b.get("response_format").is_none(), "GPT image models reject response_format");
+    for f in walk(dir.path()) {
+        assert!(!String::from_utf8_lossy(&std::fs::read(f).unwrap()).contains(KEY));
+    }
+}
