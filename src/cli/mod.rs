@@ -1,6 +1,8 @@
 //! The `revelio` command line. Each subcommand lives in its own file with its clap `Args` and a
 //! `run` function returning the process exit code (0 ok, 1 findings/errors, 2 usage errors).
 
+pub mod ask;
+
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -13,7 +15,10 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Render one scene of a concept set, ask a model once, and show the verdict.
+    Ask(ask::AskArgs),
+}
 
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -24,7 +29,9 @@ pub fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
-    match cli.command {}
+    match cli.command {
+        Command::Ask(a) => ask::run(a),
+    }
 }
 
 /// Compile a domain file for a subcommand, printing diagnostics to stderr on failure.
