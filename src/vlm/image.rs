@@ -37,15 +37,21 @@ impl Encoded {
 /// Re-encode `src` (any format `image` reads) as `format`, downscaled so its longest side is at
 /// most `max_side`. A PNG that needs no change is passed through byte for byte.
 pub fn encode(src: &[u8], format: ImageFormat, max_side: Option<u32>, jpeg_quality: u8) -> Result<Encoded, String> {
-    let reader = image::ImageReader::new(Cursor::new(src))
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read the scene image: {e}"))?;
-    let src_format = reader.format();
-    let img = reader.decode().map_err(|e| format!("cannot decode the scene image: {e}"))?;
-    let too_big = max_side.is_some_and(|m| img.width().max(img.height()) > m);
-    if format == ImageFormat::Png && src_format == Some(image::ImageFormat::Png) && !too_big {
-        return Ok(Encoded { bytes: src.to_vec(), format });
+    let reader = || {
+        image::ImageReader::new(Cursor::new(src))
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read the scene image: {e}"))
+    };
+    let fits = |(w, h): (u32, u32)| max_side.is_none_or(|m| w.max(h) <= m);
+    // The common case (PNG in, PNG out, small enough) needs only the header, not a decode.
+    if format == ImageFormat::Png && reader()?.format() == Some(image::ImageFormat::Png) {
+        let dims = reader()?.into_dimensions().map_err(|e| format!("cannot read the scene image: {e}"))?;
+        if fits(dims) {
+            return Ok(Encoded { bytes: src.to_vec(), format });
+        }
     }
+    let img = reader()?.decode().map_err(|e| format!("cannot decode the scene image: {e}"))?;
+    let too_big = !fits((img.width(), img.height()));
     let img = match max_side {
         Some(m) if too_big => img.resize(m, m, image::imageops::FilterType::Lanczos3),
         _ => img,
