@@ -691,3 +691,21 @@ async fn imagegen_gemini_and_openai() {
         assert!(!String::from_utf8_lossy(&std::fs::read(f).unwrap()).contains(KEY));
     }
 }
+
+#[test]
+fn the_example_config_builds_every_model_it_names() {
+    init_env();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/models/paper.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let specs: Vec<&str> = text.lines().filter_map(|l| l.strip_prefix("[model.\"")?.strip_suffix("\"]")).collect();
+    assert!(specs.len() >= 8, "{specs:?}");
+    for spec in specs {
+        let opts = ModelOptions {
+            base_url: Some("http://127.0.0.1:9".into()),
+            config: Some(path.clone()),
+            ..Default::default()
+        };
+        let m = build_api_model(spec, &opts).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        assert!(m.id().starts_with(spec));
+    }
+}

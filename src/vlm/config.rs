@@ -273,6 +273,19 @@ mod tests {
     }
 
     #[test]
+    fn the_example_config_is_valid() {
+        let text = include_str!("../../examples/models/paper.toml");
+        let file = parse_file(text).unwrap();
+        let specs: Vec<String> = file.model.keys().cloned().collect();
+        for spec in specs {
+            let r = select(parse_file(text).unwrap(), &spec, None).unwrap_or_else(|e| panic!("{spec}: {e}"));
+            assert!(r.concurrency >= 1);
+        }
+        let g = select(file, "gemini:gemini-3-flash-preview", Some("high")).unwrap();
+        assert_eq!((g.thinking.as_deref(), g.concurrency), (Some("high"), 32));
+    }
+
+    #[test]
     fn missing_file_is_a_clear_error() {
         let e = settings_for("openai:m", Some(Path::new("/nonexistent/models.toml")), None).unwrap_err();
         assert!(e.starts_with("cannot read model config `/nonexistent/models.toml`"), "{e}");
