@@ -217,9 +217,12 @@ fn choice_after_marker(rest: &str, options: &[String]) -> Found {
         Found::None => {}
         f => return f,
     }
+    let mentioned = options_mentioned(&rest, options);
     match Found::from_set(&letters) {
-        Found::Many => Found::Many,
-        _ => Found::from_set(&options_mentioned(&rest, options)),
+        // `Answer: A because the lane is blocked`, unless another option's text is named too.
+        Found::One(i) if mentioned.iter().all(|&j| j == i) => Found::One(i),
+        Found::One(_) | Found::Many => Found::Many,
+        Found::None => Found::from_set(&mentioned),
     }
 }
 
@@ -248,16 +251,23 @@ fn standalone_letters(s: &str, n: usize, allow_lower: bool) -> Vec<u32> {
 }
 
 /// Strict: the last line that starts with `Answer:` (markdown allowed, also `Final answer:`).
+/// An `Answer:` line with nothing after the colon takes its choice from the next non-empty line
+/// (`Answer:\n\n**B**`).
 fn strict(text: &str, options: &[String]) -> Option<Found> {
-    for line in text.lines().rev() {
-        let p = plain(line);
+    let lines: Vec<String> = text.lines().map(plain).collect();
+    for (i, p) in lines.iter().enumerate().rev() {
         let lower = p.to_lowercase();
         let body = lower.strip_prefix("final answer").or_else(|| lower.strip_prefix("answer"));
         let Some(body) = body else { continue };
         let body_trim = body.trim_start();
         let Some(after) = body_trim.strip_prefix(':').or_else(|| body_trim.strip_prefix('：')) else { continue };
-        let offset = p.len() - after.len();
-        return Some(choice_after_marker(&p[offset..], options));
+        let rest = &p[p.len() - after.len()..];
+        if rest.trim().is_empty()
+            && let Some(next) = lines[i + 1..].iter().find(|l| !l.trim().is_empty())
+        {
+            return Some(choice_after_marker(next, options));
+        }
+        return Some(choice_after_marker(rest, options));
     }
     None
 }
@@ -282,6 +292,8 @@ const CUES: &[&str] = &[
     "best choice is",
     "the correct answer is",
     "my answer is",
+    "my final answer:",
+    "the answer:",
 ];
 
 fn cue_letters(text: &str, options: &[String]) -> Vec<u32> {
@@ -315,6 +327,18 @@ fn lenient(text: &str, options: &[String]) -> Found {
     let lines: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
     let Some(last) = lines.last() else { return Found::None };
     let single = lines.len() == 1;
+    // A reply that lists several options as bare lines (`A) Stop` / `B) Slow down`) has not
+    // picked one of them.
+    let listed: Vec<u32> = lines
+        .iter()
+        .filter_map(|l| match bare_choice(l, options, false) {
+            Found::One(i) => Some(i),
+            _ => None,
+        })
+        .collect();
+    if Found::from_set(&listed) == Found::Many {
+        return Found::Many;
+    }
     match bare_choice(last, options, single && plain(last).chars().count() <= 3) {
         Found::None => {}
         f => return f,
@@ -535,6 +559,60 @@ mod tests {
         assert_eq!(p(glm), Answer::Option(2));
         let llava = "C) Continue at the same speed";
         assert_eq!(p(llava), Answer::Option(2));
+    }
+
+    #[test]
+    fn answer_on_the_line_after_the_marker() {
+        assert_eq!(p("The cone is off the road.\n\nAnswer:\n\n**C**"), Answer::Option(2));
+        assert_eq!(p("Final Answer:\nB) Slow down"), Answer::Option(1));
+    }
+
+    #[test]
+    fn listing_the_options_is_not_choosing_one() {
+        assert_eq!(p("The options are:\nA) Stop\nB) Slow down\nC) Continue at the same speed"), Answer::Ambiguous);
+        assert_eq!(p("A) Stop\nB) Slow down\nC) Continue at the same speed\n\nAnswer: B"), Answer::Option(1));
+    }
+
+    /// Replies in the styles seen from Gemini, Claude, GPT, Qwen-VL, GLM, LLaVA and small
+    /// local models, each with the answer a careful human reader would record.
+    #[test]
+    fn reply_corpus() {
+        let cases: &[(&str, Answer)] = &[
+            ("Answer: B\n\nExplanation: visibility is poor, so reduce speed.", Answer::Option(1)),
+            ("ANSWER: C", Answer::Option(2)),
+            ("**Final Answer: (A) Stop**", Answer::Option(0)),
+            (
+                "Step 1: identify hazards. None.\nStep 2: decide.\n\nAnswer: C) Continue at the same speed",
+                Answer::Option(2),
+            ),
+            ("So my answer is: **B**", Answer::Option(1)),
+            ("My final answer: A", Answer::Option(0)),
+            ("The answer: C.", Answer::Option(2)),
+            ("Based on the image, I'd choose B.", Answer::Option(1)),
+            ("B is the safest choice here.", Answer::Unparsed),
+            ("Option B is the safest choice here.", Answer::Option(1)),
+            ("(B) Slow down — there is fog.", Answer::Option(1)),
+            ("Answer: B (Slow down)", Answer::Option(1)),
+            ("Answer: Slow down (B)", Answer::Option(1)),
+            ("Answer: The vehicle should slow down.", Answer::Option(1)),
+            ("Answer: A because the lane is blocked.", Answer::Option(0)),
+            ("Answer: A, since stopping is safest", Answer::Option(0)),
+            ("Answer: A, though slowing down could also work", Answer::Option(0)),
+            ("Answer: A car is parked, so C", Answer::Ambiguous),
+            ("Answer: None of the options", Answer::Unparsed),
+            ("Answer: Either A or C could be right.", Answer::Ambiguous),
+            ("It depends on the distance. If close, stop; if far, slow down.", Answer::Ambiguous),
+            ("<think>\n\n</think>\n\nC", Answer::Option(2)),
+            ("<think>A car? A? B?</think>", Answer::Unparsed),
+            ("\\boxed{A}", Answer::Option(0)),
+            ("Answer: <|begin_of_box|>(B)<|end_of_box|>", Answer::Option(1)),
+            ("I'm not able to determine what is in this image.", Answer::Unparsed),
+            ("I cannot answer questions about driving decisions.", Answer::Refusal),
+            ("Sorry, I can't help with identifying hazards in this image.", Answer::Refusal),
+        ];
+        for (reply, want) in cases {
+            assert_eq!(p(reply), *want, "{reply:?}");
+        }
     }
 
     #[test]
