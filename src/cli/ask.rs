@@ -89,7 +89,7 @@ fn concept_set(domain: &Domain, names: &[String]) -> Result<ConceptSet, String> 
             None => {
                 let near = domain.concepts.iter().map(|c| (edit_distance(n, &c.name), &c.name)).min();
                 return Err(match near {
-                    Some((d, name)) if d <= 2 + n.len() / 4 => {
+                    Some((d, name)) if d <= 1 + n.len() / 4 => {
                         format!("unknown concept `{n}` in domain `{}`: did you mean `{name}`?", domain.name)
                     }
                     _ => format!("unknown concept `{n}` in domain `{}`", domain.name),
@@ -113,18 +113,6 @@ fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
-/// The image-generation prompt for a set: the concepts' prompt snippets, in concept order
-/// (their descriptions where a concept has no snippet).
-fn image_prompt(domain: &Domain, set: ConceptSet) -> String {
-    let parts: Vec<&str> = set
-        .iter()
-        .filter_map(|id| domain.concepts.get(id.index()))
-        .map(|c| c.render.prompt.as_deref().unwrap_or(c.description.as_str()).trim())
-        .filter(|s| !s.is_empty())
-        .collect();
-    parts.join(" ")
-}
-
 async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, String> {
     let verdict = crate::oracle::evaluate(domain, set).map_err(|e| e.to_string())?;
     let question = domain.questions.get(verdict.question.index()).ok_or_else(|| {
@@ -139,7 +127,10 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     };
     let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
         None => None,
-        Some(r) => Some(r.render(&scene, &image_prompt(domain, set)).await.map_err(|e| e.to_string())?.png),
+        Some(r) => {
+            let image_prompt = crate::emit::prompt(domain, &scene).map_err(|e| e.to_string())?;
+            Some(r.render(&scene, &image_prompt).await.map_err(|e| e.to_string())?.png)
+        }
     };
     let image_hash = match &image {
         Some(png) => hex::encode(Sha256::digest(png)),
@@ -236,6 +227,96 @@ mod tests {
             0,
             "debris_in_lane"
         ));
+    }
+
+    /// Echoes the request headers back, so a leak of the key would show in the reply.
+    struct Echo(u16);
+
+    impl wiremock::Respond for Echo {
+        fn respond(&self, r: &wiremock::Request) -> wiremock::ResponseTemplate {
+            let headers: String =
+                r.headers.iter().map(|(k, v)| format!("{k}: {}\n", v.to_str().unwrap_or(""))).collect();
+            let body = if self.0 == 200 {
+                serde_json::json!({"choices": [{"message": {"content": format!("{headers}\nAnswer: A")}, "finish_reason": "stop"}],
+                                   "usage": {"prompt_tokens": 900, "completion_tokens": 40}})
+            } else {
+                serde_json::json!({"error": {"message": format!("invalid key in {headers}"), "type": "invalid_request_error"}})
+            };
+            wiremock::ResponseTemplate::new(self.0).set_body_json(body)
+        }
+    }
+
+    fn args(base: String, cache: &std::path::Path) -> AskArgs {
+        AskArgs {
+            file: "driving.rev".into(),
+            concepts: vec![],
+            model: "openai:glm-4.6v-flash".into(),
+            seed: 3,
+            renderer: "none".into(),
+            base_url: Some(base),
+            model_config: None,
+            thinking: None,
+            cache_dir: Some(cache.to_path_buf()),
+            no_cache: false,
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn asks_a_mock_and_never_shows_the_key() {
+        const KEY: &str = "sk-ask-CANARY-3f9e61";
+        // SAFETY: no other test in this crate reads or writes `OPENAI_API_KEY`, and Rust's own
+        // environment accessors are serialised.
+        unsafe { std::env::set_var("OPENAI_API_KEY", KEY) };
+        let domain = crate::lattice::testkit::driving();
+        let set = concept_set(&domain, &["debris_near".into()]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mut outputs = Vec::new();
+        for status in [200, 401] {
+            let server = wiremock::MockServer::start().await;
+            wiremock::Mock::given(wiremock::matchers::method("POST")).respond_with(Echo(status)).mount(&server).await;
+            let mut a = args(server.uri(), dir.path());
+            // The 200 reply was cached; the error case must reach the server.
+            a.no_cache = status == 401;
+            let result = ask(&domain, set, &a).await;
+            let sent = &server.received_requests().await.unwrap()[0];
+            assert_eq!(sent.headers.get("authorization").unwrap(), &format!("Bearer {KEY}"));
+            match (status, result) {
+                (200, Ok(out)) => {
+                    assert!(out.contains("parsed     A (answer stop)"), "{out}");
+                    assert!(out.contains("expected   A (answer stop) by rule `near_in_lane`"), "{out}");
+                    assert!(out.contains("verdict    correct"), "{out}");
+                    assert!(out.contains("[redacted]"), "{out}");
+                    outputs.push(out);
+                }
+                (401, Err(e)) => {
+                    assert!(e.contains("HTTP 401"), "{e}");
+                    outputs.push(e);
+                }
+                (s, r) => panic!("status {s}: {r:?}"),
+            }
+        }
+        let mut files = vec![dir.path().to_path_buf()];
+        while let Some(p) = files.pop() {
+            if p.is_dir() {
+                files.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            } else {
+                outputs.push(String::from_utf8_lossy(&std::fs::read(&p).unwrap()).into_owned());
+            }
+        }
+        assert!(outputs.len() >= 3, "the parsed reply was cached");
+        for o in outputs {
+            assert!(!o.contains(KEY), "the key leaked: {o}");
+        }
+    }
+
+    #[test]
+    fn unknown_concepts_suggest_a_near_name() {
+        let d = crate::lattice::testkit::driving();
+        assert_eq!(
+            concept_set(&d, &["debris_nera".into()]).unwrap_err(),
+            "unknown concept `debris_nera` in domain `test`: did you mean `debris_near`?"
+        );
+        assert_eq!(concept_set(&d, &["zebra".into()]).unwrap_err(), "unknown concept `zebra` in domain `test`");
     }
 
     #[test]

@@ -1,11 +1,14 @@
 //! The `revelio` command line. Each subcommand lives in its own file with its clap `Args` and a
 //! `run` function returning the process exit code (0 ok, 1 findings/errors, 2 usage errors).
 
-pub mod ask;
-
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+pub mod ask;
+pub mod emit;
+pub mod lattice;
+pub mod oracle;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -16,7 +19,13 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render one scene of a concept set, ask a model once, and show the verdict.
+    /// Count or list the valid concept sets of a domain
+    Lattice(lattice::LatticeArgs),
+    /// Show the ground truth (question, expected answer, deciding rule) of a concept set
+    Oracle(oracle::OracleArgs),
+    /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
+    Emit(emit::EmitArgs),
+    /// Render one scene of a concept set, ask a model once, and show the verdict
     Ask(ask::AskArgs),
 }
 
@@ -30,6 +39,9 @@ pub fn main() -> ExitCode {
         }
     };
     match cli.command {
+        Command::Lattice(args) => lattice::run(args),
+        Command::Oracle(args) => oracle::run(args),
+        Command::Emit(a) => emit::run(a),
         Command::Ask(a) => ask::run(a),
     }
 }
