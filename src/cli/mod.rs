@@ -5,9 +5,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod ask;
+pub mod emit;
 pub mod lattice;
 pub mod oracle;
-pub mod emit;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -24,6 +25,8 @@ pub enum Command {
     Oracle(oracle::OracleArgs),
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
+    /// Render one scene of a concept set, ask a model once, and show the verdict
+    Ask(ask::AskArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -39,6 +42,7 @@ pub fn main() -> ExitCode {
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
+        Command::Ask(a) => ask::run(a),
     }
 }
 

@@ -48,6 +48,7 @@ impl Dom {
             questions: vec![],
             selection,
             rules: vec![],
+            allow: vec![],
             camera: Camera::default(),
             allow: vec![],
         };
