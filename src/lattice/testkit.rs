@@ -50,7 +50,6 @@ impl Dom {
             rules: vec![],
             allow: vec![],
             camera: Camera::default(),
-            allow: vec![],
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");
