@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod ask;
 pub mod check;
 pub mod describe;
 pub mod emit;
@@ -30,6 +31,8 @@ pub enum Command {
     Oracle(oracle::OracleArgs),
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
+    /// Render one scene of a concept set, ask a model once, and show the verdict
+    Ask(ask::AskArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -47,6 +50,7 @@ pub fn main() -> ExitCode {
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
+        Command::Ask(a) => ask::run(a),
     }
 }
 
