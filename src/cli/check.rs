@@ -382,6 +382,58 @@ pub fn render_human(compiled: &Compiled, theme: &GraphicalTheme) -> String {
 mod tests {
     use super::*;
 
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn exit_codes() {
+        let dir = tempfile::tempdir().unwrap();
+        let lib = write(dir.path(), "lib.rev", "/// A tag.\ntag Shiny\n");
+        let bad = write(dir.path(), "bad.rev", "kind K: Shinny {}\n");
+        let run_on = |paths: Vec<PathBuf>| run(CheckArgs { paths, format: Format::Plain });
+        assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);
+        assert_eq!(run_on(vec![lib, bad]), ExitCode::from(1));
+        assert_eq!(run_on(vec![dir.path().to_path_buf()]), ExitCode::from(1), "folders are searched");
+        assert_eq!(run_on(vec![dir.path().join("nope.rev")]), ExitCode::from(2));
+    }
+
+    #[test]
+    fn folders_are_searched_recursively_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("b")).unwrap();
+        write(dir.path(), "b/z.rev", "");
+        write(dir.path(), "a.rev", "");
+        write(dir.path(), "notes.txt", "");
+        let files = collect_rev_files(&[dir.path().to_path_buf()]).unwrap();
+        let names: Vec<String> =
+            files.iter().map(|f| f.strip_prefix(dir.path()).unwrap().to_string_lossy().into_owned()).collect();
+        assert_eq!(names, ["a.rev", "b/z.rev"]);
+    }
+
+    #[test]
+    fn plain_and_json_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = write(dir.path(), "d.rev", "tag A\ntag A\n");
+        let c = compile_path(&f, false);
+        let r = Report::new(&c.files, &c.diagnostics[0]);
+        let name = f.display();
+        assert_eq!(
+            r.plain(),
+            format!(
+                "{name}:2:5: error[R0021]: `A` is already declared as a tag\n  note: {name}:1:5: first declared here\n  help: rename one of them; names are global across all loaded modules\n"
+            )
+        );
+        let j: serde_json::Value = serde_json::from_str(&r.json()).unwrap();
+        assert_eq!(j["code"], "R0021");
+        assert_eq!(j["span"]["start"], 10);
+        assert_eq!((j["line"].as_u64(), j["column"].as_u64(), j["end_column"].as_u64()), (Some(2), Some(5), Some(6)));
+        assert_eq!(j["related"][0]["line"], 1);
+        assert_eq!(j["allowed"], false);
+    }
+
     #[test]
     fn line_and_column() {
         assert_eq!(line_col("ab\ncd", 0), (1, 1));

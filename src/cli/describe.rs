@@ -229,3 +229,42 @@ pub fn expr_text(d: &Domain, e: &Expr) -> String {
         Expr::InRegion { var, region } => format!("{var} in {}", d.regions[region.index()].name),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> Domain {
+        let text = include_str!("../../tests/corpus/good/small_driving.rev");
+        crate::check::compile_source("small_driving.rev", text).expect("the corpus domain compiles")
+    }
+
+    #[test]
+    fn json_lists_concepts_rules_and_questions() {
+        let j = to_json(&small());
+        let near = &j["concepts"][6];
+        assert_eq!(
+            (near["name"].as_str(), near["index"].as_u64(), near["kind"].as_str()),
+            (Some("near"), Some(6), Some("modifier"))
+        );
+        assert_eq!(near["probe"]["negative"], "It is not within a few meters.");
+        assert_eq!(near["target"], "Collidable | LaneHazard");
+        assert_eq!(j["selection"], "priority");
+        let rules: Vec<&str> = j["rules"].as_array().unwrap().iter().map(|r| r["name"].as_str().unwrap()).collect();
+        assert_eq!(rules, ["near_in_lane", "hazard_ahead", "clear"]);
+        assert_eq!(j["rules"][0]["expect"], "stop");
+        assert_eq!(j["rules"][0]["when"], "exists e: Collidable | LaneHazard where (e in lane) and (e.distance <= 4)");
+        assert_eq!(j["questions"][0]["options"][2]["letter"], "C");
+        insta::assert_json_snapshot!("describe_small_driving", j);
+    }
+
+    #[test]
+    fn summary_names_every_concept() {
+        let d = small();
+        let s = summary(&d);
+        for c in &d.concepts {
+            assert!(s.contains(&c.name), "{} missing from the summary", c.name);
+        }
+        assert!(s.contains("(C) go: Continue"));
+    }
+}

@@ -921,9 +921,9 @@ fn failure_point(e: &pest::error::Error<Rule>) -> (usize, Vec<String>) {
     if let Some(attempts) = attempts {
         pos = pos.max(attempts.max_position);
         for stack in attempts.call_stacks() {
-            if let Some(r) = stack.deepest.get_rule().or(stack.parent.as_ref()) {
-                out.extend(describe_rule(*r));
-            }
+            // The deepest rule says what was wanted; the parent is the outermost rule, too broad
+            // (and a bare token is already among the expected tokens).
+            out.extend(stack.deepest.get_rule().and_then(|r| describe_rule(*r)));
         }
         // pest does not export its token type; its display is the literal, `a..z` for a
         // character range and `BUILTIN_RULE` for builtins, which say nothing to a user.
@@ -937,9 +937,27 @@ fn failure_point(e: &pest::error::Error<Rule>) -> (usize, Vec<String>) {
             }
         }
     }
+    drop_covered(&mut out);
     out.sort();
     out.dedup();
     (pos, out)
+}
+
+/// Remove the tokens a listed summary already covers (`a value` covers `-`, `true`, a name …).
+fn drop_covered(out: &mut Vec<String>) {
+    const COVERS: &[(&str, &[&str])] = &[
+        ("a value", &["a number", "a name", "`true` or `false`", "`true`", "`false`", "`-`"]),
+        (
+            "an expression",
+            &["a name", "`true` or `false`", "`true`", "`false`", "`not`", "`has`", "`exists`", "`count`", "`(`"],
+        ),
+        ("a number", &["`-`"]),
+    ];
+    for (summary, covered) in COVERS {
+        if out.iter().any(|t| t == summary) {
+            out.retain(|t| !covered.contains(&t.as_str()));
+        }
+    }
 }
 
 fn describe_rule(r: Rule) -> Option<String> {
@@ -1081,4 +1099,99 @@ pub fn doc_before(text: &str, pos: usize) -> String {
     }
     lines.reverse();
     lines.join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_ok(text: &str) -> File {
+        let p = parse(0, text);
+        assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+        p.file
+    }
+
+    fn concept_stmts(text: &str) -> Vec<ConceptStmt> {
+        match &parse_ok(text).items[0].kind {
+            ItemKind::Concept { stmts, .. } => stmts.clone(),
+            other => panic!("not a concept: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn doc_comments_attach_to_the_next_item() {
+        let f = parse_ok("// plain\n/// First line.\n///   Second.\n\nunit m: length = 1\n/// Tag doc.\ntag T");
+        assert_eq!(f.items[0].doc, "", "a blank line separates a doc comment from its item");
+        assert_eq!(f.items[1].doc, "Tag doc.");
+        assert_eq!(doc_before("/// A.\n/// B.\nkind K {}", 14), "A.\nB.");
+        assert_eq!(doc_before("//// not a doc\nkind K {}", 15), "");
+    }
+
+    #[test]
+    fn keywords_are_whole_words() {
+        let stmts = concept_stmts("modifier m { target worldly_things }");
+        assert!(
+            matches!(&stmts[0], ConceptStmt::Target { world: None, filter, .. } if filter[0].name == "worldly_things")
+        );
+        let stmts = concept_stmts("modifier m { target world }");
+        assert!(matches!(&stmts[0], ConceptStmt::Target { world: Some(_), .. }));
+    }
+
+    #[test]
+    fn add_without_relation_does_not_swallow_the_next_statement() {
+        let stmts = concept_stmts("concept c { add a: K in lane add b: K in lane near a { x = 1m } }");
+        assert_eq!(stmts.len(), 2);
+        let ConceptStmt::Add { relation, attrs, .. } = &stmts[1] else { panic!() };
+        assert_eq!(relation.as_ref().map(|r| r.1.name.as_str()), Some("a"));
+        assert_eq!(attrs.len(), 1);
+    }
+
+    #[test]
+    fn strings_decode_escapes_and_raw_strings_keep_their_lines() {
+        let stmts =
+            concept_stmts("concept c { description \"a \\\"b\\\"\\n\" scenic \"\"\"\nline 1\nline \"2\"\n\"\"\" }");
+        assert!(matches!(&stmts[0], ConceptStmt::Description(s) if s.value == "a \"b\"\n"));
+        assert!(matches!(&stmts[1], ConceptStmt::Scenic(s) if s.value == "line 1\nline \"2\"\n"));
+    }
+
+    #[test]
+    fn numbers_ranges_and_units() {
+        let f = parse_ok("kind K { d: length in -8m..8.5m = 2m..4m }");
+        let ItemKind::Kind { attrs, .. } = &f.items[0].kind else { panic!() };
+        let (lo, hi) = attrs[0].bounds.as_ref().unwrap();
+        assert_eq!((lo.value, hi.value), (-8.0, 8.5));
+        assert!(
+            matches!(&attrs[0].default, ValueLit::Range(a, b) if a.value == 2.0 && b.unit.as_ref().unwrap().name == "m")
+        );
+    }
+
+    #[test]
+    fn three_mistakes_three_diagnostics_and_the_rest_parses() {
+        let text = "domain d\nconcept a { descriptio \"x\" probe \"p\" not \"n\" }\n@@@\nkind K { d: length = }\nregion r { x 0m y 0m }";
+        let p = parse(0, text);
+        let line = |d: &Diagnostic| text[..d.span.unwrap().start as usize].matches('\n').count() + 1;
+        let lines: Vec<usize> = p.diagnostics.iter().map(line).collect();
+        assert_eq!(lines, [2, 3, 4], "{:?}", p.diagnostics);
+        assert!(p.diagnostics.iter().all(|d| d.code == codes::SYNTAX));
+        assert_eq!(p.file.items.len(), 5, "domain, concept, junk, kind, region");
+        assert!(p.file.items[1].broken && !p.file.items[4].broken);
+        assert_eq!(p.diagnostics[0].help.as_deref(), Some("did you mean `description`?"));
+        assert_eq!(p.diagnostics[2].message, "expected a value, found `}`");
+    }
+
+    #[test]
+    fn expected_tokens_point_at_the_mistake() {
+        let text = "enum Color { red, green blue }";
+        let p = parse(0, text);
+        let d = &p.diagnostics[0];
+        assert_eq!(d.message, "expected `,` or `}`, found `blue`");
+        assert_eq!(&text[d.span.unwrap().start as usize..d.span.unwrap().end as usize], "blue");
+    }
+
+    #[test]
+    fn nesting_limit_ignores_strings_and_comments() {
+        let parens = "(".repeat(MAX_NESTING + 1);
+        assert_eq!(too_deep_at(&format!("// {parens}\n\"{parens}\" \"\"\"{parens}\"\"\"")), None);
+        assert_eq!(too_deep_at(&format!("x {parens}")), Some(2 + MAX_NESTING));
+    }
 }
