@@ -73,9 +73,8 @@ pub(crate) struct Checker<'a> {
 }
 
 /// Lower the gathered items. `entry` is the file whose `domain` line names the domain.
-pub(crate) fn lower(files: &[SourceFile], entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<Diagnostic>) {
+pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<Diagnostic>) {
     let mut c = Checker::new();
-    let _ = files;
     c.domain_line(entry, items);
     c.declare(items);
     c.lower_tags();
@@ -186,7 +185,7 @@ impl<'a> Checker<'a> {
         let sort_type = |t: &TypeSym| t.sort();
         for &(_, item) in items {
             match &item.kind {
-                ItemKind::Unit { name, dimension, scale } => self.declare_unit(item, name, dimension, scale),
+                ItemKind::Unit { name, dimension, scale } => self.declare_unit(name, dimension, scale),
                 ItemKind::Enum { name, variants } => {
                     let id = EnumId(self.d.enums.len() as u32);
                     if self.types.declare(name, TypeSym::Enum(id), sort_type, &mut self.diags) {
@@ -276,7 +275,7 @@ impl<'a> Checker<'a> {
         self.tag_progress = vec![Progress::Todo; self.d.tags.len()];
     }
 
-    fn declare_unit(&mut self, item: &Item, name: &Ident, dimension: &Ident, scale: &Num) {
+    fn declare_unit(&mut self, name: &Ident, dimension: &Ident, scale: &Num) {
         if let Some(u) = &scale.unit {
             self.error(
                 Diagnostic::error(
@@ -300,7 +299,6 @@ impl<'a> Checker<'a> {
         }
         let info = UnitInfo { dimension: dimension.name.clone(), scale: scale.value };
         if self.units.declare(name, info, |_| "a unit", &mut self.diags) {
-            let _ = item;
             self.d.units.push(Unit { name: name.name.clone(), dimension: dimension.name.clone(), scale: scale.value });
         }
     }
@@ -463,7 +461,7 @@ impl<'a> Checker<'a> {
                 None => {}
             }
         }
-        let own = self.lower_attrs(attrs, &format!("kind `{}`", name.name));
+        let own = self.lower_attrs(attrs);
         for a in own {
             match inherited.iter().position(|x| x.name == a.name) {
                 Some(i) => inherited[i] = a,
@@ -522,26 +520,25 @@ impl<'a> Checker<'a> {
     // ------------------------------------------------------------------ attributes and values
 
     /// Lower `NAME: TYPE [in MIN..MAX] = DEFAULT` declarations; duplicates are reported.
-    fn lower_attrs(&mut self, attrs: &[ast::AttrDecl], owner: &str) -> Vec<AttrDef> {
+    fn lower_attrs(&mut self, attrs: &[ast::AttrDecl]) -> Vec<AttrDef> {
         let mut seen = Namespace::<()>::default();
         let mut out = Vec::new();
         for a in attrs {
             if !seen.declare(&a.name, (), |_| "an attribute of the same owner", &mut self.diags) {
                 continue;
             }
-            if let Some(def) = self.lower_attr(a, owner) {
+            if let Some(def) = self.lower_attr(a) {
                 out.push(def);
             }
         }
         out
     }
 
-    fn lower_attr(&mut self, a: &ast::AttrDecl, owner: &str) -> Option<AttrDef> {
+    fn lower_attr(&mut self, a: &ast::AttrDecl) -> Option<AttrDef> {
         let ty = self.attr_type(a)?;
         // A bad default is reported; the attribute still exists, so uses of it are checked
         // instead of failing as unknown.
         let default = self.lower_value(&a.default, &ty, &a.name.name).unwrap_or_else(|| placeholder(&ty));
-        let _ = owner;
         Some(AttrDef { name: a.name.name.clone(), ty, default, doc: a.doc.clone(), span: a.span })
     }
 
@@ -733,7 +730,7 @@ impl<'a> Checker<'a> {
             if !self.world_attrs.declare(&a.name, idx, |_| "a world attribute", &mut self.diags) {
                 continue;
             }
-            match self.lower_attr(a, "the world") {
+            match self.lower_attr(a) {
                 Some(def) => self.d.world.push(def),
                 // Keep the index stable for later names; a placeholder never reaches the IR
                 // because the error stops compilation.

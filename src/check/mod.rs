@@ -75,7 +75,7 @@ pub fn compile(entry_name: &str, entry_text: &str, load: &dyn Fn(&str) -> Option
     let items: Vec<(u32, &ast::Item)> =
         order.iter().flat_map(|&f| parsed[f as usize].items.iter().map(move |i| (f, i))).collect();
     let syntax_ok = !diagnostics.iter().any(Diagnostic::is_error);
-    let (domain, lowered) = lower::lower(&files, entry, &items);
+    let (domain, lowered) = lower::lower(entry, &items);
     diagnostics.extend(lowered);
     let mut domain = domain.filter(|_| syntax_ok && !diagnostics.iter().any(Diagnostic::is_error));
     if let Some(d) = domain.as_mut() {
