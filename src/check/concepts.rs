@@ -481,10 +481,16 @@ impl Checker<'_> {
         }
     }
 
+    /// Ids of the concepts that satisfy `pred` and fit in a concept set.
+    fn concept_ids(&self, pred: impl Fn(&Concept) -> bool) -> Vec<ConceptId> {
+        self.d.concepts.iter().filter(|c| c.id.index() < MAX_CONCEPTS && pred(c)).map(|c| c.id).collect()
+    }
+
     fn lower_member(&mut self, m: &Member) -> Option<ConceptSet> {
         match m {
             Member::Name(n) => match self.concepts.get(&n.name) {
-                Some(id) => Some(ConceptSet::single(*id)),
+                // A concept past the set width was reported (R0044) and takes no bit.
+                Some(id) => (id.index() < MAX_CONCEPTS).then(|| ConceptSet::single(*id)),
                 None => {
                     let d = unknown("concept", n, self.concepts.names());
                     self.error(d);
@@ -493,8 +499,7 @@ impl Checker<'_> {
             },
             Member::Wildcard(w) => {
                 let prefix = w.name.trim_end_matches('*');
-                let set =
-                    ConceptSet::from_ids(self.d.concepts.iter().filter(|c| c.name.starts_with(prefix)).map(|c| c.id));
+                let set = ConceptSet::from_ids(self.concept_ids(|c| c.name.starts_with(prefix)));
                 if set.is_empty() {
                     self.error(
                         Diagnostic::error(codes::EMPTY_MEMBER, w.span, format!("`{}` matches no concept", w.name))
@@ -506,8 +511,7 @@ impl Checker<'_> {
                 Some(set)
             }
             Member::Category(cat) => {
-                let set =
-                    ConceptSet::from_ids(self.d.concepts.iter().filter(|c| c.category == cat.value).map(|c| c.id));
+                let set = ConceptSet::from_ids(self.concept_ids(|c| c.category == cat.value));
                 if set.is_empty() {
                     let mut cats: Vec<&str> = Vec::new();
                     for c in &self.d.concepts {

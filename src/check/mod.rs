@@ -256,9 +256,10 @@ mod tests {
         for i in 0..=ir::MAX_CONCEPTS {
             text.push_str(&format!("concept c{i} {{ description \"c\" probe \"p\" not \"n\" set world.on = true }}\n"));
         }
-        text.push_str(
-            "question q { text \"q\" option a \"a\" option b \"b\" }\nrules priority { rule r { expect q.a } }\n",
-        );
+        // Members and elements past the set width must not overflow the bitset.
+        text.push_str("constraint all = at_most(3, c*)\nconstraint last = exclusive(c0, c128)\n");
+        text.push_str("question q { text \"q\" option a \"a\" option b \"b\" }\n");
+        text.push_str("rules best_fit { rule r { when has c128 elements c128, c1 expect q.a } }\n");
         let diags = compile_source("big.rev", &text).unwrap_err();
         assert_eq!(diags.len(), 1, "{diags:?}");
         assert_eq!(diags[0].code, codes::TOO_MANY_CONCEPTS);

@@ -196,7 +196,8 @@ impl Checker<'_> {
                 RuleStmt::Elements(names, _) => {
                     for n in names {
                         match self.concepts.get(&n.name) {
-                            Some(id) => rule.elements = rule.elements.with(*id),
+                            Some(id) if id.index() < MAX_CONCEPTS => rule.elements = rule.elements.with(*id),
+                            Some(_) => ok = false, // past the set width: reported as R0044
                             None => {
                                 let d = unknown("concept", n, self.concepts.names());
                                 self.error(d);
