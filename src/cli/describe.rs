@@ -137,7 +137,7 @@ pub fn summary(d: &Domain) -> String {
     }
     let _ = writeln!(s, "\nconstraints:");
     for c in &d.constraints {
-        let _ = writeln!(s, "  {}: {}", c.name, constraint_json(d, c));
+        let _ = writeln!(s, "  {}: {}", c.name, constraint_text(d, &c.rule));
     }
     for q in &d.questions {
         let _ = writeln!(s, "\nquestion {}: {}", q.name, q.text);
@@ -154,6 +154,17 @@ pub fn summary(d: &Domain) -> String {
             writeln!(s, "  {}{}: when {} expect {}.{}", r.name, safe, when, q.name, q.options[r.expect as usize].name);
     }
     s
+}
+
+fn constraint_text(d: &Domain, rule: &ConstraintRule) -> String {
+    let names = |s: ConceptSet| d.set_names(s).join(", ");
+    match rule {
+        ConstraintRule::AtMost { members, max } => format!("at most {max} of {}", names(*members)),
+        ConstraintRule::Requires { concept, any_of } => {
+            format!("{} requires one of {}", d.concepts[concept.index()].name, names(*any_of))
+        }
+        ConstraintRule::Forbids { all } => format!("never all of {}", names(*all)),
+    }
 }
 
 fn filter_text(d: &Domain, f: &TargetFilter) -> String {
@@ -266,5 +277,7 @@ mod tests {
             assert!(s.contains(&c.name), "{} missing from the summary", c.name);
         }
         assert!(s.contains("(C) go: Continue"));
+        assert!(s.contains("one_town: at most 1 of town_town01, town_town02"));
+        assert!(s.contains("child_needs_ped: child_near_ped requires one of pedestrian_crossing"));
     }
 }
