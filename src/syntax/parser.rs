@@ -868,7 +868,11 @@ impl<'t> Builder<'t> {
             // A long list (typically "any statement or item may follow") reads worse than none.
             return Diagnostic::error(codes::SYNTAX, span, format!("unexpected {found}"))
                 .with_label("unexpected here")
-                .with_help(format!("a statement ends here; expected {what} or `}}` next"));
+                .with_help(if what == "an item" {
+                    format!("an item ends here; the next one starts with one of: {}", ITEM_KEYWORDS.join(", "))
+                } else {
+                    format!("a statement ends here; expected {what} or `}}` next")
+                });
         }
         let list = join_or(&expected);
         let d = Diagnostic::error(codes::SYNTAX, span, format!("expected {list}, found {found}"))
