@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 
 pub mod lattice;
 pub mod oracle;
+pub mod emit;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -21,6 +22,8 @@ pub enum Command {
     Lattice(lattice::LatticeArgs),
     /// Show the ground truth (question, expected answer, deciding rule) of a concept set
     Oracle(oracle::OracleArgs),
+    /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
+    Emit(emit::EmitArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -35,6 +38,7 @@ pub fn main() -> ExitCode {
     match cli.command {
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
+        Command::Emit(a) => emit::run(a),
     }
 }
 
