@@ -8,7 +8,7 @@
 //! | R0100 | a concept appears in no valid set |
 //! | R0101 | a rule is never selected (shadowed, or its condition never holds) |
 //! | R0102 | a rule leaves the expected answer undetermined for some valid set |
-//! | R0103 | best fit: two rules with different answers tie for some valid set |
+//! | R0103 | best fit: two rules with different answers tie (same score and specificity) for some valid set |
 //! | R0104 | an answer option is never expected |
 //! | R0105 | a modifier has no possible target |
 //! | R0106 | no rule matches some valid set |
@@ -94,7 +94,7 @@ impl Survey {
             self.applies[i] |= *t == Tri::True;
         }
         match decision {
-            Decision::Selected { rule, score } => {
+            Decision::Selected { rule, .. } => {
                 self.selected[rule] = true;
                 let r = &domain.rules[rule];
                 if let Some(slot) = self.expected.get_mut(r.question.index()).and_then(|q| q.get_mut(r.expect as usize))
@@ -107,7 +107,7 @@ impl Survey {
                     }
                 }
                 if domain.selection == Selection::BestFit {
-                    for other in oracle::tied_later(domain, set, conditions, rule, score) {
+                    for other in oracle::tied_later(domain, set, conditions, rule) {
                         let o = &domain.rules[other];
                         if (o.question, o.expect) != (r.question, r.expect) {
                             Example::note(&mut self.ties[rule][other], set);
