@@ -176,9 +176,11 @@ impl<'d> Oracle<'d> {
                     tie.push_str(&format!("; it ties with {} and is declared first", quote_rules(d, &ties)));
                 }
                 format!(
-                    "`{}` fits best among {matching} matching rule{}: {score} of the set's concepts are its elements{fit}{tie}; {why}",
+                    "`{}` fits best among {matching} matching rule{}: {score} of the set's concepts {} among its \
+                     elements{fit}{tie}; {why}",
                     r.name,
-                    if matching == 1 { "" } else { "s" }
+                    if matching == 1 { "" } else { "s" },
+                    if score == 1 { "is" } else { "are" }
                 )
             }
         }

@@ -137,7 +137,7 @@ fn best_fit_picks_the_highest_element_fit() {
     assert_eq!(d.rules[v.rule.index()].name, "glass_cut");
     assert_eq!(
         v.explanation,
-        "`glass_cut` fits best among 2 matching rules: 3 of the set's concepts are its elements \
+        "`glass_cut` fits best among 2 matching rules: 3 of the set's concepts are among its elements \
          (`glass_floor`, `barefoot_near_glass`, `toddler_standing`); `has glass_floor and has barefoot_near_glass` holds"
     );
 }
