@@ -178,8 +178,14 @@ impl Survey {
         // Name the rule that takes most of the sets this one applies to (the first on a tie).
         let shadows: Vec<(usize, Example)> =
             self.shadowed_by[i].iter().enumerate().filter_map(|(w, e)| e.map(|e| (w, e))).collect();
-        let &(winner, ex) =
-            shadows.iter().rev().max_by_key(|(_, e)| e.count).expect("a rule that applies was shadowed");
+        let Some(&(winner, ex)) = shadows.iter().rev().max_by_key(|(_, e)| e.count) else {
+            d.message = format!(
+                "rule `{}` is never selected: wherever its condition holds, the answer is undetermined",
+                rule.name
+            );
+            d.help = Some("resolve the undetermined rules reported for these sets (R0102)".into());
+            return d;
+        };
         let w = &domain.rules[winner];
         let more = match shadows.len() {
             1 => String::new(),

@@ -103,10 +103,18 @@ fn undetermined_rules_name_an_example_and_the_attribute() {
     let q = b.question("drive", &["stop", "go"]);
     let close = exists(filter(&[k], &[]), Some(attr_cmp("distance", CmpOp::Le, num(4.0))));
     b.rule("close", q, 0, Some(close), &[]);
+    let parcel = b.d.concept_by_name("parcel").unwrap().id;
+    // Applies only where `close`, before it, is undetermined: never selected, never shadowed.
+    b.rule("parcel_seen", q, 0, Some(Expr::Has(parcel)), &[]);
     b.rule("open", q, 1, None, &[]);
     let d = b.build();
-    let diags = lint_domain(&d);
-    assert_eq!(diags.len(), 2, "{diags:#?}");
+    let all = lint_domain(&d);
+    assert_eq!(all.len(), 3, "{all:#?}");
+    assert_eq!(
+        all[1].message,
+        "rule `parcel_seen` is never selected: wherever its condition holds, the answer is undetermined"
+    );
+    let diags = [all[0].clone(), all[2].clone()];
     assert_eq!(diags[0].code, "R0102");
     assert_eq!(
         diags[0].message,
