@@ -5,6 +5,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod lattice;
+pub mod oracle;
+pub mod emit;
+
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
 pub struct Cli {
@@ -13,7 +17,14 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Count or list the valid concept sets of a domain
+    Lattice(lattice::LatticeArgs),
+    /// Show the ground truth (question, expected answer, deciding rule) of a concept set
+    Oracle(oracle::OracleArgs),
+    /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
+    Emit(emit::EmitArgs),
+}
 
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -24,7 +35,11 @@ pub fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
-    match cli.command {}
+    match cli.command {
+        Command::Lattice(args) => lattice::run(args),
+        Command::Oracle(args) => oracle::run(args),
+        Command::Emit(a) => emit::run(a),
+    }
 }
 
 /// Compile a domain file for a subcommand, printing diagnostics to stderr on failure.

@@ -11,25 +11,13 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::ir::ConceptSet;
 
+use super::gp::{Draw, Gp};
 use super::{Driver, Evaluate, Params, Space};
-
-/// A fitted surrogate of the failure rate over concept sets (the GP of `search::gp`).
-pub trait Surrogate: Sized {
-    type Draw: Score;
-    fn fit(x: &[ConceptSet], y: &[f64], dim: usize) -> Result<Self, String>;
-    /// One Thompson draw of the failure-rate function.
-    fn draw(&self, rng: &mut ChaCha8Rng) -> Self::Draw;
-}
-
-/// A drawn function, scored on any set.
-pub trait Score {
-    fn score(&self, set: ConceptSet) -> f64;
-}
 
 /// Salt for the GPTS random stream, so it differs from Random's stream for the same seed.
 const STREAM: u64 = 0x6770_7473_0000_0001;
 
-pub async fn run<S: Surrogate, E: Evaluate>(
+pub async fn run<E: Evaluate>(
     params: &Params,
     space: &Space,
     driver: &mut Driver<'_, E>,
@@ -56,7 +44,7 @@ pub async fn run<S: Surrogate, E: Evaluate>(
         } else {
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
-            let model = S::fit(&x, &y, space.dim)?;
+            let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
             let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
             for _ in 0..params.batch {
                 let draw = model.draw(&mut rng);
@@ -72,7 +60,7 @@ pub async fn run<S: Surrogate, E: Evaluate>(
     Ok(())
 }
 
-fn argmax(candidates: &[u32], space: &Space, draw: &impl Score) -> ConceptSet {
+fn argmax(candidates: &[u32], space: &Space, draw: &Draw) -> ConceptSet {
     let mut best = (candidates[0], f64::NEG_INFINITY);
     for &i in candidates {
         let v = draw.score(space.sets[i as usize]);

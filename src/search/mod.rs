@@ -12,6 +12,7 @@
 
 pub mod beam;
 pub mod eval;
+pub mod gp;
 pub mod gpts;
 pub mod metrics;
 pub mod random;
@@ -196,7 +197,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> R
     match params.algo {
         Algo::Random => random::run(params, space, &mut driver).await?,
         Algo::Beam => beam::run(params, space, &mut driver).await?,
-        Algo::Gpts => return Err("gpts needs the GP surrogate (`search::gp`), which is not merged yet".into()),
+        Algo::Gpts => gpts::run(params, space, &mut driver).await?,
     }
     Ok(driver.history)
 }
