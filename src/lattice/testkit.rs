@@ -49,6 +49,7 @@ impl Dom {
             selection,
             rules: vec![],
             camera: Camera::default(),
+            allow: vec![],
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");

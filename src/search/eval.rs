@@ -29,13 +29,25 @@ pub trait World: Send + Sync {
     fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String>;
 }
 
-/// The compiled domain's oracle and scene sampler.
-pub struct DomainWorld(pub Arc<Domain>);
+/// The compiled domain's oracle and scene sampler, built once per run.
+pub struct DomainWorld {
+    oracle: crate::oracle::Oracle<'static>,
+    sampler: crate::sample::Sampler<'static>,
+}
+
+impl DomainWorld {
+    /// The sampler and oracle borrow the domain for the whole process (a run searches one domain),
+    /// so the domain is leaked once here rather than re-hashing its sources for every scene.
+    pub fn new(domain: &Domain) -> DomainWorld {
+        let domain: &'static Domain = Box::leak(Box::new(domain.clone()));
+        DomainWorld { oracle: crate::oracle::Oracle::new(domain), sampler: crate::sample::Sampler::new(domain) }
+    }
+}
 
 impl World for DomainWorld {
     fn task(&self, set: ConceptSet) -> Result<Task, String> {
-        let d = &self.0;
-        let v = crate::oracle::evaluate(d, set).map_err(|e| e.0)?;
+        let d = self.sampler.domain();
+        let v = self.oracle.evaluate(set).map_err(|e| e.to_string())?;
         let q = &d.questions[v.question.index()];
         Ok(Task {
             question: q.text.clone(),
@@ -45,7 +57,7 @@ impl World for DomainWorld {
     }
 
     fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String> {
-        crate::sample::sample(&self.0, set, seed).map_err(|e| e.0)
+        self.sampler.sample(set, seed).map_err(|e| e.0)
     }
 }
 
@@ -150,9 +162,7 @@ impl Evaluate for Evaluator {
         let mut stats: Vec<SetStats> = sets.iter().map(|s| SetStats::new(*s)).collect();
         let mut tasks = tokio::task::JoinSet::new();
         for (i, &set) in sets.iter().enumerate() {
-            let task = Arc::new(self.shared.world.task(set).map_err(|e| {
-                format!("no ground truth for {{{}}}: {e}", self.shared.domain.set_names(set).join(", "))
-            })?);
+            let task = Arc::new(self.shared.world.task(set)?);
             let prompt = Arc::new(crate::vlm::prompt::build(&task.question, &task.options));
             for obs in 0..self.samples {
                 if let Some(&o) = self.replay.get(&(self.phase, set, obs)) {

@@ -17,11 +17,7 @@ use super::{Driver, Evaluate, Params, Space};
 /// Salt for the GPTS random stream, so it differs from Random's stream for the same seed.
 const STREAM: u64 = 0x6770_7473_0000_0001;
 
-pub async fn run<E: Evaluate>(
-    params: &Params,
-    space: &Space,
-    driver: &mut Driver<'_, E>,
-) -> Result<(), String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
     let total = driver.remaining();
     let beam_sets = (params.beam_budget / u64::from(params.samples)) as usize;
     driver.set_max_sets(beam_sets.min(total));

@@ -16,6 +16,7 @@ pub mod gp;
 pub mod gpts;
 pub mod metrics;
 pub mod random;
+pub mod runner;
 pub mod space;
 #[cfg(test)]
 pub(crate) mod testkit;

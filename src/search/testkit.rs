@@ -37,6 +37,7 @@ pub fn domain(names: &[&str]) -> Domain {
         selection: Selection::Priority,
         rules: vec![],
         camera: Camera::default(),
+        allow: vec![],
     }
 }
 
