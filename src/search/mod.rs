@@ -202,3 +202,6 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> R
     }
     Ok(driver.history)
 }
+
+#[cfg(test)]
+mod tests;
