@@ -48,8 +48,8 @@ impl Dom {
             questions: vec![],
             selection,
             rules: vec![],
-            camera: Camera::default(),
             allow: vec![],
+            camera: Camera::default(),
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");
