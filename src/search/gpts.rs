@@ -25,44 +25,57 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
     driver.set_max_sets(total);
 
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed ^ STREAM);
-    let mut unexplored: Vec<u32> = (0..space.sets.len() as u32).collect();
-    while driver.remaining() > 0 {
-        unexplored.retain(|&i| !driver.seen(space.sets[i as usize]));
-        if unexplored.is_empty() {
-            break;
+    // Explored flags by lattice position: one pass over the history now, then only the picks of
+    // each round are marked (no per-round hash lookups over the whole lattice).
+    let mut explored = vec![false; space.sets.len()];
+    let mut left = space.sets.len();
+    let mark = |explored: &mut [bool], set: ConceptSet, left: &mut usize| {
+        if let Some(i) = space.position(set).filter(|&i| !explored[i]) {
+            explored[i] = true;
+            *left -= 1;
         }
-        let picks = if driver.history.is_empty() {
-            let n = params.batch.min(unexplored.len());
-            rand::seq::index::sample(&mut rng, unexplored.len(), n)
-                .into_iter()
-                .map(|k| space.sets[unexplored[k] as usize])
-                .collect()
+    };
+    for s in &driver.history {
+        mark(&mut explored, s.set, &mut left);
+    }
+    while driver.remaining() > 0 && left > 0 {
+        let picks: Vec<ConceptSet> = if driver.history.is_empty() {
+            let open: Vec<usize> = (0..space.sets.len()).filter(|&i| !explored[i]).collect();
+            let n = params.batch.min(open.len());
+            rand::seq::index::sample(&mut rng, open.len(), n).into_iter().map(|k| space.sets[open[k]]).collect()
         } else {
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
-            let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
+            let model =
+                Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
             let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
             for _ in 0..params.batch {
                 let draw = model.draw(&mut rng);
-                let best = argmax(&unexplored, space, &draw);
-                if !picks.contains(&best) {
+                if let Some(best) = argmax(&explored, space, &draw).filter(|b| !picks.contains(b)) {
                     picks.push(best);
                 }
             }
             picks
         };
         driver.evaluate(&picks).await?;
+        for p in picks {
+            mark(&mut explored, p, &mut left);
+        }
     }
     Ok(())
 }
 
-fn argmax(candidates: &[u32], space: &Space, draw: &Draw) -> ConceptSet {
-    let mut best = (candidates[0], f64::NEG_INFINITY);
-    for &i in candidates {
-        let v = draw.score(space.sets[i as usize]);
-        if v > best.1 {
-            best = (i, v);
+/// The unexplored set with the highest drawn score; ties go to the earliest in lattice order.
+fn argmax(explored: &[bool], space: &Space, draw: &Draw) -> Option<ConceptSet> {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, set) in space.sets.iter().enumerate() {
+        if explored[i] {
+            continue;
+        }
+        let v = draw.score(*set);
+        if best.is_none_or(|(_, b)| v > b) {
+            best = Some((i, v));
         }
     }
-    space.sets[best.0 as usize]
+    best.map(|(i, _)| space.sets[i])
 }
