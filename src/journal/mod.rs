@@ -79,12 +79,12 @@ pub fn sha256(bytes: &[u8]) -> String {
     hex::encode(Sha256::digest(bytes))
 }
 
-/// SHA-256 over a domain's source files (names and texts), identifying what a run searched.
+/// SHA-256 over the texts of a domain's source files in load order, identifying what a run
+/// searched. Names are left out: the same file reached by a relative or an absolute path is the
+/// same domain.
 pub fn domain_hash(domain: &Domain) -> String {
     let mut h = Sha256::new();
     for f in &domain.files {
-        h.update((f.name.len() as u64).to_le_bytes());
-        h.update(f.name.as_bytes());
         h.update((f.text.len() as u64).to_le_bytes());
         h.update(f.text.as_bytes());
     }

@@ -46,8 +46,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
         } else {
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
-            let model =
-                Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
+            let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
             let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
             for _ in 0..params.batch {
                 let draw = model.draw(&mut rng);
