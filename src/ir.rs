@@ -245,7 +245,9 @@ pub struct AttrDef {
 pub struct Kind {
     pub name: String,
     pub doc: String,
-    /// Direct and inherited tags (parents are tags too: a kind "is a" each of them).
+    /// Every tag the kind carries: its parent tags, their ancestors, and the tags of its parent
+    /// kinds, transitively. Parent *kinds* are not tags: a filter that names a kind lists that
+    /// kind and its descendants in [`TargetFilter::kinds`].
     pub tags: Vec<TagId>,
     pub attrs: Vec<AttrDef>,
     /// Default look in the builtin renderer.
@@ -430,7 +432,8 @@ pub struct Relation {
 }
 
 /// Which entities a modifier can target: any of `kinds` or carrying any of `tags` (empty both =
-/// any entity). `world = true`: the modifier targets the world (always present).
+/// any entity). `world = true`: the modifier targets the world (always present). The checker
+/// expands a kind named in source to the kind and all kinds that descend from it.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TargetFilter {
     pub kinds: Vec<KindId>,
