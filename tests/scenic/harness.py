@@ -16,6 +16,19 @@ import warnings
 def main():
     warnings.simplefilter("ignore")
     import scenic  # imported here so an import failure is reported once, clearly
+    from scenic.domains.driving import roads
+
+    # Parsing an OpenDRIVE map takes seconds; every program of a run uses one of two maps.
+    parse = roads.Network.fromFile
+    networks = {}
+
+    def cached(path, **options):
+        key = (str(path), repr(sorted(options.items())))
+        if key not in networks:
+            networks[key] = parse(path, **options)
+        return networks[key]
+
+    roads.Network.fromFile = cached
 
     out = sys.stdout
     for line in sys.stdin:
