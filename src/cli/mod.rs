@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod lattice;
+pub mod oracle;
 pub mod emit;
 
 #[derive(Parser, Debug)]
@@ -16,6 +18,10 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Count or list the valid concept sets of a domain
+    Lattice(lattice::LatticeArgs),
+    /// Show the ground truth (question, expected answer, deciding rule) of a concept set
+    Oracle(oracle::OracleArgs),
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
 }
@@ -30,6 +36,8 @@ pub fn main() -> ExitCode {
         }
     };
     match cli.command {
+        Command::Lattice(args) => lattice::run(args),
+        Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
     }
 }
