@@ -14,7 +14,14 @@ fn bench(c: &mut Criterion) {
     };
     let sampler = Sampler::new(&domain);
     let set = domain
-        .parse_set(&["town_town02", "intersection_ego", "pedestrian", "debris_far", "obstruction_near", "weather_foggy"])
+        .parse_set(&[
+            "town_town02",
+            "intersection_ego",
+            "pedestrian",
+            "debris_far",
+            "obstruction_near",
+            "weather_foggy",
+        ])
         .expect("paper concepts");
     let mut seed = 0u64;
     c.bench_function("sample 6-concept driving set", |b| {

@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use revelio::emit::{ScenicOptions, scenic};
-use revelio::ir::{ConceptSet, ConstraintRule, Domain};
+use revelio::ir::{ConceptSet, Domain};
 
 const SCENIC: &str = "scenic==3.1.1";
 const RANDOM_SETS_PER_TOWN: usize = 30;
@@ -58,16 +58,8 @@ fn scenic_python() -> PathBuf {
     python
 }
 
-/// Valid: every constraint holds and the anchor graph exists (modifiers have targets).
 fn valid(d: &Domain, set: ConceptSet) -> bool {
-    let constraints = d.constraints.iter().all(|c| match &c.rule {
-        ConstraintRule::AtMost { members, max } => set.intersection(*members).len() <= *max as usize,
-        ConstraintRule::Requires { concept, any_of } => {
-            !set.contains(*concept) || !set.intersection(*any_of).is_empty()
-        }
-        ConstraintRule::Forbids { all } => !all.is_subset_of(set),
-    });
-    constraints && revelio::anchor::build(d, set).is_ok()
+    revelio::lattice::validate(d, set).is_ok()
 }
 
 fn sets_to_check(d: &Domain) -> Vec<ConceptSet> {

@@ -128,9 +128,21 @@ fn extras_come_from_extra_kinds_in_scenery_regions() {
 fn invalid_sets_get_clear_errors() {
     let d = tiny_domain();
     let err = sample(&d, set(&d, &["near"]), 0).unwrap_err();
-    assert_eq!(err.to_string(), "the concept set has no scene: modifier `near` has no entity to apply to");
+    assert_eq!(err.to_string(), "invalid concept set {near}: modifier `near` has no entity to apply to");
     let err = sample(&d, ConceptSet::single(crate::ir::ConceptId(100)), 0).unwrap_err();
-    assert_eq!(err.to_string(), "concept index `100` is not in domain `tiny`");
+    assert_eq!(err.to_string(), "invalid concept set {}: concept index 100 is not declared in the domain");
+    let mut d = d;
+    d.constraints.push(crate::ir::Constraint {
+        name: "one_obstacle".into(),
+        doc: String::new(),
+        rule: crate::ir::ConstraintRule::AtMost { members: set(&d, &["pedestrian", "obstruction_near"]), max: 1 },
+        span: Default::default(),
+    });
+    let err = sample(&d, set(&d, &["pedestrian", "obstruction_near"]), 0).unwrap_err().to_string();
+    assert!(
+        err.starts_with("invalid concept set {pedestrian, obstruction_near}: violates constraint `one_obstacle`"),
+        "{err}"
+    );
 }
 
 #[test]
