@@ -135,12 +135,77 @@ fn ego(out: &mut String, domain: &Domain, scene: &Scene, anchor: &AnchorGraph) {
     }
 }
 
+/// Names an entity's Scenic variable must not take: the program's own variables, the CARLA
+/// model's regions, and Python/Scenic keywords that entity names could plausibly collide with.
+const RESERVED: &[&str] = &[
+    "ego",
+    "junction",
+    "egoLane",
+    "revelioNearEdge",
+    "network",
+    "road",
+    "lane",
+    "sidewalk",
+    "curb",
+    "intersection",
+    "shoulder",
+    "workspace",
+    "model",
+    "param",
+    "require",
+    "behavior",
+    "monitor",
+    "scenario",
+    "new",
+    "with",
+    "at",
+    "on",
+    "in",
+    "of",
+    "by",
+    "from",
+    "to",
+    "ahead",
+    "behind",
+    "left",
+    "right",
+    "front",
+    "back",
+    "facing",
+    "visible",
+    "following",
+    "offset",
+    "along",
+    "relative",
+    "beyond",
+    "distance",
+    "angle",
+    "heading",
+    "not",
+    "and",
+    "or",
+    "is",
+    "if",
+    "else",
+    "for",
+    "while",
+    "def",
+    "class",
+    "import",
+    "lambda",
+    "pass",
+    "return",
+    "None",
+    "True",
+    "False",
+];
+
 /// Scenic identifiers for the entities: their names made identifiers, de-duplicated in order.
 fn scenic_ids(entities: &[SceneEntity]) -> Vec<String> {
     let mut ids: Vec<String> = Vec::with_capacity(entities.len());
     for e in entities {
         let mut base: String = e.name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
-        if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) || base == "ego" {
+        if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) || RESERVED.contains(&base.as_str()) {
             base.insert_str(0, "obj_");
         }
         let mut id = base.clone();
@@ -353,7 +418,7 @@ mod tests {
             attrs: Default::default(),
             shape: vec![],
         };
-        let ids = scenic_ids(&[mk("ped"), mk("ped"), mk("2x"), mk("ego"), mk("a-b")]);
-        assert_eq!(ids, ["ped", "ped_2", "obj_2x", "obj_ego", "a_b"]);
+        let ids = scenic_ids(&[mk("ped"), mk("ped"), mk("2x"), mk("ego"), mk("a-b"), mk("junction")]);
+        assert_eq!(ids, ["ped", "ped_2", "obj_2x", "obj_ego", "a_b", "obj_junction"]);
     }
 }
