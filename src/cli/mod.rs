@@ -5,9 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod emit;
 pub mod lattice;
 pub mod oracle;
-pub mod emit;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
