@@ -48,6 +48,7 @@ impl Dom {
             questions: vec![],
             selection,
             rules: vec![],
+            allow: vec![],
             camera: Camera::default(),
         };
         let mut dom = Dom { d, next_span: 1 };

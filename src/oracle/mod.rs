@@ -10,7 +10,9 @@
 //! - **priority**: the first rule, in order, whose condition is true decides; an unknown
 //!   condition before it makes the decision undetermined.
 //! - **best fit**: among the rules whose condition is true, the one with the highest element-fit
-//!   score |set ∩ elements| decides, ties going to the rule declared first; an unknown condition
+//!   score |set ∩ elements| decides; ties go to the more specific rule (the higher fraction of its
+//!   elements covered), then to the rule declared first. A `safe` rule only matches sets made
+//!   entirely of its elements (a safe scene holds only safe-state concepts). An unknown condition
 //!   of a rule that would win if true makes the decision undetermined.
 
 pub mod explain;
@@ -135,7 +137,12 @@ impl<'d> Oracle<'d> {
         let conditions: Vec<Tri> = d
             .rules
             .iter()
-            .map(|r| r.when.as_ref().map_or(Tri::True, |w| anchor::eval(d, &graph, w, &mut Vec::new())))
+            .map(|r| {
+                if r.safe && !set.is_subset_of(r.elements) {
+                    return Tri::False;
+                }
+                r.when.as_ref().map_or(Tri::True, |w| anchor::eval(d, &graph, w, &mut Vec::new()))
+            })
             .collect();
         let decision = decide(d, set, &conditions);
         Ok(Judgement { graph, conditions, decision })
@@ -184,6 +191,15 @@ pub fn score(domain: &Domain, set: ConceptSet, rule: usize) -> u32 {
     set.intersection(domain.rules[rule].elements).len() as u32
 }
 
+/// How rule `i` ranks for `set` under best fit, before declaration order: more of the set's
+/// concepts among its elements first, then the higher fraction of its elements covered.
+fn beats(domain: &Domain, set: ConceptSet, i: usize, j: usize) -> std::cmp::Ordering {
+    let (si, sj) = (score(domain, set, i), score(domain, set, j));
+    let (ei, ej) = (domain.rules[i].elements.len().max(1) as u64, domain.rules[j].elements.len().max(1) as u64);
+    // si/ei vs sj/ej without rounding.
+    si.cmp(&sj).then((u64::from(si) * ej).cmp(&(u64::from(sj) * ei)))
+}
+
 /// The decision of the domain's selection given every rule's condition value.
 pub fn decide(domain: &Domain, set: ConceptSet, conditions: &[Tri]) -> Decision {
     match domain.selection {
@@ -198,17 +214,21 @@ pub fn decide(domain: &Domain, set: ConceptSet, conditions: &[Tri]) -> Decision 
             Decision::NoRule
         }
         Selection::BestFit => {
+            use std::cmp::Ordering::{Equal, Greater};
             let mut best: Option<(usize, u32)> = None;
             for (i, t) in conditions.iter().enumerate() {
-                let s = score(domain, set, i);
-                if *t == Tri::True && best.is_none_or(|(_, b)| s > b) {
-                    best = Some((i, s));
+                if *t == Tri::True && best.is_none_or(|(w, _)| beats(domain, set, i, w) == Greater) {
+                    best = Some((i, score(domain, set, i)));
                 }
             }
             // An unknown rule matters when, were it true, it would beat or pre-empt the winner.
             let upset = conditions.iter().enumerate().find(|&(i, t)| {
                 *t == Tri::Unknown
-                    && best.is_none_or(|(w, b)| score(domain, set, i) > b || (score(domain, set, i) == b && i < w))
+                    && best.is_none_or(|(w, _)| match beats(domain, set, i, w) {
+                        Greater => true,
+                        Equal => i < w,
+                        _ => false,
+                    })
             });
             match (upset, best) {
                 (Some((i, _)), _) => Decision::Undetermined { rule: i },
@@ -219,10 +239,16 @@ pub fn decide(domain: &Domain, set: ConceptSet, conditions: &[Tri]) -> Decision 
     }
 }
 
-/// Best fit: the true rules declared after `winner` with the same score (the ones it beat only
-/// by declaration order).
+/// Best fit: the true rules declared after `winner` with the same score and specificity (the
+/// ones it beat only by declaration order).
 pub fn tied_later(domain: &Domain, set: ConceptSet, conditions: &[Tri], winner: usize, best: u32) -> Vec<usize> {
-    (winner + 1..conditions.len()).filter(|&i| conditions[i] == Tri::True && score(domain, set, i) == best).collect()
+    (winner + 1..conditions.len())
+        .filter(|&i| {
+            conditions[i] == Tri::True
+                && score(domain, set, i) == best
+                && beats(domain, set, i, winner) == std::cmp::Ordering::Equal
+        })
+        .collect()
 }
 
 fn quote_rules(domain: &Domain, rules: &[usize]) -> String {

@@ -173,3 +173,37 @@ fn every_image_of_a_set_shares_its_answer_because_ranges_are_decided_on_the_anch
     expect(&d, &["pedestrian", "near"], "near_in_lane", "stop", "A");
     expect(&d, &["pedestrian"], "hazard_ahead", "slow", "B");
 }
+
+#[test]
+fn best_fit_ties_go_to_the_more_specific_rule_before_declaration_order() {
+    let mut b = Dom::new(Selection::BestFit);
+    let k = b.kind("Thing", &[], &[]);
+    let outlet = b.concept("outlet_covered", &[("outlet", k, "lane", &[])]);
+    let toddler = b.concept("toddler_standing", &[("toddler", k, "lane", &[])]);
+    let glass = b.concept("glass_upright", &[("glass", k, "lane", &[])]);
+    let shock = b.question("shock", &["yes", "no"]);
+    let hazard = b.question("hazard", &["yes", "no"]);
+    // Declared first but broader: 2 of 3 elements covered vs. 2 of 2.
+    b.rule("broad", hazard, 1, None, &[outlet, toddler, glass]);
+    b.rule("narrow", shock, 1, Some(Expr::Has(outlet)), &[outlet, toddler]);
+    let d = b.build();
+    expect(&d, &["outlet_covered", "toddler_standing"], "narrow", "no", "B");
+    expect(&d, &["glass_upright", "toddler_standing"], "broad", "no", "B");
+}
+
+#[test]
+fn safe_rules_only_match_sets_made_of_their_elements() {
+    let mut b = Dom::new(Selection::BestFit);
+    let k = b.kind("Thing", &[], &[]);
+    let safe = b.concept("barefoot_child_safe", &[("toddler", k, "lane", &[])]);
+    let stove = b.concept("stove_on", &[("stove", k, "lane", &[])]);
+    let cut = b.question("cut_floor", &["yes", "no"]);
+    let fire = b.question("fire", &["yes", "no"]);
+    b.rule("safe_barefoot", cut, 1, Some(Expr::Has(safe)), &[safe]);
+    b.rule("stove_lit", fire, 0, Some(Expr::Has(stove)), &[stove]);
+    let mut d = b.build();
+    d.rules[0].safe = true;
+    expect(&d, &["barefoot_child_safe"], "safe_barefoot", "no", "B");
+    // The stove is not one of the safe rule's elements, so the scene is not a safe scene.
+    expect(&d, &["barefoot_child_safe", "stove_on"], "stove_lit", "yes", "A");
+}

@@ -1,4 +1,6 @@
 //! Renderers: Scene → image (being built).
+pub mod imagegen;
+
 use crate::scene::Scene;
 use crate::vlm::BoxFuture;
 
@@ -33,9 +35,10 @@ pub struct RendererOptions {
 
 /// `--renderer` specs: `none` (no image; models see only the prompt), `builtin` (wgpu),
 /// `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`.
-pub fn build_renderer(spec: &str, _opts: &RendererOptions) -> Result<Option<std::sync::Arc<dyn Renderer>>, String> {
+pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::sync::Arc<dyn Renderer>>, String> {
     match spec {
         "none" => Ok(None),
+        s if s.starts_with("imagegen:") => imagegen::build(s, opts).map(Some),
         other => Err(format!(
             "unknown renderer `{other}`: expected `none`, `builtin`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`"
         )),
