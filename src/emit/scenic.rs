@@ -371,6 +371,36 @@ mod tests {
         );
     }
 
+    /// The domain hash changes with every edit of the domain's sources; the program must not.
+    fn without_hash(d: &Domain, program: String) -> String {
+        program.replace(&crate::sample::domain_hash(d), "<domain hash>")
+    }
+
+    #[test]
+    fn driving_pedestrian_near_in_fog() {
+        let d = crate::sample::fixture::driving();
+        insta::assert_snapshot!(without_hash(&d, emit(&d, &["pedestrian", "near", "weather_foggy"], 3).unwrap()));
+    }
+
+    #[test]
+    fn driving_red_light_and_sidewalk_props_in_town02() {
+        let d = crate::sample::fixture::driving();
+        let program = emit(&d, &["town_town02", "light_red", "debris_near", "bus_stop"], 8).unwrap();
+        insta::assert_snapshot!(without_hash(&d, program));
+    }
+
+    #[test]
+    fn every_small_driving_set_emits() {
+        let d = crate::sample::fixture::driving();
+        let lattice = crate::lattice::Lattice::enumerate(&d, 2);
+        for &s in lattice.of_size(1).iter().chain(lattice.of_size(2)) {
+            let scene = crate::sample::sample(&d, s, 1).unwrap();
+            let program = scenic(&d, &scene, &opts()).unwrap_or_else(|e| panic!("{:?}: {e}", scene.concepts));
+            assert!(program.matches(" = new ").count() > scene.entities.len(), "{program}");
+            crate::emit::prompt(&d, &scene).unwrap();
+        }
+    }
+
     #[test]
     fn intersection_places_ego_before_a_junction() {
         let mut d = tiny_domain();

@@ -246,3 +246,9 @@ pub(crate) fn tiny_domain() -> Domain {
 pub(crate) fn set(d: &Domain, names: &[&str]) -> ConceptSet {
     d.parse_set(names).expect("fixture concept names")
 }
+
+/// The real driving domain (`domains/driving.rev`).
+pub(crate) fn driving() -> Domain {
+    crate::check::compile_source("domains/driving.rev", include_str!("../../domains/driving.rev"))
+        .unwrap_or_else(|d| panic!("domains/driving.rev does not compile: {d:?}"))
+}

@@ -153,3 +153,34 @@ fn domain_hash_covers_sources() {
     assert_ne!(domain_hash(&d), domain_hash(&e));
     assert_eq!(domain_hash(&d).len(), 64);
 }
+
+#[test]
+fn every_small_driving_set_samples_inside_its_ranges() {
+    let d = super::fixture::driving();
+    let sampler = Sampler::new(&d);
+    let lattice = crate::lattice::Lattice::enumerate(&d, 2);
+    assert!(lattice.len() > 100);
+    for size in 1..=2 {
+        for &s in lattice.of_size(size) {
+            let anchor = anchor::build(&d, s).unwrap();
+            for seed in 0..3 {
+                let scene = sampler.sample(s, seed).unwrap();
+                assert_eq!(scene.entities.len(), anchor.entities.len());
+                for (e, a) in scene.entities.iter().zip(&anchor.entities) {
+                    let k = &d.kinds[a.kind.index()];
+                    let r = &d.regions[a.region.index()];
+                    assert_eq!(e.region, r.name);
+                    assert!((r.y.0..=r.y.1).contains(&e.position[1]), "{:?}: {e:?}", scene.concepts);
+                    if let Some(i) = k.attr("distance") {
+                        let (lo, hi) = a.attrs[i].bounds().unwrap();
+                        assert!((lo..=hi).contains(&e.position[0]), "{:?}: {e:?}", scene.concepts);
+                    }
+                }
+                for x in &scene.extras {
+                    assert!(matches!(x.kind.as_str(), "ParkedCar" | "Tree"), "{x:?}");
+                    assert!(matches!(x.region.as_str(), "far_kerb" | "verge"), "{x:?}");
+                }
+            }
+        }
+    }
+}
