@@ -6,11 +6,14 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod ask;
+pub mod bench;
 pub mod check;
 pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
+pub mod search;
+pub mod validate;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -31,6 +34,12 @@ pub enum Command {
     Oracle(oracle::OracleArgs),
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
+    /// Search a domain for failure modes of a model (resumable run folder)
+    Search(search::SearchArgs),
+    /// Re-evaluate a search run's top concept sets with fresh scenes
+    Validate(validate::ValidateArgs),
+    /// Benchmarks: `bench search` compares the search algorithms against a sim profile
+    Bench(bench::BenchArgs),
     /// Render one scene of a concept set, ask a model once, and show the verdict
     Ask(ask::AskArgs),
 }
@@ -50,6 +59,9 @@ pub fn main() -> ExitCode {
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
+        Command::Search(a) => search::run(a),
+        Command::Validate(a) => validate::run(a),
+        Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
     }
 }
