@@ -73,8 +73,12 @@ pub fn run(args: EmitArgs) -> ExitCode {
     };
     match text {
         Ok(t) => {
-            println!("{}", t.trim_end());
-            ExitCode::SUCCESS
+            use std::io::Write as _;
+            match writeln!(std::io::stdout().lock(), "{}", t.trim_end()) {
+                // A closed pipe (`| head`) is the reader's choice, not an error.
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => fail(&format!("cannot write the output: {e}")),
+                _ => ExitCode::SUCCESS,
+            }
         }
         Err(e) => fail(&e.to_string()),
     }

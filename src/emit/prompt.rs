@@ -1,6 +1,7 @@
 //! Image-generation prompt: a fixed framing sentence, then the concepts' `prompt` snippets in
 //! concept index order (the paper concatenates the snippets). A concept without a snippet
-//! contributes its `description`, so no concept of the set is silently left out of the image.
+//! contributes its probe's positive statement (a sentence about what the image shows), else its
+//! `description`, so no concept of the set is silently left out of the image.
 //! The prompt depends only on the concept set, not on the seed: image models draw their own
 //! variation.
 
@@ -20,7 +21,8 @@ pub fn prompt(domain: &Domain, scene: &Scene) -> Result<String, EmitError> {
         let c = domain
             .concept_by_name(name)
             .ok_or_else(|| EmitError(format!("concept `{name}` of the scene is not in domain `{}`", domain.name)))?;
-        let snippet = c.render.prompt.as_deref().unwrap_or(&c.description).trim();
+        let probe = Some(c.probe.positive.as_str()).filter(|p| !p.trim().is_empty());
+        let snippet = c.render.prompt.as_deref().or(probe).unwrap_or(&c.description).trim();
         if !snippet.is_empty() {
             out.push(' ');
             out.push_str(snippet);
@@ -42,11 +44,13 @@ mod tests {
     }
 
     #[test]
-    fn falls_back_to_description_and_rejects_foreign_scenes() {
+    fn falls_back_to_probe_then_description_and_rejects_foreign_scenes() {
         let mut d = tiny_domain();
         d.concepts[0].render.prompt = None;
         let scene = crate::sample::sample(&d, set(&d, &["pedestrian"]), 0).unwrap();
         assert!(prompt(&d, &scene).unwrap().ends_with(" The pedestrian concept."));
+        d.concepts[0].probe.positive = "A pedestrian is ahead of me.".into();
+        assert!(prompt(&d, &scene).unwrap().ends_with(" A pedestrian is ahead of me."));
         let mut foreign = scene.clone();
         foreign.concepts.push("unicorn".into());
         assert_eq!(

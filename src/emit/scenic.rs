@@ -135,12 +135,77 @@ fn ego(out: &mut String, domain: &Domain, scene: &Scene, anchor: &AnchorGraph) {
     }
 }
 
+/// Names an entity's Scenic variable must not take: the program's own variables, the CARLA
+/// model's regions, and Python/Scenic keywords that entity names could plausibly collide with.
+const RESERVED: &[&str] = &[
+    "ego",
+    "junction",
+    "egoLane",
+    "revelioNearEdge",
+    "network",
+    "road",
+    "lane",
+    "sidewalk",
+    "curb",
+    "intersection",
+    "shoulder",
+    "workspace",
+    "model",
+    "param",
+    "require",
+    "behavior",
+    "monitor",
+    "scenario",
+    "new",
+    "with",
+    "at",
+    "on",
+    "in",
+    "of",
+    "by",
+    "from",
+    "to",
+    "ahead",
+    "behind",
+    "left",
+    "right",
+    "front",
+    "back",
+    "facing",
+    "visible",
+    "following",
+    "offset",
+    "along",
+    "relative",
+    "beyond",
+    "distance",
+    "angle",
+    "heading",
+    "not",
+    "and",
+    "or",
+    "is",
+    "if",
+    "else",
+    "for",
+    "while",
+    "def",
+    "class",
+    "import",
+    "lambda",
+    "pass",
+    "return",
+    "None",
+    "True",
+    "False",
+];
+
 /// Scenic identifiers for the entities: their names made identifiers, de-duplicated in order.
 fn scenic_ids(entities: &[SceneEntity]) -> Vec<String> {
     let mut ids: Vec<String> = Vec::with_capacity(entities.len());
     for e in entities {
         let mut base: String = e.name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
-        if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) || base == "ego" {
+        if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) || RESERVED.contains(&base.as_str()) {
             base.insert_str(0, "obj_");
         }
         let mut id = base.clone();
@@ -162,25 +227,40 @@ fn value_text(v: &SceneValue) -> String {
     }
 }
 
-/// Placeholder values: the entity's (when there is one), then the world's.
-fn lookup<'a>(
-    domain: &'a Domain,
+/// Placeholder values of one fragment: the entity's (when there is one), then the world's.
+struct Placeholders<'a> {
     scene: &'a Scene,
     entity: Option<(&'a SceneEntity, &'a str)>,
-) -> impl Fn(&str) -> Option<String> + 'a {
-    move |name: &str| {
-        if let Some(w) = name.strip_prefix("world.") {
-            return scene.world.get(w).map(value_text);
+    /// The entity's region placement, already filled (`None`: the region has no `scenic` text).
+    at: Option<String>,
+}
+
+impl<'a> Placeholders<'a> {
+    fn world(scene: &'a Scene) -> Self {
+        Placeholders { scene, entity: None, at: None }
+    }
+
+    fn entity(domain: &Domain, scene: &'a Scene, e: &'a SceneEntity, id: &'a str) -> Result<Self, EmitError> {
+        let mut p = Placeholders { scene, entity: Some((e, id)), at: None };
+        let region = domain.region_by_name(&e.region).map(|r| &domain.regions[r.index()]);
+        if let Some(text) = region.and_then(|r| r.scenic.as_deref()) {
+            let filled = fill(text, |n| if matches!(n, "at" | "region") { None } else { p.get(n) }).map_err(|err| {
+                EmitError(format!("the `scenic` placement of region `{}` cannot be filled: {err}", e.region))
+            })?;
+            p.at = Some(filled);
         }
-        let (e, id) = entity?;
+        Ok(p)
+    }
+
+    fn get(&self, name: &str) -> Option<String> {
+        if let Some(w) = name.strip_prefix("world.") {
+            return self.scene.world.get(w).map(value_text);
+        }
+        let (e, id) = self.entity?;
         let p = e.position;
         Some(match name {
             "id" => id.to_owned(),
-            "region" | "at" => {
-                let r = domain.region_by_name(&e.region).map(|r| &domain.regions[r.index()])?;
-                let text = r.scenic.as_deref()?;
-                return fill(text, lookup(domain, scene, entity)).ok();
-            }
+            "at" | "region" => return self.at.clone(),
             "distance" | "x" => num(p[0]),
             "lateral" | "y" => num(p[1]),
             "right" => num(-p[1]),
@@ -189,29 +269,16 @@ fn lookup<'a>(
             attr => return e.attrs.get(attr).map(value_text),
         })
     }
-}
 
-/// Explain why a fragment could not be filled: the region text is the likely culprit.
-fn fill_error(domain: &Domain, concept: &str, entity: Option<&SceneEntity>, err: String) -> EmitError {
-    if err.contains("`{region}`") || err.contains("`{at}`") {
-        if let Some(e) = entity {
-            let region = domain.region_by_name(&e.region).map(|r| &domain.regions[r.index()]);
-            return match region.and_then(|r| r.scenic.as_deref()) {
-                None => EmitError(format!(
-                    "region `{}` has no `scenic` placement, which concept `{concept}` uses",
-                    e.region
-                )),
-                Some(text) => EmitError(format!(
-                    "the `scenic` placement of region `{}` cannot be filled: {}",
-                    e.region,
-                    fill(text, |_| Some(String::new()))
-                        .err()
-                        .unwrap_or_else(|| "it names an unknown placeholder".into())
-                )),
-            };
-        }
+    /// Fill a concept's fragment, explaining a missing region placement.
+    fn fill(&self, concept: &str, fragment: &str) -> Result<String, EmitError> {
+        fill(fragment, |n| self.get(n)).map_err(|err| match self.entity {
+            Some((e, _)) if self.at.is_none() && (err.contains("`{at}`") || err.contains("`{region}`")) => {
+                EmitError(format!("region `{}` has no `scenic` placement, which concept `{concept}` uses", e.region))
+            }
+            _ => EmitError(format!("the `scenic` fragment of concept `{concept}` cannot be filled: {err}")),
+        })
     }
-    EmitError(format!("the `scenic` fragment of concept `{concept}` cannot be filled: {err}"))
 }
 
 fn body(
@@ -240,14 +307,11 @@ fn body(
         };
         let _ = writeln!(out, "# {}: {}", c.name, c.description.trim());
         if mine.is_empty() {
-            let text = fill(fragment, lookup(domain, scene, None)).map_err(|e| fill_error(domain, &c.name, None, e))?;
-            let _ = writeln!(out, "{}", text.trim_end());
+            let _ = writeln!(out, "{}", Placeholders::world(scene).fill(&c.name, fragment)?.trim_end());
         }
         for i in mine {
-            let e = &scene.entities[i];
-            let text = fill(fragment, lookup(domain, scene, Some((e, ids[i].as_str()))))
-                .map_err(|err| fill_error(domain, &c.name, Some(e), err))?;
-            let _ = writeln!(out, "{}", text.trim_end());
+            let p = Placeholders::entity(domain, scene, &scene.entities[i], &ids[i])?;
+            let _ = writeln!(out, "{}", p.fill(&c.name, fragment)?.trim_end());
         }
     }
     Ok(())
@@ -307,6 +371,39 @@ mod tests {
         );
     }
 
+    /// The driving domain with its sources pinned: the sample stream is seeded by the sources'
+    /// hash, and these snapshots should change only when the domain's meaning does, not with
+    /// every comment edited in `domains/driving.rev`.
+    fn pinned_driving() -> Domain {
+        let mut d = crate::sample::fixture::driving();
+        d.files = vec![crate::ir::SourceFile { name: "driving.rev".into(), text: "pinned for snapshots".into() }];
+        d
+    }
+
+    #[test]
+    fn driving_pedestrian_near_in_fog() {
+        let d = pinned_driving();
+        insta::assert_snapshot!(emit(&d, &["pedestrian", "near", "weather_foggy"], 3).unwrap());
+    }
+
+    #[test]
+    fn driving_red_light_and_sidewalk_props_in_town02() {
+        let d = pinned_driving();
+        insta::assert_snapshot!(emit(&d, &["town_town02", "light_red", "debris_near", "bus_stop"], 8).unwrap());
+    }
+
+    #[test]
+    fn every_small_driving_set_emits() {
+        let d = crate::sample::fixture::driving();
+        let lattice = crate::lattice::Lattice::enumerate(&d, 2);
+        for &s in lattice.of_size(1).iter().chain(lattice.of_size(2)) {
+            let scene = crate::sample::sample(&d, s, 1).unwrap();
+            let program = scenic(&d, &scene, &opts()).unwrap_or_else(|e| panic!("{:?}: {e}", scene.concepts));
+            assert!(program.matches(" = new ").count() > scene.entities.len(), "{program}");
+            crate::emit::prompt(&d, &scene).unwrap();
+        }
+    }
+
     #[test]
     fn intersection_places_ego_before_a_junction() {
         let mut d = tiny_domain();
@@ -336,6 +433,12 @@ mod tests {
             "region `lane` has no `scenic` placement, which concept `pedestrian` uses"
         );
         let mut d = tiny_domain();
+        d.regions[0].scenic = Some("at {far}".into());
+        assert_eq!(
+            emit(&d, &["pedestrian"], 0).unwrap_err().to_string(),
+            "the `scenic` placement of region `lane` cannot be filled: unknown placeholder `{far}`"
+        );
+        let mut d = tiny_domain();
         d.world.remove(0);
         d.presets.clear();
         assert!(emit(&d, &["pedestrian"], 0).unwrap_err().to_string().contains("no enum world attribute `town`"));
@@ -353,7 +456,7 @@ mod tests {
             attrs: Default::default(),
             shape: vec![],
         };
-        let ids = scenic_ids(&[mk("ped"), mk("ped"), mk("2x"), mk("ego"), mk("a-b")]);
-        assert_eq!(ids, ["ped", "ped_2", "obj_2x", "obj_ego", "a_b"]);
+        let ids = scenic_ids(&[mk("ped"), mk("ped"), mk("2x"), mk("ego"), mk("a-b"), mk("junction")]);
+        assert_eq!(ids, ["ped", "ped_2", "obj_2x", "obj_ego", "a_b", "obj_junction"]);
     }
 }

@@ -189,7 +189,7 @@ pub(crate) fn tiny_domain() -> Domain {
                 (0.0, 60.0),
                 (-1.5, 1.5),
                 Some(
-                    "ahead of ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading, with regionContainedIn road",
+                    "ahead of (new OrientedPoint at ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading), with regionContainedIn road",
                 ),
             ),
             region(
@@ -197,7 +197,7 @@ pub(crate) fn tiny_domain() -> Domain {
                 (0.0, 60.0),
                 (-4.0, -3.2),
                 Some(
-                    "ahead of ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading, with regionContainedIn None",
+                    "ahead of (new OrientedPoint at ((front of ego) offset along ego.heading by ({right}, {distance})), facing ego.heading), with regionContainedIn None",
                 ),
             ),
             region("verge", (5.0, 60.0), (-12.0, -9.0), None),
@@ -245,4 +245,10 @@ pub(crate) fn tiny_domain() -> Domain {
 /// A set of the tiny domain by concept names.
 pub(crate) fn set(d: &Domain, names: &[&str]) -> ConceptSet {
     d.parse_set(names).expect("fixture concept names")
+}
+
+/// The real driving domain (`domains/driving.rev`).
+pub(crate) fn driving() -> Domain {
+    crate::check::compile_source("domains/driving.rev", include_str!("../../domains/driving.rev"))
+        .unwrap_or_else(|d| panic!("domains/driving.rev does not compile: {d:?}"))
 }

@@ -10,6 +10,9 @@
 //!    one region do not overlap (see [`place`]);
 //! 4. environmental extras (see below).
 //!
+//! Sets that are not valid (`lattice::validate`: constraints, modifier targets, the empty set)
+//! are refused with the reason.
+//!
 //! Shape and stage `when` conditions are evaluated with [`anchor::eval`] on the *concrete*
 //! graph (every range replaced by its drawn value), `self` bound to the entity.
 //!
@@ -32,6 +35,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::anchor::{self, AnchorEntity, AnchorGraph, Tri};
 use crate::ir::{ConceptSet, Domain, Effect, KindId, Region, RegionId, Relation, ShapePart, StageItem, Value};
+use crate::lattice::Validity;
 use crate::scene::{Scene, SceneEntity, SceneValue};
 use place::{Axis, Footprint, Placed};
 pub use rng::domain_hash;
@@ -44,12 +48,6 @@ pub const EXTRA_TAG: &str = "Extra";
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
 pub struct SampleError(pub String);
-
-impl From<anchor::AnchorError> for SampleError {
-    fn from(e: anchor::AnchorError) -> Self {
-        SampleError(format!("the concept set has no scene: {e}"))
-    }
-}
 
 /// Sample one scene of `set`. For many samples of one domain use a [`Sampler`], which hashes
 /// the domain's sources once.
@@ -65,6 +63,7 @@ pub struct Sampler<'d> {
     hash: String,
     extra_kinds: Vec<KindId>,
     extra_regions: Vec<RegionId>,
+    validity: Validity,
 }
 
 impl<'d> Sampler<'d> {
@@ -86,7 +85,14 @@ impl<'d> Sampler<'d> {
             })
             .collect();
         let extra_regions = (0..domain.regions.len() as u32).map(RegionId).filter(|r| !used.contains(r)).collect();
-        Sampler { domain, digest, hash: hex::encode(digest), extra_kinds, extra_regions }
+        Sampler {
+            domain,
+            digest,
+            hash: hex::encode(digest),
+            extra_kinds,
+            extra_regions,
+            validity: Validity::new(domain),
+        }
     }
 
     pub fn domain(&self) -> &'d Domain {
@@ -95,10 +101,12 @@ impl<'d> Sampler<'d> {
 
     pub fn sample(&self, set: ConceptSet, seed: u64) -> Result<Scene, SampleError> {
         let d = self.domain;
-        if let Some(bad) = set.iter().find(|c| c.index() >= d.concepts.len()) {
-            return Err(SampleError(format!("concept index `{}` is not in domain `{}`", bad.0, d.name)));
+        if let Err(v) = self.validity.check(set) {
+            let names: Vec<&str> =
+                set.iter().filter_map(|c| d.concepts.get(c.index())).map(|c| c.name.as_str()).collect();
+            return Err(SampleError(format!("invalid concept set {{{}}}: {}", names.join(", "), v.resolve(d))));
         }
-        let anchor = anchor::build(d, set)?;
+        let anchor = anchor::build(d, set).map_err(|e| SampleError(format!("the concept set has no scene: {e}")))?;
         let mut rng = rng::scene_rng(&self.digest, set, seed);
         let mut concrete = anchor.clone();
         for v in &mut concrete.world {

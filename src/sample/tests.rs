@@ -128,9 +128,21 @@ fn extras_come_from_extra_kinds_in_scenery_regions() {
 fn invalid_sets_get_clear_errors() {
     let d = tiny_domain();
     let err = sample(&d, set(&d, &["near"]), 0).unwrap_err();
-    assert_eq!(err.to_string(), "the concept set has no scene: modifier `near` has no entity to apply to");
+    assert_eq!(err.to_string(), "invalid concept set {near}: modifier `near` has no entity to apply to");
     let err = sample(&d, ConceptSet::single(crate::ir::ConceptId(100)), 0).unwrap_err();
-    assert_eq!(err.to_string(), "concept index `100` is not in domain `tiny`");
+    assert_eq!(err.to_string(), "invalid concept set {}: concept index 100 is not declared in the domain");
+    let mut d = d;
+    d.constraints.push(crate::ir::Constraint {
+        name: "one_obstacle".into(),
+        doc: String::new(),
+        rule: crate::ir::ConstraintRule::AtMost { members: set(&d, &["pedestrian", "obstruction_near"]), max: 1 },
+        span: Default::default(),
+    });
+    let err = sample(&d, set(&d, &["pedestrian", "obstruction_near"]), 0).unwrap_err().to_string();
+    assert!(
+        err.starts_with("invalid concept set {pedestrian, obstruction_near}: violates constraint `one_obstacle`"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -140,4 +152,35 @@ fn domain_hash_covers_sources() {
     e.files[0].text.push(' ');
     assert_ne!(domain_hash(&d), domain_hash(&e));
     assert_eq!(domain_hash(&d).len(), 64);
+}
+
+#[test]
+fn every_small_driving_set_samples_inside_its_ranges() {
+    let d = super::fixture::driving();
+    let sampler = Sampler::new(&d);
+    let lattice = crate::lattice::Lattice::enumerate(&d, 2);
+    assert!(lattice.len() > 100);
+    for size in 1..=2 {
+        for &s in lattice.of_size(size) {
+            let anchor = anchor::build(&d, s).unwrap();
+            for seed in 0..3 {
+                let scene = sampler.sample(s, seed).unwrap();
+                assert_eq!(scene.entities.len(), anchor.entities.len());
+                for (e, a) in scene.entities.iter().zip(&anchor.entities) {
+                    let k = &d.kinds[a.kind.index()];
+                    let r = &d.regions[a.region.index()];
+                    assert_eq!(e.region, r.name);
+                    assert!((r.y.0..=r.y.1).contains(&e.position[1]), "{:?}: {e:?}", scene.concepts);
+                    if let Some(i) = k.attr("distance") {
+                        let (lo, hi) = a.attrs[i].bounds().unwrap();
+                        assert!((lo..=hi).contains(&e.position[0]), "{:?}: {e:?}", scene.concepts);
+                    }
+                }
+                for x in &scene.extras {
+                    assert!(matches!(x.kind.as_str(), "ParkedCar" | "Tree"), "{x:?}");
+                    assert!(matches!(x.region.as_str(), "far_kerb" | "verge"), "{x:?}");
+                }
+            }
+        }
+    }
 }

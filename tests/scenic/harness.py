@@ -6,6 +6,7 @@ For each, compiles the program in 2D mode with the map parameters, and calls
 stdout: {"name": ..., "ok": bool, "error": str|null, "iterations": int|null, "seconds": float}.
 Maps are parsed once per file (Scenic caches the road network per process).
 """
+import ast
 import json
 import sys
 import time
@@ -13,9 +14,50 @@ import traceback
 import warnings
 
 
+def clone(node):
+    """Deep copy of a (Scenic) AST. `copy.deepcopy` cannot rebuild Scenic's node classes, whose
+    constructors require arguments, so copy instance dictionaries instead."""
+    if isinstance(node, ast.AST):
+        new = type(node).__new__(type(node))
+        new.__dict__.update({k: clone(v) for k, v in node.__dict__.items()})
+        return new
+    if isinstance(node, list):
+        return [clone(n) for n in node]
+    return node
+
+
 def main():
     warnings.simplefilter("ignore")
     import scenic  # imported here so an import failure is reported once, clearly
+    from scenic.domains.driving import roads
+
+    # Parsing an OpenDRIVE map takes seconds; every program of a run uses one of two maps.
+    parse = roads.Network.fromFile
+    networks = {}
+
+    def cached(path, **options):
+        key = (str(path), repr(sorted(options.items())))
+        if key not in networks:
+            networks[key] = parse(path, **options)
+        return networks[key]
+
+    roads.Network.fromFile = cached
+
+    # Every program imports the CARLA world model, whose .scenic sources Scenic re-parses for
+    # each scenario (about a second apiece); parse each source once and hand out copies, since
+    # the compiler rewrites the tree it is given.
+    from scenic.syntax import translator
+
+    parse_string = translator.parse_string
+    trees = {}
+
+    def parse_cached(source, mode, *args, **kwargs):
+        key = (source, mode, args, repr(sorted(kwargs.items())))
+        if key not in trees:
+            trees[key] = parse_string(source, mode, *args, **kwargs)
+        return clone(trees[key])
+
+    translator.parse_string = parse_cached
 
     out = sys.stdout
     for line in sys.stdin:
