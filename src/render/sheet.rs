@@ -1,0 +1,1 @@
+//! Contact sheets: tiles in a grid, each with a caption.
