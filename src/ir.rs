@@ -147,6 +147,16 @@ pub struct Domain {
     pub rules: Vec<Rule>,
     /// Where the scene's camera sits (renderer).
     pub camera: Camera,
+    /// Lattice-lint codes silenced by `allow CODE` items (with their doc comments as reasons).
+    pub allow: Vec<Allow>,
+}
+
+/// `allow CODE`: a deliberate, documented exception to a lattice lint.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Allow {
+    pub code: String,
+    pub reason: String,
+    pub span: Span,
 }
 
 /// A unit of measure. Numbers are stored in the unit's base (e.g. metres), `scale` converts.
@@ -468,8 +478,9 @@ pub struct AnswerOption {
 pub enum Selection {
     /// First matching rule in order decides; all rules share the domain's question.
     Priority,
-    /// Among the rules whose `when` holds, the highest element-fit score wins; ties go to the
-    /// rule declared first.
+    /// Among the rules whose `when` holds (and, for `safe` rules, whose elements include the
+    /// whole set), the highest element-fit score wins; ties go to the more specific rule (higher
+    /// fraction of its elements covered), then to the rule declared first.
     BestFit,
 }
 
@@ -487,7 +498,8 @@ pub struct Rule {
     /// Best fit: the concepts whose presence makes this rule specific (its "visual elements");
     /// the element-fit score is the number of the set's concepts among them.
     pub elements: ConceptSet,
-    /// Marks a safe-scene rule (expected answer is "no hazard").
+    /// Marks a safe-scene rule (expected answer is "no hazard"): it only matches sets made
+    /// entirely of its `elements`.
     pub safe: bool,
     pub span: Span,
 }
