@@ -115,7 +115,8 @@ fn fs_rain(in: SkyOut) -> @location(0) vec4<f32> {
     let d = frame.wet.z;
     let a = max(streak_layer(px, vec2<f32>(h / 45.0, h / 5.0), d * 0.45, 0.0),
                 streak_layer(px, vec2<f32>(h / 90.0, h / 9.0), d * 0.35, 17.0) * 0.6);
-    return vec4<f32>(vec3<f32>(0.75, 0.78, 0.82) * (0.4 + frame.sun_dir.w * 0.6), a * 0.45);
+    // Lighter than the sky behind, whatever the light: streaks must read as rain.
+    return vec4<f32>(frame.sky_horizon.rgb * 1.6 + vec3<f32>(0.08, 0.085, 0.09), a * 0.5);
 }
 
 // ---- geometry ----
