@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod lattice;
+pub mod oracle;
+pub mod emit;
 pub mod render;
 
 #[derive(Parser, Debug)]
@@ -16,6 +19,12 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Count or list the valid concept sets of a domain
+    Lattice(lattice::LatticeArgs),
+    /// Show the ground truth (question, expected answer, deciding rule) of a concept set
+    Oracle(oracle::OracleArgs),
+    /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
+    Emit(emit::EmitArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     Render(render::RenderArgs),
 }
@@ -30,6 +39,9 @@ pub fn main() -> ExitCode {
         }
     };
     match cli.command {
+        Command::Lattice(args) => lattice::run(args),
+        Command::Oracle(args) => oracle::run(args),
+        Command::Emit(a) => emit::run(a),
         Command::Render(args) => render::run(args),
     }
 }

@@ -1,8 +1,362 @@
-//! Lattice lints for `revelio check` (being built).
-use crate::check::diagnostic::Diagnostic;
-use crate::ir::Domain;
+//! Lattice lints for `revelio check`: warnings (`R0100`–`R0199`) that only an enumerated lattice
+//! can give. Every valid set of up to [`DEFAULT_MAX_SIZE`] concepts is judged by the oracle once;
+//! the findings summarise that pass, each with one example set so the author can reproduce it with
+//! `revelio oracle`.
+//!
+//! | code  | finding |
+//! |-------|---------|
+//! | R0100 | a concept appears in no valid set |
+//! | R0101 | a rule is never selected (shadowed, or its condition never holds) |
+//! | R0102 | a rule leaves the expected answer undetermined for some valid set |
+//! | R0103 | best fit: two rules with different answers tie for some valid set |
+//! | R0104 | an answer option is never expected |
+//! | R0105 | a modifier has no possible target |
+//! | R0106 | no rule matches some valid set |
 
-/// Warnings computed over the enumerated lattice of a compiled domain.
-pub fn lint_domain(_domain: &Domain) -> Vec<Diagnostic> {
-    Vec::new()
+use crate::anchor::Tri;
+use crate::check::diagnostic::{Diagnostic, Label, Severity};
+use crate::ir::{ConceptSet, Domain, Selection, Span};
+use crate::lattice::{DEFAULT_MAX_SIZE, Lattice};
+use crate::oracle::{self, Decision, Oracle, explain, set_text};
+
+/// Warnings computed over the lattice of a compiled domain (sets of up to
+/// [`DEFAULT_MAX_SIZE`] concepts).
+pub fn lint_domain(domain: &Domain) -> Vec<Diagnostic> {
+    lint_lattice(domain, &Lattice::enumerate(domain, DEFAULT_MAX_SIZE))
 }
+
+/// Warnings computed over an already enumerated lattice.
+pub fn lint_lattice(domain: &Domain, lattice: &Lattice) -> Vec<Diagnostic> {
+    let survey = Survey::run(domain, lattice);
+    let mut out = Vec::new();
+    concept_lints(domain, lattice, &mut out);
+    survey.rule_lints(domain, lattice.max_size(), &mut out);
+    survey.option_lints(domain, &mut out);
+    survey.no_rule_lint(domain, &mut out);
+    out
+}
+
+/// A finding with an example set and how many sets show it.
+#[derive(Debug, Clone, Copy)]
+struct Example {
+    set: ConceptSet,
+    count: usize,
+}
+
+impl Example {
+    fn note(slot: &mut Option<Example>, set: ConceptSet) {
+        match slot {
+            Some(e) => e.count += 1,
+            None => *slot = Some(Example { set, count: 1 }),
+        }
+    }
+}
+
+/// What judging every set of the lattice found, per rule and option.
+struct Survey {
+    selected: Vec<bool>,
+    applies: Vec<bool>,
+    /// Per rule: per rule that took a set where this rule applied, an example.
+    shadowed_by: Vec<Vec<Option<Example>>>,
+    undetermined: Vec<Option<Example>>,
+    /// Per (winner, loser) pair of a best-fit tie with different answers.
+    ties: Vec<Vec<Option<Example>>>,
+    /// Per question, per option: whether some set expects it.
+    expected: Vec<Vec<bool>>,
+    no_rule: Option<Example>,
+}
+
+impl Survey {
+    fn run(domain: &Domain, lattice: &Lattice) -> Survey {
+        let n = domain.rules.len();
+        let mut s = Survey {
+            selected: vec![false; n],
+            applies: vec![false; n],
+            shadowed_by: vec![vec![None; n]; n],
+            undetermined: vec![None; n],
+            ties: vec![vec![None; n]; n],
+            expected: domain.questions.iter().map(|q| vec![false; q.options.len()]).collect(),
+            no_rule: None,
+        };
+        let oracle = Oracle::new(domain);
+        for &set in &lattice.sets {
+            // Lattice sets are valid by construction, so `judge` only fails if the validity masks
+            // and the anchor graph disagree; such a set has nothing to lint.
+            if let Ok(j) = oracle.judge(set) {
+                s.record(domain, set, &j.conditions, j.decision);
+            }
+        }
+        s
+    }
+
+    fn record(&mut self, domain: &Domain, set: ConceptSet, conditions: &[Tri], decision: Decision) {
+        for (i, t) in conditions.iter().enumerate() {
+            self.applies[i] |= *t == Tri::True;
+        }
+        match decision {
+            Decision::Selected { rule, score } => {
+                self.selected[rule] = true;
+                let r = &domain.rules[rule];
+                if let Some(slot) = self.expected.get_mut(r.question.index()).and_then(|q| q.get_mut(r.expect as usize))
+                {
+                    *slot = true;
+                }
+                for (i, t) in conditions.iter().enumerate() {
+                    if *t == Tri::True && i != rule {
+                        Example::note(&mut self.shadowed_by[i][rule], set);
+                    }
+                }
+                if domain.selection == Selection::BestFit {
+                    for other in oracle::tied_later(domain, set, conditions, rule, score) {
+                        let o = &domain.rules[other];
+                        if (o.question, o.expect) != (r.question, r.expect) {
+                            Example::note(&mut self.ties[rule][other], set);
+                        }
+                    }
+                }
+            }
+            Decision::Undetermined { rule } => Example::note(&mut self.undetermined[rule], set),
+            Decision::NoRule => Example::note(&mut self.no_rule, set),
+        }
+    }
+
+    fn rule_lints(&self, domain: &Domain, max_size: usize, out: &mut Vec<Diagnostic>) {
+        for (i, rule) in domain.rules.iter().enumerate() {
+            // A rule whose condition is only ever unknown is reported by R0102 alone.
+            let only_unknown = !self.applies[i] && self.undetermined[i].is_some();
+            if !self.selected[i] && !only_unknown {
+                out.push(self.never_selected(domain, i, max_size));
+            }
+            if let Some(ex) = self.undetermined[i] {
+                out.push(undetermined(domain, i, ex));
+            }
+            for (winner, slot) in self.ties.iter().enumerate() {
+                if let Some(ex) = slot[i] {
+                    let w = &domain.rules[winner];
+                    out.push(Diagnostic {
+                        code: "R0103",
+                        severity: Severity::Warning,
+                        message: format!(
+                            "rules `{}` and `{}` tie with different answers for {}{}",
+                            w.name,
+                            rule.name,
+                            set_text(domain, ex.set),
+                            others(ex.count)
+                        ),
+                        span: Some(rule.span),
+                        label: "loses the tie only because it is declared later".into(),
+                        related: vec![Label { span: w.span, message: "wins the tie by declaration order".into() }],
+                        help: Some(format!(
+                            "make one rule fit these sets better (add an element to `{}` or `{}`), or make their conditions exclusive",
+                            w.name, rule.name
+                        )),
+                    });
+                }
+            }
+        }
+    }
+
+    fn never_selected(&self, domain: &Domain, i: usize, max_size: usize) -> Diagnostic {
+        let rule = &domain.rules[i];
+        let mut d = Diagnostic {
+            code: "R0101",
+            severity: Severity::Warning,
+            message: String::new(),
+            span: Some(rule.span),
+            label: "never selected".into(),
+            related: vec![],
+            help: None,
+        };
+        if !self.applies[i] {
+            d.message = format!(
+                "rule `{}` is never selected: its condition holds for no valid set of up to {max_size} concepts",
+                rule.name
+            );
+            d.help = Some("check the condition against the concepts' attributes, or remove the rule".into());
+            return d;
+        }
+        // Name the rule that takes most of the sets this one applies to (the first on a tie).
+        let shadows: Vec<(usize, Example)> =
+            self.shadowed_by[i].iter().enumerate().filter_map(|(w, e)| e.map(|e| (w, e))).collect();
+        let &(winner, ex) =
+            shadows.iter().rev().max_by_key(|(_, e)| e.count).expect("a rule that applies was shadowed");
+        let w = &domain.rules[winner];
+        let more = match shadows.len() {
+            1 => String::new(),
+            2 => " and 1 other rule".into(),
+            n => format!(" and {} other rules", n - 1),
+        };
+        d.message = format!("rule `{}` is shadowed by `{}`{more}", rule.name, w.name);
+        d.related
+            .push(Label { span: w.span, message: format!("selected instead, e.g. for {}", set_text(domain, ex.set)) });
+        d.help = Some(match domain.selection {
+            Selection::Priority => {
+                format!("move `{}` before `{}`, or narrow the condition of `{}`", rule.name, w.name, w.name)
+            }
+            Selection::BestFit => format!("give `{}` elements that fit its sets better than `{}`", rule.name, w.name),
+        });
+        d
+    }
+
+    fn option_lints(&self, domain: &Domain, out: &mut Vec<Diagnostic>) {
+        for (qi, q) in domain.questions.iter().enumerate() {
+            if !domain.rules.iter().any(|r| r.question.index() == qi) {
+                continue;
+            }
+            for (oi, opt) in q.options.iter().enumerate() {
+                if self.expected[qi][oi] {
+                    continue;
+                }
+                let expecting: Vec<String> = domain
+                    .rules
+                    .iter()
+                    .filter(|r| r.question.index() == qi && r.expect as usize == oi)
+                    .map(|r| format!("`{}`", r.name))
+                    .collect();
+                let help = if expecting.is_empty() {
+                    "no rule expects it; add a rule that does, or remove the option".to_string()
+                } else {
+                    format!("the rules that expect it ({}) are never selected", expecting.join(", "))
+                };
+                out.push(Diagnostic {
+                    code: "R0104",
+                    severity: Severity::Warning,
+                    message: format!("option `{}.{}` is never the expected answer", q.name, opt.name),
+                    span: Some(q.span),
+                    label: format!("option `{}` is never expected", opt.name),
+                    related: vec![],
+                    help: Some(help),
+                });
+            }
+        }
+    }
+
+    fn no_rule_lint(&self, domain: &Domain, out: &mut Vec<Diagnostic>) {
+        let Some(ex) = self.no_rule else { return };
+        let help = match domain.selection {
+            Selection::Priority => "add a last rule without `when` as the default answer",
+            Selection::BestFit => "add a rule whose condition holds for these sets",
+        };
+        out.push(Diagnostic {
+            code: "R0106",
+            severity: Severity::Warning,
+            message: format!("no rule matches {}{}", set_text(domain, ex.set), others(ex.count)),
+            span: domain.rules.last().map(|r| r.span),
+            label: "no rule up to here matches".into(),
+            related: vec![],
+            help: Some(help.into()),
+        });
+    }
+}
+
+fn others(count: usize) -> String {
+    match count {
+        0 | 1 => String::new(),
+        2 => " and 1 other valid set".into(),
+        n => format!(" and {} other valid sets", n - 1),
+    }
+}
+
+fn undetermined(domain: &Domain, i: usize, ex: Example) -> Diagnostic {
+    let rule = &domain.rules[i];
+    let oracle = Oracle::new(domain);
+    // Re-judge the example to name the straddling attribute.
+    let cause = oracle
+        .judge(ex.set)
+        .ok()
+        .and_then(|j| rule.when.as_ref().and_then(|w| explain::unknown_cause(domain, &j.graph, w, &mut Vec::new())))
+        .unwrap_or_else(|| "its condition is unknown".into());
+    Diagnostic {
+        code: "R0102",
+        severity: Severity::Warning,
+        message: format!(
+            "rule `{}` leaves the expected answer undetermined for {}{}",
+            rule.name,
+            set_text(domain, ex.set),
+            others(ex.count)
+        ),
+        span: Some(rule.span),
+        label: cause,
+        related: vec![],
+        help: Some(
+            "split the concept's range at the rule's threshold, or move the threshold outside the range, so that \
+             every image of the set gets the same answer"
+                .into(),
+        ),
+    }
+}
+
+/// R0105 and R0100, in concept order.
+fn concept_lints(domain: &Domain, lattice: &Lattice, out: &mut Vec<Diagnostic>) {
+    let support = lattice.support();
+    let targets = lattice.validity().modifier_targets();
+    for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
+        let target = targets.iter().find(|t| t.modifier == c.id);
+        if let Some(t) = target.filter(|t| t.providers & !t.lacking == 0) {
+            out.push(no_target(domain, c.id, t.providers, c.span));
+        } else if !support.contains(c.id) {
+            out.push(Diagnostic {
+                code: "R0100",
+                severity: Severity::Warning,
+                message: format!(
+                    "concept `{}` appears in no valid set of up to {} concepts",
+                    c.name,
+                    lattice.max_size()
+                ),
+                span: Some(c.span),
+                label: "in no valid set".into(),
+                related: vec![],
+                help: Some(excluded_help(domain, ConceptSet::single(c.id))),
+            });
+        }
+    }
+}
+
+fn no_target(domain: &Domain, modifier: crate::ir::ConceptId, providers: u128, span: Span) -> Diagnostic {
+    let m = &domain.concepts[modifier.index()];
+    let filter = m.target.clone().unwrap_or_default();
+    let (message, help) = if providers == 0 {
+        (
+            format!(
+                "modifier `{}` has no possible target: no concept adds an entity matching `{}`",
+                m.name,
+                explain::filter_text(domain, &filter)
+            ),
+            "add a concept that adds such an entity, or widen the modifier's `target`".to_string(),
+        )
+    } else {
+        (
+            format!(
+                "modifier `{}` has no possible target: every entity it can apply to lacks an attribute it sets",
+                m.name
+            ),
+            format!(
+                "give the kinds matching `{}` the attributes the modifier sets",
+                explain::filter_text(domain, &filter)
+            ),
+        )
+    };
+    Diagnostic {
+        code: "R0105",
+        severity: Severity::Warning,
+        message,
+        span: Some(span),
+        label: "no possible target".into(),
+        related: vec![],
+        help: Some(help),
+    }
+}
+
+/// A hint for R0100: the constraint that rejects the concept even alone, when there is one.
+fn excluded_help(domain: &Domain, single: ConceptSet) -> String {
+    match crate::lattice::validate(domain, single) {
+        Err(crate::lattice::Violation::Constraint { name, says, .. }) => {
+            format!("constraint `{name}` ({says}) excludes it even alone")
+        }
+        _ => "every set holding it that is small enough violates a constraint; check the constraints that mention it"
+            .into(),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,15 +1,377 @@
-//! The valid concept lattice (being built).
+//! The valid concept lattice: every valid concept set of a domain up to a maximum size, as
+//! fixed-width bitsets ([`ConceptSet`]).
+//!
+//! **Validity** ([`validity`]): a set is valid when it is non-empty, satisfies every constraint
+//! (`at_most`, `requires`, `forbids`), and every modifier in it has a target entity (per
+//! [`anchor::build`](crate::anchor::build)).
+//!
+//! **Canonical order** ([`canonical_cmp`]): sets are ordered by size, then lexicographically by
+//! their concept indices sorted ascending — `{0,1} < {0,2} < {1,2} < {0,1,2}`. It depends only on
+//! the domain's concept order, so it is the same in every run and on every machine.
+//!
+//! **Enumeration**: a depth-first search over concepts in index order. At-most and forbids
+//! constraints are monotone (a violating set has only violating supersets), so they prune the
+//! search as soon as they fail; requires constraints and modifier targets can be repaired by a
+//! later concept, so they are checked on each emitted set and prune only once no remaining
+//! concept could repair them. The search visits sets in lexicographic order, so bucketing them by
+//! size yields the canonical order without sorting.
+
 pub mod lints;
+#[cfg(test)]
+pub(crate) mod testkit;
+mod validity;
+
+use std::cmp::Ordering;
+use std::ops::ControlFlow;
+
+pub use validity::{ModifierTarget, Validity, Violation, ViolationAt, describe_constraint, validate};
 
 use crate::ir::{ConceptSet, Domain};
 
-/// All valid concept sets of a domain up to a maximum size.
+/// The default maximum set size (the paper's search depth).
+pub const DEFAULT_MAX_SIZE: usize = 5;
+
+/// All valid concept sets of a domain up to a maximum size, in canonical order.
+#[derive(Debug, Clone)]
 pub struct Lattice {
+    /// The sets in canonical order.
     pub sets: Vec<ConceptSet>,
+    /// `offsets[k]..offsets[k + 1]` are the sets of size `k` (`offsets[0] = offsets[1] = 0`).
+    offsets: Vec<usize>,
+    max_size: usize,
+    validity: Validity,
 }
 
 impl Lattice {
-    pub fn enumerate(_domain: &Domain, _max_size: usize) -> Lattice {
-        unimplemented!("lattice::Lattice::enumerate")
+    /// Enumerate every valid set of 1 to `max_size` concepts.
+    pub fn enumerate(domain: &Domain, max_size: usize) -> Lattice {
+        let validity = Validity::new(domain);
+        let mut buckets: Vec<Vec<ConceptSet>> = vec![Vec::new(); max_size + 1];
+        for_each_valid(&validity, max_size, |s| buckets[s.len()].push(s));
+        let mut offsets = Vec::with_capacity(max_size + 2);
+        let mut sets = Vec::with_capacity(buckets.iter().map(Vec::len).sum());
+        for b in buckets {
+            offsets.push(sets.len());
+            sets.extend(b);
+        }
+        offsets.push(sets.len());
+        Lattice { sets, offsets, max_size, validity }
+    }
+
+    pub fn max_size(&self) -> usize {
+        self.max_size
+    }
+
+    /// Number of sets.
+    pub fn len(&self) -> usize {
+        self.sets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sets.is_empty()
+    }
+
+    /// Number of sets of each size: `counts()[k]` for size `k` (`counts()[0] = 0`).
+    pub fn counts(&self) -> Vec<usize> {
+        self.offsets.windows(2).map(|w| w[1] - w[0]).collect()
+    }
+
+    /// The sets of exactly `size` concepts, in canonical order.
+    pub fn of_size(&self, size: usize) -> &[ConceptSet] {
+        if size > self.max_size {
+            return &[];
+        }
+        &self.sets[self.offsets[size]..self.offsets[size + 1]]
+    }
+
+    /// The compiled validity rules.
+    pub fn validity(&self) -> &Validity {
+        &self.validity
+    }
+
+    /// Whether `set` is valid (any size).
+    pub fn is_valid(&self, set: ConceptSet) -> bool {
+        self.validity.is_valid(set)
+    }
+
+    /// Whether `set` is in the lattice: valid and of at most `max_size` concepts.
+    pub fn contains(&self, set: ConceptSet) -> bool {
+        self.position(set).is_some()
+    }
+
+    /// The index of `set` in [`Lattice::sets`].
+    pub fn position(&self, set: ConceptSet) -> Option<usize> {
+        let bucket = self.of_size(set.len());
+        let i = bucket.binary_search_by(|s| canonical_cmp(*s, set)).ok()?;
+        Some(self.offsets[set.len()] + i)
+    }
+
+    /// The valid sets of at most `max_size` concepts that add one concept to `set`, in
+    /// canonical order (for beam search). From the empty set: the valid singletons.
+    pub fn extensions(&self, set: ConceptSet) -> Vec<ConceptSet> {
+        if set.len() >= self.max_size {
+            return Vec::new();
+        }
+        let free = self.validity.universe().0 & !set.0;
+        ConceptSet(free).iter().map(|c| set.with(c)).filter(|s| self.validity.is_valid(*s)).collect()
+    }
+
+    /// Concepts that appear in at least one set.
+    pub fn support(&self) -> ConceptSet {
+        ConceptSet(self.sets.iter().fold(0, |acc, s| acc | s.0))
+    }
+}
+
+/// Canonical order of concept sets: by size, then lexicographically by sorted concept indices.
+pub fn canonical_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
+    a.len().cmp(&b.len()).then_with(|| {
+        let diff = a.0 ^ b.0;
+        if diff == 0 {
+            return Ordering::Equal;
+        }
+        // Both sets agree below the lowest differing bit; the one holding it lists it first,
+        // while the other lists a higher index at that position.
+        if a.0 >> diff.trailing_zeros() & 1 == 1 { Ordering::Less } else { Ordering::Greater }
+    })
+}
+
+/// Call `visit` on every valid set of 1 to `max_size` concepts, in lexicographic order of sorted
+/// concept indices (sizes interleaved), without storing them.
+pub fn for_each_valid(validity: &Validity, max_size: usize, mut visit: impl FnMut(ConceptSet)) {
+    let _ = try_for_each_valid(validity, max_size, |s| {
+        visit(s);
+        ControlFlow::<()>::Continue(())
+    });
+}
+
+/// [`for_each_valid`] that stops as soon as `visit` breaks, returning its value.
+pub fn try_for_each_valid<B>(
+    validity: &Validity,
+    max_size: usize,
+    mut visit: impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    let n = 128 - validity.universe().0.leading_zeros();
+    if max_size == 0 {
+        return ControlFlow::Continue(());
+    }
+    dfs(validity, 0, 0, n, max_size, &mut visit)
+}
+
+/// Call `visit` on every valid set of exactly `size` concepts, in canonical order, until it
+/// breaks.
+pub fn try_for_each_of_size<B>(
+    validity: &Validity,
+    size: usize,
+    mut visit: impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    try_for_each_valid(validity, size, |s| if s.len() == size { visit(s) } else { ControlFlow::Continue(()) })
+}
+
+fn dfs<B>(
+    v: &Validity,
+    set: u128,
+    next: u32,
+    n: u32,
+    room: usize,
+    visit: &mut impl FnMut(ConceptSet) -> ControlFlow<B>,
+) -> ControlFlow<B> {
+    for c in next..n {
+        let s = set | 1u128 << c;
+        if !v.monotone_ok(s) {
+            continue;
+        }
+        if v.closure_ok(s) {
+            visit(ConceptSet(s))?;
+        }
+        if room > 1 {
+            let remaining = if c + 1 >= 128 { 0 } else { v.universe().0 >> (c + 1) << (c + 1) };
+            if !v.hopeless(s, remaining) {
+                dfs(v, s, c + 1, n, room - 1, visit)?;
+            }
+        }
+    }
+    ControlFlow::Continue(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testkit::*;
+    use super::*;
+    use crate::anchor;
+    use crate::ir::{ConceptId, ConstraintRule, Selection};
+
+    /// Every subset of `n` concepts with 1..=k members, by brute force.
+    fn all_subsets(n: usize, k: usize) -> Vec<ConceptSet> {
+        let mut out = vec![ConceptSet::EMPTY];
+        for c in 0..n {
+            let grown: Vec<ConceptSet> =
+                out.iter().filter(|s| s.len() < k).map(|s| s.with(ConceptId(c as u32))).collect();
+            out.extend(grown);
+        }
+        out.retain(|s| !s.is_empty());
+        out
+    }
+
+    /// Reference validity written directly from the definitions, without masks.
+    fn reference_valid(d: &Domain, s: ConceptSet) -> bool {
+        let constraints = d.constraints.iter().all(|c| match c.rule {
+            ConstraintRule::AtMost { members, max } => s.intersection(members).len() <= max as usize,
+            ConstraintRule::Requires { concept, any_of } => !s.contains(concept) || !s.intersection(any_of).is_empty(),
+            ConstraintRule::Forbids { all } => !all.is_subset_of(s),
+        });
+        !s.is_empty() && constraints && anchor::build(d, s).is_ok()
+    }
+
+    /// Small synthetic domains exercising every kind of rule.
+    fn domains() -> Vec<Domain> {
+        let mut out = vec![driving()];
+        // Requires chains, forbids, at-most-2, and a modifier whose only provider comes later.
+        let mut b = Dom::new(Selection::BestFit);
+        let tag = b.tag("Thing");
+        let thing = b.kind("Thing", &[tag], &[("distance", num(5.0))]);
+        let bare = b.kind("Bare", &[], &[]);
+        let m0 = b.modifier("closer", filter(&[thing], &[]), &[("distance", num(1.0))]);
+        let a = b.concept("a", &[("x", thing, "lane", &[])]);
+        let c1 = b.concept("b", &[("y", bare, "lane", &[])]);
+        let c2 = b.concept("c", &[("z", thing, "lane", &[]), ("w", bare, "lane", &[])]);
+        let c3 = b.world_concept("d", "w", num(1.0));
+        let c4 = b.concept("e", &[]);
+        // Any entity: targets `b`'s and `c`'s entities too, but `b`'s entity lacks `distance`.
+        let m1 = b.modifier("anything", filter(&[], &[]), &[("distance", num(2.0))]);
+        let m2 = b.modifier("global", world_filter(), &[("w", num(3.0))]);
+        b.constraint("a_needs_d_or_e", ConstraintRule::Requires { concept: a, any_of: ConceptSet::from_ids([c3, c4]) });
+        b.constraint("no_bcd", ConstraintRule::Forbids { all: ConceptSet::from_ids([c1, c2, c3]) });
+        b.constraint("two_mods", ConstraintRule::AtMost { members: ConceptSet::from_ids([m0, m1, m2]), max: 2 });
+        b.constraint("e_needs_m0", ConstraintRule::Requires { concept: c4, any_of: ConceptSet::single(m0) });
+        out.push(b.build());
+        // No constraints at all: the lattice is every set without a dangling modifier.
+        let mut b = Dom::new(Selection::Priority);
+        let k = b.kind("K", &[], &[("distance", num(1.0))]);
+        for i in 0..6 {
+            b.concept(&format!("c{i}"), &[("e", k, "lane", &[])]);
+        }
+        b.modifier("m", filter(&[k], &[]), &[("distance", num(2.0))]);
+        out.push(b.build());
+        // A modifier with no possible target and a concept excluded by a one-member at-most.
+        let mut b = Dom::new(Selection::Priority);
+        let k = b.kind("K", &[], &[]);
+        let other = b.kind("Other", &[], &[]);
+        let x = b.concept("x", &[("e", k, "lane", &[])]);
+        b.concept("y", &[]);
+        b.modifier("lost", filter(&[other], &[]), &[]);
+        b.constraint("never_x", ConstraintRule::AtMost { members: ConceptSet::single(x), max: 0 });
+        out.push(b.build());
+        out
+    }
+
+    #[test]
+    fn enumeration_matches_brute_force() {
+        for d in domains() {
+            let n = d.concepts.len();
+            let k = if n > 12 { 3 } else { n };
+            let lattice = Lattice::enumerate(&d, k);
+            let expected: Vec<ConceptSet> = all_subsets(n, k).into_iter().filter(|s| reference_valid(&d, *s)).collect();
+            let mut sorted = expected.clone();
+            sorted.sort_by(|a, b| canonical_cmp(*a, *b));
+            assert_eq!(lattice.sets, sorted, "domain with {n} concepts");
+            for s in all_subsets(n, k) {
+                assert_eq!(lattice.contains(s), reference_valid(&d, s), "{:?}", d.set_names(s));
+                assert_eq!(lattice.is_valid(s), reference_valid(&d, s));
+            }
+        }
+    }
+
+    #[test]
+    fn target_masks_agree_with_anchor_build() {
+        for d in domains() {
+            let v = Validity::new(&d);
+            let n = d.concepts.len();
+            for s in all_subsets(n, if n > 12 { 3 } else { n }) {
+                assert_eq!(v.check_targets(s.0).is_ok(), anchor::build(&d, s).is_ok(), "{:?}", d.set_names(s));
+            }
+        }
+    }
+
+    #[test]
+    fn canonical_order_is_size_then_lexicographic() {
+        let ids = |v: &[u32]| ConceptSet::from_ids(v.iter().map(|&i| ConceptId(i)));
+        let ordered = [ids(&[3]), ids(&[0, 1]), ids(&[0, 2]), ids(&[0, 9]), ids(&[1, 2]), ids(&[0, 1, 2])];
+        for w in ordered.windows(2) {
+            assert_eq!(canonical_cmp(w[0], w[1]), Ordering::Less, "{w:?}");
+            assert_eq!(canonical_cmp(w[1], w[0]), Ordering::Greater);
+        }
+        // The brute-force order: compare the sorted index lists.
+        let all = all_subsets(7, 7);
+        for &a in all.iter().step_by(7) {
+            for &b in &all {
+                let key = |s: ConceptSet| (s.len(), s.iter().collect::<Vec<_>>());
+                assert_eq!(canonical_cmp(a, b), key(a).cmp(&key(b)));
+            }
+        }
+    }
+
+    #[test]
+    fn counts_positions_and_buckets_agree() {
+        let d = driving();
+        let lattice = Lattice::enumerate(&d, 3);
+        let counts = lattice.counts();
+        assert_eq!(counts.len(), 4);
+        assert_eq!(counts.iter().sum::<usize>(), lattice.len());
+        assert_eq!(counts[1], 24, "all but the four entity modifiers and the two lights are valid alone");
+        for (i, s) in lattice.sets.iter().enumerate() {
+            assert_eq!(lattice.position(*s), Some(i));
+        }
+        assert!(lattice.of_size(4).is_empty());
+        let near = d.concept_by_name("near").unwrap().id;
+        let cone = d.concept_by_name("cone").unwrap().id;
+        assert!(!lattice.contains(ConceptSet::single(near)));
+        assert!(lattice.contains(ConceptSet::from_ids([cone, near])));
+        // Deterministic: a second enumeration is identical.
+        assert_eq!(Lattice::enumerate(&d, 3).sets, lattice.sets);
+    }
+
+    #[test]
+    fn extensions_are_the_valid_one_concept_supersets() {
+        let d = driving();
+        let lattice = Lattice::enumerate(&d, 3);
+        assert_eq!(lattice.extensions(ConceptSet::EMPTY), lattice.of_size(1));
+        for &s in lattice.of_size(1).iter().chain(lattice.of_size(2)) {
+            let expected: Vec<ConceptSet> =
+                lattice.of_size(s.len() + 1).iter().copied().filter(|t| s.is_subset_of(*t)).collect();
+            assert_eq!(lattice.extensions(s), expected, "{:?}", d.set_names(s));
+        }
+        assert!(lattice.of_size(3).iter().all(|s| lattice.extensions(*s).is_empty()));
+    }
+
+    #[test]
+    fn validate_names_the_violation() {
+        let d = driving();
+        let set = |names: &[&str]| d.parse_set(names).unwrap();
+        let err = validate(&d, set(&["town_town01", "town_town02"])).unwrap_err();
+        assert_eq!(err.to_string(), "violates constraint `one_town` (at most 1 of `town_town01`, `town_town02`)");
+        let err = validate(&d, set(&["cone", "near", "far"])).unwrap_err();
+        assert_eq!(err.to_string(), "violates constraint `near_xor_far` (at most 1 of `near`, `far`)");
+        let err = validate(&d, set(&["light_red"])).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "violates constraint `light_needs_intersection` (`light_red` requires `intersection_ego`)"
+        );
+        let err = validate(&d, set(&["near"])).unwrap_err();
+        assert_eq!(err, Violation::NoTarget { modifier: "near".into() });
+        assert_eq!(err.to_string(), "modifier `near` has no entity to apply to");
+        assert_eq!(validate(&d, ConceptSet::EMPTY), Err(Violation::Empty));
+        assert_eq!(validate(&d, ConceptSet(1 << 100)), Err(Violation::UnknownConcept { index: 100 }));
+        assert_eq!(validate(&d, set(&["cone", "near", "weather_foggy"])), Ok(()));
+    }
+
+    #[test]
+    fn target_lacking_an_attribute_is_named() {
+        let d = &domains()[1];
+        let set = d.parse_set(&["b", "anything"]).unwrap();
+        let err = validate(d, set).unwrap_err();
+        assert_eq!(err.to_string(), "modifier `anything` sets `distance`, which its target `y` does not have");
+        // With `c` (declared after `b`) the target is `c`'s last matching entity `w`, also bare.
+        assert!(validate(d, d.parse_set(&["c", "anything"]).unwrap()).is_err());
+        assert_eq!(validate(d, d.parse_set(&["a", "d", "anything"]).unwrap()), Ok(()));
     }
 }

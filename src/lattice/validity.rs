@@ -1,0 +1,275 @@
+//! Validity of a concept set, compiled to bitmask checks.
+//!
+//! A set is valid when it is non-empty, names only declared concepts, satisfies every
+//! constraint, and every modifier in it has a target entity that has the attributes the modifier
+//! sets — exactly the sets [`anchor::build`](crate::anchor::build) accepts, plus the constraints.
+//! The target rule is compiled per modifier into two masks (see [`ModifierTarget`]) so that the
+//! check is a few word operations instead of building the anchor graph.
+
+use std::fmt;
+
+use crate::ir::{ConceptId, ConceptKind, ConceptSet, Constraint, ConstraintRule, Domain, Effect, TargetFilter};
+
+/// Why a set is not valid. Names are resolved, so the value outlives the domain.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Violation {
+    /// The empty set has no scene.
+    Empty,
+    /// A bit beyond the domain's concepts is set.
+    UnknownConcept { index: u32 },
+    /// A constraint is violated: its name, what it says, and its doc comment.
+    Constraint { name: String, says: String, doc: String },
+    /// A modifier has no entity to apply to.
+    NoTarget { modifier: String },
+    /// A modifier's target entity lacks an attribute the modifier sets.
+    TargetLacksAttr { modifier: String, attr: String, target: String },
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Violation::Empty => write!(f, "the empty set has no scene"),
+            Violation::UnknownConcept { index } => write!(f, "concept index {index} is not declared in the domain"),
+            Violation::Constraint { name, says, .. } => write!(f, "violates constraint `{name}` ({says})"),
+            Violation::NoTarget { modifier } => {
+                write!(f, "modifier `{modifier}` has no entity to apply to")
+            }
+            Violation::TargetLacksAttr { modifier, attr, target } => {
+                write!(f, "modifier `{modifier}` sets `{attr}`, which its target `{target}` does not have")
+            }
+        }
+    }
+}
+
+impl std::error::Error for Violation {}
+
+/// Check one set against the domain's validity rules, naming the first violation: constraints
+/// in declaration order first, then modifiers in index order.
+pub fn validate(domain: &Domain, set: ConceptSet) -> Result<(), Violation> {
+    Validity::new(domain).check(set).map_err(|v| v.resolve(domain))
+}
+
+/// What a modifier can apply to, as masks over concept ids.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModifierTarget {
+    pub modifier: ConceptId,
+    /// Concepts that add at least one entity matching the modifier's target filter.
+    pub providers: u128,
+    /// Providers whose *last* matching entity (the one the modifier would pick when that
+    /// provider is the highest-index provider in the set) lacks an attribute the modifier sets.
+    pub lacking: u128,
+}
+
+/// A violation found by [`Validity::check`], by index (cheap); [`ViolationAt::resolve`] names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViolationAt {
+    Empty,
+    UnknownConcept(u32),
+    Constraint(usize),
+    NoTarget(ConceptId),
+    /// The modifier and the provider concept whose entity lacks the attribute.
+    TargetLacksAttr(ConceptId, ConceptId),
+}
+
+impl ViolationAt {
+    pub fn resolve(self, domain: &Domain) -> Violation {
+        let name = |c: ConceptId| domain.concepts[c.index()].name.clone();
+        match self {
+            ViolationAt::Empty => Violation::Empty,
+            ViolationAt::UnknownConcept(index) => Violation::UnknownConcept { index },
+            ViolationAt::Constraint(i) => {
+                let c = &domain.constraints[i];
+                Violation::Constraint { name: c.name.clone(), says: describe_constraint(domain, c), doc: c.doc.clone() }
+            }
+            ViolationAt::NoTarget(m) => Violation::NoTarget { modifier: name(m) },
+            ViolationAt::TargetLacksAttr(m, provider) => {
+                let (attr, target) = lacking_attr(domain, m, provider).unwrap_or_default();
+                Violation::TargetLacksAttr { modifier: name(m), attr, target }
+            }
+        }
+    }
+}
+
+/// A domain's validity rules compiled to bitmasks.
+#[derive(Debug, Clone)]
+pub struct Validity {
+    /// Mask of the declared concepts.
+    universe: u128,
+    /// Constraints by declaration index, split by monotonicity.
+    at_most: Vec<(usize, u128, u32)>,
+    forbids: Vec<(usize, u128)>,
+    requires: Vec<(usize, u128, u128)>,
+    modifiers: Vec<ModifierTarget>,
+}
+
+impl Validity {
+    pub fn new(domain: &Domain) -> Validity {
+        let n = domain.concepts.len().min(crate::ir::MAX_CONCEPTS);
+        let universe = if n == 128 { u128::MAX } else { (1u128 << n) - 1 };
+        let mut v = Validity { universe, at_most: vec![], forbids: vec![], requires: vec![], modifiers: vec![] };
+        for (i, c) in domain.constraints.iter().enumerate() {
+            match c.rule {
+                ConstraintRule::AtMost { members, max } => v.at_most.push((i, members.0, max)),
+                ConstraintRule::Forbids { all } => v.forbids.push((i, all.0)),
+                ConstraintRule::Requires { concept, any_of } => {
+                    v.requires.push((i, ConceptSet::single(concept).0, any_of.0));
+                }
+            }
+        }
+        v.modifiers = domain
+            .concepts
+            .iter()
+            .filter(|c| c.kind == ConceptKind::Modifier)
+            .filter_map(|c| modifier_target(domain, c.id))
+            .collect();
+        v
+    }
+
+    /// Mask of the declared concepts.
+    pub fn universe(&self) -> ConceptSet {
+        ConceptSet(self.universe)
+    }
+
+    /// Per-modifier target masks (modifiers that target the world are always satisfied and
+    /// are not listed).
+    pub fn modifier_targets(&self) -> &[ModifierTarget] {
+        &self.modifiers
+    }
+
+    pub fn is_valid(&self, set: ConceptSet) -> bool {
+        self.check(set).is_ok()
+    }
+
+    /// The first violation of `set`, if any (see [`validate`] for the order).
+    pub fn check(&self, set: ConceptSet) -> Result<(), ViolationAt> {
+        if set.is_empty() {
+            return Err(ViolationAt::Empty);
+        }
+        let unknown = set.0 & !self.universe;
+        if unknown != 0 {
+            return Err(ViolationAt::UnknownConcept(unknown.trailing_zeros()));
+        }
+        let first = [self.first_monotone(set.0), self.first_requires(set.0)].into_iter().flatten().min();
+        if let Some(i) = first {
+            return Err(ViolationAt::Constraint(i));
+        }
+        self.check_targets(set.0)
+    }
+
+    /// Whether the constraints that stay violated in every superset (at-most, forbids) hold.
+    pub fn monotone_ok(&self, set: u128) -> bool {
+        self.first_monotone(set).is_none()
+    }
+
+    /// Whether the constraints that a superset can repair (requires, modifier targets) hold.
+    pub fn closure_ok(&self, set: u128) -> bool {
+        self.first_requires(set).is_none() && self.check_targets(set).is_ok()
+    }
+
+    /// Whether some requirement or modifier of `set` is unmet and no concept in `remaining`
+    /// could meet it, so no superset drawn from `remaining` is valid.
+    pub fn hopeless(&self, set: u128, remaining: u128) -> bool {
+        let unmet_requires =
+            self.requires.iter().any(|&(_, c, any)| set & c != 0 && set & any == 0 && remaining & any == 0);
+        unmet_requires
+            || self
+                .modifiers
+                .iter()
+                .any(|m| set >> m.modifier.0 & 1 == 1 && set & m.providers == 0 && remaining & m.providers == 0)
+    }
+
+    fn first_monotone(&self, set: u128) -> Option<usize> {
+        let at_most = self.at_most.iter().find(|&&(_, mask, max)| (set & mask).count_ones() > max).map(|c| c.0);
+        let forbids = self.forbids.iter().find(|&&(_, all)| set & all == all).map(|c| c.0);
+        at_most.into_iter().chain(forbids).min()
+    }
+
+    fn first_requires(&self, set: u128) -> Option<usize> {
+        self.requires.iter().find(|&&(_, c, any)| set & c != 0 && set & any == 0).map(|c| c.0)
+    }
+
+    pub(crate) fn check_targets(&self, set: u128) -> Result<(), ViolationAt> {
+        for m in &self.modifiers {
+            if set >> m.modifier.0 & 1 == 0 {
+                continue;
+            }
+            let present = set & m.providers;
+            if present == 0 {
+                return Err(ViolationAt::NoTarget(m.modifier));
+            }
+            // The target comes from the highest-index provider in the set.
+            let top = 127 - present.leading_zeros();
+            if m.lacking >> top & 1 == 1 {
+                return Err(ViolationAt::TargetLacksAttr(m.modifier, ConceptId(top)));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The target masks of one modifier; `None` for a modifier that targets the world.
+fn modifier_target(domain: &Domain, modifier: ConceptId) -> Option<ModifierTarget> {
+    let m = &domain.concepts[modifier.index()];
+    let filter = m.target.clone().unwrap_or_default();
+    if targets_world(&filter) {
+        return None;
+    }
+    let mut t = ModifierTarget { modifier, providers: 0, lacking: 0 };
+    for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
+        if c.kind != ConceptKind::Concept {
+            continue;
+        }
+        if last_match(domain, c.id, &filter).is_some() {
+            t.providers |= ConceptSet::single(c.id).0;
+            if lacking_attr(domain, modifier, c.id).is_some() {
+                t.lacking |= ConceptSet::single(c.id).0;
+            }
+        }
+    }
+    Some(t)
+}
+
+/// Mirrors `anchor::build`: a filter with only `world` set targets the world.
+pub(crate) fn targets_world(filter: &TargetFilter) -> bool {
+    filter.world && filter.kinds.is_empty() && filter.tags.is_empty()
+}
+
+/// The last entity `concept` adds that matches `filter`: (entity name, kind).
+fn last_match<'d>(domain: &'d Domain, concept: ConceptId, filter: &TargetFilter) -> Option<(&'d str, usize)> {
+    domain.concepts[concept.index()].effects.iter().rev().find_map(|e| match e {
+        Effect::Add { name, kind, .. } if filter.matches(domain, *kind) => Some((name.as_str(), kind.index())),
+        _ => None,
+    })
+}
+
+/// The first attribute `modifier` sets that the entity it would pick from `provider` lacks:
+/// (attribute, entity name).
+fn lacking_attr(domain: &Domain, modifier: ConceptId, provider: ConceptId) -> Option<(String, String)> {
+    let m = &domain.concepts[modifier.index()];
+    let filter = m.target.clone().unwrap_or_default();
+    let (entity, kind) = last_match(domain, provider, &filter)?;
+    m.effects.iter().find_map(|e| match e {
+        Effect::SetTarget { attr, .. } if domain.kinds[kind].attr(attr).is_none() => {
+            Some((attr.clone(), entity.to_string()))
+        }
+        _ => None,
+    })
+}
+
+/// What a constraint says, in words, e.g. "at most 1 of `near`, `far`".
+pub fn describe_constraint(domain: &Domain, c: &Constraint) -> String {
+    let names = |s: ConceptSet| domain.set_names(s).iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+    match c.rule {
+        ConstraintRule::AtMost { members, max } => format!("at most {max} of {}", names(members)),
+        ConstraintRule::Requires { concept, any_of } => {
+            let who = &domain.concepts[concept.index()].name;
+            if any_of.len() == 1 {
+                format!("`{who}` requires {}", names(any_of))
+            } else {
+                format!("`{who}` requires one of {}", names(any_of))
+            }
+        }
+        ConstraintRule::Forbids { all } => format!("{} may not appear together", names(all)),
+    }
+}
