@@ -5,9 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod emit;
 pub mod lattice;
 pub mod oracle;
-pub mod emit;
 pub mod render;
 
 #[derive(Parser, Debug)]

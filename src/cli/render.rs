@@ -29,7 +29,7 @@ pub struct RenderArgs {
     /// Draw a contact sheet of K seeds (seed, seed+1, …).
     #[arg(long, value_name = "K", conflicts_with = "all")]
     pub grid: Option<u32>,
-    /// Draw a contact sheet of every valid single-concept set, captioned.
+    /// Draw a contact sheet with one tile per concept (alone, or in its smallest valid set).
     #[arg(long, conflicts_with = "concepts")]
     pub all: bool,
     /// Print the graphics adapter the builtin renderer uses, and exit.
@@ -107,8 +107,10 @@ pub struct Job {
 /// What to draw, from the arguments (errors here are usage errors).
 pub fn plan(domain: &Domain, args: &RenderArgs) -> Result<Vec<Job>, String> {
     if args.all {
-        let singles = Lattice::enumerate(domain, 1).sets.into_iter().filter(|s| s.len() == 1);
-        return Ok(singles.map(|set| Job { set, seed: args.seed, caption: domain.set_names(set).join(" ") }).collect());
+        return Ok(concept_sheet(domain)
+            .into_iter()
+            .map(|set| Job { set, seed: args.seed, caption: caption(domain, set) })
+            .collect());
     }
     let set = domain.parse_set(&args.concepts)?;
     let label = if args.concepts.is_empty() { "(empty)".to_string() } else { args.concepts.join(" ") };
@@ -124,6 +126,26 @@ pub fn plan(domain: &Domain, args: &RenderArgs) -> Result<Vec<Job>, String> {
     }
 }
 
+/// Largest set tried when looking for a valid set that shows a concept.
+const SHEET_MAX_SET: usize = 3;
+
+/// One set per concept, in declaration order: the concept alone when that is valid, else the
+/// first smallest valid set holding it (a modifier needs a target, `child_reaching` needs an
+/// open cabinet). Concepts valid in no set up to [`SHEET_MAX_SET`] concepts are left out.
+pub fn concept_sheet(domain: &Domain) -> Vec<ConceptSet> {
+    let lattice = Lattice::enumerate(domain, SHEET_MAX_SET);
+    domain
+        .concepts
+        .iter()
+        .filter_map(|c| (1..=SHEET_MAX_SET).find_map(|k| lattice.of_size(k).iter().copied().find(|s| s.contains(c.id))))
+        .collect()
+}
+
+/// A sheet caption: the concepts of the set, joined by `+`.
+fn caption(domain: &Domain, set: ConceptSet) -> String {
+    domain.set_names(set).join(" + ")
+}
+
 /// Render the jobs: one image, or a captioned contact sheet.
 pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet: bool) -> Result<RgbaImage, String> {
     let mut tiles = Vec::with_capacity(jobs.len());
@@ -137,7 +159,7 @@ pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet:
         tiles.push(img);
     }
     match tiles.len() {
-        0 => Err("nothing to render: the domain has no valid single-concept set".to_string()),
+        0 => Err("nothing to render: no concept of the domain is in a valid set".to_string()),
         1 if !as_sheet => Ok(tiles.remove(0)),
         n => {
             let (w, h) = tiles[0].dimensions();

@@ -9,7 +9,8 @@ use crate::ir::Camera;
 
 /// Near clip plane (metres): small enough for a kitchen close-up.
 const NEAR: f32 = 0.05;
-const FAR: f32 = 1000.0;
+/// Scene-frame azimuth (degrees from +x towards +y) of CARLA's `sun_azimuth_angle = 0`.
+const SUN_AZIMUTH_ZERO: f64 = 215.0;
 
 /// Mirrors `struct Frame` in `shader.wgsl`.
 #[repr(C)]
@@ -53,8 +54,10 @@ impl Weather {
             fog_density: pct("fog_density"),
             fog_distance: env.get("fog_distance").copied().unwrap_or(0.0).max(0.0) as f32,
             sun_altitude: env.get("sun_altitude_angle").copied().unwrap_or(60.0).clamp(-90.0, 90.0) as f32,
-            // Default: the sun behind the camera and to its right, so faces towards it are lit.
-            sun_azimuth: env.get("sun_azimuth_angle").copied().unwrap_or(215.0) as f32,
+            // CARLA's azimuth is in map coordinates, which mean nothing in the ego frame; the
+            // renderer turns it so that azimuth 0 puts the sun behind the camera and to its
+            // right, where it lights what the camera sees.
+            sun_azimuth: (SUN_AZIMUTH_ZERO + env.get("sun_azimuth_angle").copied().unwrap_or(0.0)) as f32,
         }
     }
 }
@@ -88,7 +91,7 @@ pub fn frame(camera: &Camera, env: &BTreeMap<String, f64>, width: u32, height: u
     let overcast = w.cloudiness.max(w.precipitation * 0.9);
     // Rain darkens everything; cloud flattens the light (less sun, relatively more sky).
     let gloom = 1.0 - 0.45 * w.precipitation;
-    let sun_strength = day * (1.0 - 0.9 * overcast) * gloom * 2.2;
+    let sun_strength = day * (1.0 - 0.9 * overcast) * gloom * 1.7;
     let sun_color = mix3([1.0, 0.96, 0.9], [1.0, 0.6, 0.32], low_sun);
 
     let clear_zenith = [0.16, 0.34, 0.78];
@@ -120,7 +123,8 @@ pub fn frame(camera: &Camera, env: &BTreeMap<String, f64>, width: u32, height: u
     }
 }
 
-/// View-projection and its inverse, column-major, wgpu clip space (z in 0..1). The camera's
+/// View-projection and its inverse, column-major, wgpu clip space (reversed z: 1 at the near
+/// plane, 0 at infinity). The camera's
 /// `fov_deg` is horizontal, as in CARLA's camera blueprint.
 pub fn camera_matrices(camera: &Camera, aspect: f32) -> ([[f32; 4]; 4], [[f32; 4]; 4]) {
     use nalgebra::{Matrix4, Point3, Vector3};
@@ -137,12 +141,13 @@ pub fn camera_matrices(camera: &Camera, aspect: f32) -> ([[f32; 4]; 4], [[f32; 4
     let hfov = (camera.fov_deg as f32).clamp(1.0, 170.0).to_radians();
     let f_x = 1.0 / (hfov / 2.0).tan();
     let f_y = f_x * aspect;
-    // Right-handed perspective onto z in 0..1 (wgpu), not OpenGL's -1..1.
+    // Reversed-Z with an infinite far plane (depth = NEAR / distance): with a float depth
+    // buffer this keeps road markings a few millimetres above the road apart at 100 m.
     #[rustfmt::skip]
     let proj = Matrix4::new(
         f_x, 0.0, 0.0, 0.0,
         0.0, f_y, 0.0, 0.0,
-        0.0, 0.0, FAR / (NEAR - FAR), NEAR * FAR / (NEAR - FAR),
+        0.0, 0.0, 0.0, NEAR,
         0.0, 0.0, -1.0, 0.0,
     );
     let vp = proj * view;

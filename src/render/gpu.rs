@@ -175,7 +175,7 @@ impl Gpu {
                         depth_compare: Some(if buffers.is_empty() {
                             wgpu::CompareFunction::Always
                         } else {
-                            wgpu::CompareFunction::LessEqual
+                            wgpu::CompareFunction::GreaterEqual
                         }),
                         stencil: Default::default(),
                         bias: Default::default(),
@@ -249,7 +249,7 @@ impl Gpu {
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &t.depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
                     stencil_ops: None,
                 }),
                 timestamp_writes: None,

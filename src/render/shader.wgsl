@@ -82,8 +82,9 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> SkyOut {
 
 @fragment
 fn fs_sky(in: SkyOut) -> @location(0) vec4<f32> {
-    let far = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
-    let near = frame.inv_view_proj * vec4<f32>(in.ndc, 0.0, 1.0);
+    // Reversed z: 1 is the near plane; 0 would be infinitely far, so take a point between.
+    let far = frame.inv_view_proj * vec4<f32>(in.ndc, 0.5, 1.0);
+    let near = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
     let dir = normalize(far.xyz / far.w - near.xyz / near.w);
     // Fog thick enough to hide things at 200 m hides the sky too.
     let c = mix(sky(dir), frame.fog.rgb, fog_amount(200.0));

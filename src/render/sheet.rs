@@ -4,7 +4,8 @@
 
 use image::{Rgba, RgbaImage};
 
-/// Glyph rows, top to bottom, 5 columns each (`#` = ink). Letters are drawn lower-case.
+/// Glyph rows, top to bottom, 5 columns each (`#` = ink). Letters are drawn lower-case; those
+/// with descenders are shifted down when drawn (see `draw_text`), so a line is 9 rows.
 const GLYPHS: &[(char, [&str; 7])] = &[
     ('a', ["     ", "     ", " ### ", "    #", " ####", "#   #", " ####"]),
     ('b', ["#    ", "#    ", "#### ", "#   #", "#   #", "#   #", "#### "]),
@@ -81,6 +82,8 @@ pub fn draw_text(img: &mut RgbaImage, x: u32, y: u32, text: &str, scale: u32, co
         }
         let Some(rows) = glyph(c) else { continue };
         let gx = x + i as u32 * ADVANCE * scale;
+        // Letters with descenders sit two rows lower, below the baseline.
+        let y = if "gjpqy".contains(c.to_ascii_lowercase()) { y + 2 * scale } else { y };
         for (ry, row) in rows.iter().enumerate() {
             for (rx, b) in row.bytes().enumerate() {
                 if b != b'#' {
