@@ -51,11 +51,29 @@ pub struct Gpu {
     state: Mutex<State>,
 }
 
-/// Per-size render targets and the vertex buffer, reused across frames.
+/// Per-size render targets and the geometry buffers, reused across frames.
 #[derive(Default)]
 struct State {
     targets: Option<Targets>,
     vertices: Option<(wgpu::Buffer, u64)>,
+    indices: Option<(wgpu::Buffer, u64)>,
+}
+
+impl Gpu {
+    /// Make `slot` hold a buffer of at least `need` bytes (grown to a power of two).
+    fn ensure(&self, slot: &mut Option<(wgpu::Buffer, u64)>, need: u64, usage: wgpu::BufferUsages) {
+        let need = need.max(4);
+        if slot.as_ref().is_none_or(|(_, cap)| *cap < need) {
+            let cap = need.next_power_of_two();
+            let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: cap,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            *slot = Some((buf, cap));
+        }
+    }
 }
 
 struct Targets {
@@ -210,23 +228,16 @@ impl Gpu {
         if state.targets.as_ref().is_none_or(|t| t.size != (w, h)) {
             state.targets = Some(self.targets(w, h));
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
-        let need = (bytes.len() as u64).max(4);
-        if state.vertices.as_ref().is_none_or(|(_, cap)| *cap < need) {
-            let cap = need.next_power_of_two();
-            let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("vertices"),
-                size: cap,
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            state.vertices = Some((buf, cap));
-        }
-        let State { targets: Some(t), vertices: Some((vbuf, _)) } = &*state else {
-            unreachable!("targets and vertex buffer are created above");
+        let vbytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
+        let ibytes: &[u8] = bytemuck::cast_slice(&mesh.indices);
+        self.ensure(&mut state.vertices, vbytes.len() as u64, wgpu::BufferUsages::VERTEX);
+        self.ensure(&mut state.indices, ibytes.len() as u64, wgpu::BufferUsages::INDEX);
+        let State { targets: Some(t), vertices: Some((vbuf, _)), indices: Some((ibuf, _)) } = &*state else {
+            unreachable!("targets and geometry buffers are created above");
         };
-        if !bytes.is_empty() {
-            self.queue.write_buffer(vbuf, 0, bytes);
+        if !ibytes.is_empty() {
+            self.queue.write_buffer(vbuf, 0, vbytes);
+            self.queue.write_buffer(ibuf, 0, ibytes);
         }
         self.queue.write_buffer(&t.uniforms, 0, bytemuck::bytes_of(frame));
 
@@ -259,13 +270,14 @@ impl Gpu {
             pass.set_bind_group(0, &t.bind_group, &[]);
             pass.set_pipeline(&self.sky);
             pass.draw(0..3, 0..1);
-            let n = mesh.vertices.len() as u32;
+            let n = mesh.indices.len() as u32;
             if n > 0 {
                 pass.set_vertex_buffer(0, vbuf.slice(..));
+                pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
                 pass.set_pipeline(&self.opaque);
-                pass.draw(0..mesh.opaque_len, 0..1);
+                pass.draw_indexed(0..mesh.opaque_len, 0, 0..1);
                 pass.set_pipeline(&self.blended);
-                pass.draw(mesh.opaque_len..n, 0..1);
+                pass.draw_indexed(mesh.opaque_len..n, 0, 0..1);
             }
             if rain {
                 pass.set_pipeline(&self.rain);

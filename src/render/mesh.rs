@@ -8,9 +8,9 @@ use crate::ir::{Primitive, ShapePart};
 use crate::scene::Scene;
 
 /// Segments around a round primitive: enough for smooth silhouettes at 640×360.
-const ROUND_SEGMENTS: usize = 20;
+const ROUND_SEGMENTS: usize = 16;
 /// Latitude bands of a sphere / capsule cap.
-const SPHERE_BANDS: usize = 10;
+const SPHERE_BANDS: usize = 8;
 
 /// Shading model of a part, as the fragment shader reads it (`Vertex::material`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,12 +63,63 @@ pub struct Vertex {
     pub material: f32,
 }
 
-/// The frame's geometry: opaque triangles first, then translucent ones back to front.
+/// The frame's geometry as an indexed triangle list: opaque triangles first (front to back, so
+/// that hidden pixels are rejected by the depth test before shading), then translucent ones
+/// back to front. Indexing matters on CPU rasterisers, whose vertex stage is single-threaded:
+/// a smooth sphere shares each vertex between six triangles.
 #[derive(Debug, Default)]
 pub struct Mesh {
     pub vertices: Vec<Vertex>,
-    /// `vertices[..opaque_len]` are drawn with depth writes, the rest blended.
+    pub indices: Vec<u32>,
+    /// `indices[..opaque_len]` are drawn with depth writes, the rest blended.
     pub opaque_len: u32,
+}
+
+/// The multiply-rotate hash of rustc (FxHash): vertex keys are a few words, and SipHash's DoS
+/// resistance buys nothing here, while its cost showed in the frame time.
+#[derive(Default)]
+struct FxHasher(u64);
+
+impl std::hash::Hasher for FxHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(w));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// Appends one part's triangles, sharing vertices with equal local position and normal.
+struct PartWriter<'a> {
+    mesh: &'a mut Mesh,
+    xf: &'a Xf,
+    color: [f32; 4],
+    material: Material,
+    seen: std::collections::HashMap<[u64; 6], u32, std::hash::BuildHasherDefault<FxHasher>>,
+}
+
+impl PartWriter<'_> {
+    fn index(&mut self, p: [f64; 3], n: [f64; 3]) -> u32 {
+        let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits(), n[0].to_bits(), n[1].to_bits(), n[2].to_bits()];
+        if let Some(&i) = self.seen.get(&key) {
+            return i;
+        }
+        let i = self.mesh.vertices.len() as u32;
+        self.mesh.vertices.push(vertex(self.xf, p, n, self.color, self.material));
+        self.seen.insert(key, i);
+        i
+    }
+    fn tri(&mut self, a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3]), c: ([f64; 3], [f64; 3])) {
+        let ids = [self.index(a.0, a.1), self.index(b.0, b.1), self.index(c.0, c.1)];
+        self.mesh.indices.extend(ids);
+    }
 }
 
 /// A rigid transform: rotation (row-major 3×3) then translation.
@@ -140,23 +191,32 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
             shadows.push(s);
         }
     }
-    let (opaque, mut translucent): (Vec<_>, Vec<_>) =
+    let (mut opaque, mut translucent): (Vec<_>, Vec<_>) =
         placed.into_iter().partition(|p| part_alpha(p.part, Material::from_hint(&p.part.material)) >= 1.0);
-    // Back to front by centre distance; the stable sort keeps equal distances in source order,
-    // so output bytes do not depend on anything but the scene.
+    // Stable sorts by centre distance keep equal distances in source order, so the output
+    // bytes depend on nothing but the scene. Opaque parts go near to far, except huge ones
+    // (ground, road) whose centre says little about what they cover: those go last.
+    let key = |p: &Placed| {
+        let huge = p.part.size[0].max(p.part.size[1]) > 50.0;
+        (huge, dist2(p.xf.t, eye))
+    };
+    opaque.sort_by(|a, b| {
+        let (ka, kb) = (key(a), key(b));
+        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+    });
     translucent.sort_by(|a, b| dist2(b.xf.t, eye).total_cmp(&dist2(a.xf.t, eye)));
 
     let mut mesh = Mesh::default();
     for p in &opaque {
-        emit_part(&mut mesh.vertices, p);
+        emit_part(&mut mesh, p);
     }
-    mesh.opaque_len = mesh.vertices.len() as u32;
+    mesh.opaque_len = mesh.indices.len() as u32;
     // Shadows lie on the ground under everything translucent, so they go first.
     for s in &shadows {
-        emit_shadow(&mut mesh.vertices, s);
+        emit_shadow(&mut mesh, s);
     }
     for p in &translucent {
-        emit_part(&mut mesh.vertices, p);
+        emit_part(&mut mesh, p);
     }
     mesh
 }
@@ -213,15 +273,17 @@ fn blob_shadow(parts: &[ShapePart], exf: &Xf) -> Option<Shadow> {
     })
 }
 
-fn emit_shadow(out: &mut Vec<Vertex>, s: &Shadow) {
+fn emit_shadow(mesh: &mut Mesh, s: &Shadow) {
     // A fan whose rim is transparent gives a soft edge without a texture.
-    let centre = vertex(&s.xf, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 0.55], Material::Shadow);
-    for i in 0..ROUND_SEGMENTS {
-        let rim = |k: usize| {
-            let a = k as f64 / ROUND_SEGMENTS as f64 * std::f64::consts::TAU;
-            vertex(&s.xf, [a.cos() * s.half[0], a.sin() * s.half[1], 0.0], [0.0, 0.0, 1.0], [0.0; 4], Material::Shadow)
-        };
-        out.extend([centre, rim(i), rim(i + 1)]);
+    let centre = mesh.vertices.len() as u32;
+    mesh.vertices.push(vertex(&s.xf, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 0.55], Material::Shadow));
+    for k in 0..ROUND_SEGMENTS {
+        let a = k as f64 / ROUND_SEGMENTS as f64 * std::f64::consts::TAU;
+        let rim = [a.cos() * s.half[0], a.sin() * s.half[1], 0.0];
+        mesh.vertices.push(vertex(&s.xf, rim, [0.0, 0.0, 1.0], [0.0; 4], Material::Shadow));
+    }
+    for k in 0..ROUND_SEGMENTS as u32 {
+        mesh.indices.extend([centre, centre + 1 + k, centre + 1 + (k + 1) % ROUND_SEGMENTS as u32]);
     }
 }
 
@@ -236,7 +298,7 @@ fn vertex(xf: &Xf, p: [f64; 3], n: [f64; 3], color: [f32; 4], m: Material) -> Ve
     }
 }
 
-fn emit_part(out: &mut Vec<Vertex>, p: &Placed) {
+fn emit_part(mesh: &mut Mesh, p: &Placed) {
     let part = p.part;
     let m = Material::from_hint(&part.material);
     let c = part.color;
@@ -244,11 +306,8 @@ fn emit_part(out: &mut Vec<Vertex>, p: &Placed) {
     let [sx, sy, sz] = part.size;
     // A round primitive written with y = 0 is round: x is its diameter.
     let sy_round = if sy > 0.0 { sy } else { sx };
-    let mut tri = |a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3]), cc: ([f64; 3], [f64; 3])| {
-        for (pos, n) in [a, b, cc] {
-            out.push(vertex(&p.xf, pos, n, color, m));
-        }
-    };
+    let mut w = PartWriter { mesh, xf: &p.xf, color, material: m, seen: Default::default() };
+    let mut tri = |a, b, c| w.tri(a, b, c);
     match part.prim {
         Primitive::Box => unit_box(&mut tri, [sx, sy, sz]),
         Primitive::Plane => {
