@@ -5,10 +5,16 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod ask;
+pub mod bench;
+pub mod check;
+pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
 pub mod render;
+pub mod search;
+pub mod validate;
 
 #[derive(Parser, Debug)]
 #[command(name = "revelio", version, about = "Find interpretable failure modes of vision-language models")]
@@ -19,12 +25,24 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Type-check `.rev` files and report every problem
+    Check(check::CheckArgs),
+    /// Show what a domain file compiles to (concepts, constraints, questions, rules)
+    Describe(describe::DescribeArgs),
     /// Count or list the valid concept sets of a domain
     Lattice(lattice::LatticeArgs),
     /// Show the ground truth (question, expected answer, deciding rule) of a concept set
     Oracle(oracle::OracleArgs),
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
+    /// Search a domain for failure modes of a model (resumable run folder)
+    Search(search::SearchArgs),
+    /// Re-evaluate a search run's top concept sets with fresh scenes
+    Validate(validate::ValidateArgs),
+    /// Benchmarks: `bench search` compares the search algorithms against a sim profile
+    Bench(bench::BenchArgs),
+    /// Render one scene of a concept set, ask a model once, and show the verdict
+    Ask(ask::AskArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     Render(render::RenderArgs),
 }
@@ -39,16 +57,36 @@ pub fn main() -> ExitCode {
         }
     };
     match cli.command {
+        Command::Check(a) => check::run(a),
+        Command::Describe(a) => describe::run(a),
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
+        Command::Search(a) => search::run(a),
+        Command::Validate(a) => validate::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Ask(a) => ask::run(a),
         Command::Render(args) => render::run(args),
     }
 }
 
-/// Compile a domain file for a subcommand, printing diagnostics to stderr on failure.
-/// (Replaced by the front end.)
+/// Compile a domain file for a subcommand. Diagnostics (errors and warnings) go to stderr as
+/// human output; on errors the subcommand should exit with the returned code (1).
 pub fn load_domain(path: &std::path::Path) -> Result<crate::ir::Domain, ExitCode> {
-    eprintln!("error: cannot compile `{}`: the front end is not built yet", path.display());
-    Err(ExitCode::from(1))
+    // No lattice lints here: they enumerate the lattice, which is `check`'s job.
+    let compiled = check::compile_path(path, false);
+    let theme = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        miette::GraphicalTheme::unicode()
+    } else {
+        miette::GraphicalTheme::unicode_nocolor()
+    };
+    eprint!("{}", check::render_human(&compiled, &theme));
+    match compiled.domain {
+        Some(d) if d.name.is_empty() => {
+            eprintln!("error: `{}` is a library module, not a domain (it has no `domain NAME` line)", path.display());
+            Err(ExitCode::from(1))
+        }
+        Some(d) => Ok(d),
+        None => Err(ExitCode::from(1)),
+    }
 }

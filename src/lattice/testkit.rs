@@ -49,7 +49,7 @@ impl Dom {
             selection,
             rules: vec![],
             camera: Camera::default(),
-            allow: Vec::new(),
+            allow: vec![],
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");
@@ -232,6 +232,13 @@ impl Dom {
             span,
         });
         id
+    }
+
+    /// Mark the last rule as a safe-scene rule.
+    pub fn safe(&mut self) {
+        if let Some(r) = self.d.rules.last_mut() {
+            r.safe = true;
+        }
     }
 
     pub fn build(self) -> Domain {

@@ -1,5 +1,7 @@
 //! Renderers: Scene → image. `builtin` draws the scene's resolved shapes with wgpu (the
 //! embedded default, see `builtin`); image-generation renderers live in their own modules.
+pub mod imagegen;
+
 use crate::scene::Scene;
 use crate::vlm::BoxFuture;
 
@@ -50,6 +52,7 @@ pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::
     match spec {
         "none" => Ok(None),
         "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.0)?))),
+        s if s.starts_with("imagegen:") => imagegen::build(s, opts).map(Some),
         other => Err(format!(
             "unknown renderer `{other}`: expected `none`, `builtin`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`"
         )),

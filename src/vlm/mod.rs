@@ -62,7 +62,7 @@ pub enum Answer {
 }
 
 /// The outcome recorded for an observation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Outcome {
     Correct,
@@ -126,8 +126,25 @@ pub trait Model: Send + Sync {
     /// Ask once. Never panics and never returns an error: failures become `Answer::ApiError`
     /// with the message in `raw`.
     fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply>;
+    /// Running token and cost totals of this model's calls so far (`None` for models that
+    /// cost nothing, like `sim`).
+    fn spend(&self) -> Option<cost::Spend> {
+        None
+    }
 }
 
+pub mod anthropic;
+pub mod api;
+pub mod bedrock;
+pub mod cache;
+pub mod config;
+pub mod cost;
+pub mod gemini;
+pub mod http;
+pub mod image;
+pub mod openai;
+pub mod parse;
 pub mod prompt;
 pub mod registry;
+pub mod sigv4;
 pub mod sim;

@@ -4,7 +4,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::ir::Domain;
-use crate::vlm::Model;
+use crate::vlm::config::settings_for;
+use crate::vlm::{Model, anthropic, bedrock, gemini, openai};
 
 /// Options that apply to building any model (from CLI flags and the environment).
 #[derive(Debug, Clone, Default)]
@@ -21,14 +22,35 @@ pub struct ModelOptions {
     pub cache_dir: Option<PathBuf>,
 }
 
-pub fn build_model(spec: &str, domain: &Domain, _opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
+pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
     let (provider, rest) = spec.split_once(':').ok_or_else(|| {
         format!("invalid model `{spec}`: expected PROVIDER:NAME, e.g. `sim:examples/sim/driving_fog.toml`")
     })?;
     match provider {
         "sim" => crate::vlm::sim::load(std::path::Path::new(rest), domain),
+        "openai" | "anthropic" | "gemini" | "bedrock" => build_api_model(spec, opts),
         other => Err(format!(
             "unknown model provider `{other}` in `{spec}`: expected `sim`, `openai`, `anthropic`, `gemini` or `bedrock`"
         )),
     }
+}
+
+/// Build an API model (`openai:`, `anthropic:`, `gemini:`, `bedrock:`); needs no domain.
+pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
+    let (provider, rest) =
+        spec.split_once(':').ok_or_else(|| format!("invalid model `{spec}`: expected PROVIDER:NAME"))?;
+    let settings = settings_for(spec, opts.config.as_deref(), opts.thinking.as_deref())?;
+    let base = opts.base_url.as_deref();
+    let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
+    Ok(match provider {
+        "openai" => Arc::new(openai::build(spec, rest, settings, base, cache)?),
+        "anthropic" => Arc::new(anthropic::build(spec, rest, settings, base, cache)?),
+        "gemini" => Arc::new(gemini::build(spec, rest, settings, base, cache)?),
+        "bedrock" => Arc::new(bedrock::build(spec, rest, settings, base, cache)?),
+        other => {
+            return Err(format!(
+                "unknown API provider `{other}` in `{spec}`: expected `openai`, `anthropic`, `gemini` or `bedrock`"
+            ));
+        }
+    })
 }

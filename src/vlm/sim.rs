@@ -1,11 +1,327 @@
-//! The offline `sim` model (being built by the search work).
+//! The offline `sim` model: answers from the ground truth in [`Query::truth`], wrong with a
+//! profile's planted failure modes, a base error rate and a rate of unparseable replies. It is the
+//! default model for demos, tests and search-quality benchmarks: it costs nothing, and because a
+//! reply is a pure function of `Truth::key` a resumed run sees exactly the replies it would have
+//! seen.
+//!
+//! Profile format (TOML):
+//! ```toml
+//! name = "example"
+//! base_error = 0.05   # chance of a wrong answer when no mode matches the set
+//! unparsed = 0.0      # chance of a reply that cannot be parsed
+//! latency_ms = 0      # artificial delay per call
+//! [[mode]]
+//! concepts = ["debris_far", "town_town02"]  # matches a set that holds all of them
+//! error = 0.9
+//! ```
+//! The most specific matching mode wins (most concepts; ties: the highest error).
+
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Duration;
 
-use crate::ir::Domain;
-use crate::vlm::Model;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Deserialize;
+use sha2::{Digest, Sha256};
+
+use crate::ir::{ConceptSet, Domain};
+use crate::vlm::{Answer, BoxFuture, Model, Query, Reply, Usage};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProfileFile {
+    name: String,
+    #[serde(default)]
+    base_error: f64,
+    #[serde(default)]
+    unparsed: f64,
+    #[serde(default)]
+    latency_ms: u64,
+    #[serde(default)]
+    mode: Vec<ModeFile>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModeFile {
+    concepts: Vec<String>,
+    error: f64,
+}
+
+/// A planted failure mode: sets holding all of `concepts` are answered wrongly with chance
+/// `error`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mode {
+    pub concepts: ConceptSet,
+    pub error: f64,
+}
+
+/// A checked sim profile.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    pub name: String,
+    pub base_error: f64,
+    pub unparsed: f64,
+    pub latency_ms: u64,
+    pub modes: Vec<Mode>,
+    /// SHA-256 hex of the profile text, so that editing a profile changes the model id (and a
+    /// run folder refuses to resume with different answers).
+    pub hash: String,
+}
+
+impl Profile {
+    /// Parse and check a profile against a domain. `origin` names the file in errors.
+    pub fn parse(text: &str, origin: &str, domain: &Domain) -> Result<Profile, String> {
+        let file: ProfileFile = toml::from_str(text)
+            .map_err(|e| format!("invalid sim profile `{origin}`: {}", e.to_string().trim_end()))?;
+        let rate = |what: &str, x: f64| {
+            if (0.0..=1.0).contains(&x) {
+                Ok(x)
+            } else {
+                Err(format!("invalid sim profile `{origin}`: `{what}` must be between 0 and 1, got {x}"))
+            }
+        };
+        let base_error = rate("base_error", file.base_error)?;
+        let unparsed = rate("unparsed", file.unparsed)?;
+        let mut modes = Vec::with_capacity(file.mode.len());
+        for (i, m) in file.mode.iter().enumerate() {
+            if m.concepts.is_empty() {
+                return Err(format!("invalid sim profile `{origin}`: mode {} has no concepts", i + 1));
+            }
+            let mut set = ConceptSet::EMPTY;
+            for name in &m.concepts {
+                let c = domain.concept_by_name(name).ok_or_else(|| unknown_concept(origin, name, domain))?;
+                set = set.with(c.id);
+            }
+            modes.push(Mode { concepts: set, error: rate("error", m.error)? });
+        }
+        let hash = hex::encode(Sha256::digest(text.as_bytes()));
+        Ok(Profile { name: file.name, base_error, unparsed, latency_ms: file.latency_ms, modes, hash })
+    }
+
+    /// The chance of a wrong answer for a set: the most specific matching mode's error (most
+    /// concepts; ties go to the highest error), else the base error.
+    pub fn error_for(&self, set: ConceptSet) -> f64 {
+        self.modes
+            .iter()
+            .filter(|m| m.concepts.is_subset_of(set))
+            .max_by(|a, b| a.concepts.len().cmp(&b.concepts.len()).then(a.error.total_cmp(&b.error)))
+            .map_or(self.base_error, |m| m.error)
+    }
+}
+
+fn unknown_concept(origin: &str, name: &str, domain: &Domain) -> String {
+    let best = domain
+        .concepts
+        .iter()
+        .map(|c| (edit_distance(name, &c.name), &c.name))
+        .filter(|(d, n)| *d <= (n.len().max(name.len()) / 3).max(1))
+        .min_by_key(|(d, _)| *d);
+    match best {
+        Some((_, n)) => format!(
+            "invalid sim profile `{origin}`: unknown concept `{name}` in domain `{}`; did you mean `{n}`?",
+            domain.name
+        ),
+        None => format!("invalid sim profile `{origin}`: unknown concept `{name}` in domain `{}`", domain.name),
+    }
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diag = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let next = (diag + usize::from(ca != *cb)).min(row[j] + 1).min(row[j + 1] + 1);
+            diag = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// The sim model for one profile.
+pub struct SimModel {
+    pub profile: Profile,
+}
+
+impl SimModel {
+    /// The reply to a query, without the artificial latency.
+    pub fn answer(&self, query: &Query) -> Reply {
+        let Some(truth) = &query.truth else {
+            return Reply {
+                raw: "the sim model needs the ground truth of each query; it cannot answer real images".into(),
+                thinking: None,
+                answer: Answer::ApiError,
+                usage: Usage::default(),
+                latency_ms: 0,
+                cached: false,
+                attempts: 1,
+            };
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(truth.key);
+        let n = query.options.len().max(1) as u32;
+        let (raw, answer) = if rng.random_bool(self.profile.unparsed) {
+            ("I am not able to tell from this image which option applies.".to_string(), Answer::Unparsed)
+        } else {
+            let wrong = n > 1 && rng.random_bool(self.profile.error_for(truth.set));
+            let pick = if wrong {
+                // A uniformly chosen wrong option: draw among the n-1 others and skip the expected.
+                let k = rng.random_range(0..n - 1);
+                if k >= truth.expected { k + 1 } else { k }
+            } else {
+                truth.expected.min(n - 1)
+            };
+            let letter = crate::vlm::prompt::letter(pick as usize);
+            let text = query.options.get(pick as usize).map_or("", |s| s.as_str());
+            (
+                format!("Looking at the scene, the best match is option {letter}: {text}\nAnswer: {letter}"),
+                Answer::Option(pick),
+            )
+        };
+        let usage = Usage {
+            input_tokens: (query.prompt.len() / 4) as u64,
+            output_tokens: (raw.len() / 4) as u64,
+            thinking_tokens: 0,
+            cost_usd: 0.0,
+        };
+        Reply { raw, thinking: None, answer, usage, latency_ms: self.profile.latency_ms, cached: false, attempts: 1 }
+    }
+}
+
+impl Model for SimModel {
+    fn id(&self) -> String {
+        format!("sim:{}@{}", self.profile.name, &self.profile.hash[..12])
+    }
+
+    fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply> {
+        Box::pin(async move {
+            if self.profile.latency_ms > 0 {
+                tokio::time::sleep(Duration::from_millis(self.profile.latency_ms)).await;
+            }
+            self.answer(query)
+        })
+    }
+}
 
 /// Load a sim profile (TOML) checked against the domain's concept names.
-pub fn load(path: &Path, _domain: &Domain) -> Result<Arc<dyn Model>, String> {
-    Err(format!("cannot load sim profile `{}`: the sim model is not built yet", path.display()))
+pub fn load(path: &Path, domain: &Domain) -> Result<Arc<dyn Model>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read sim profile `{}`: {}", path.display(), e.to_string().to_lowercase()))?;
+    let profile = Profile::parse(&text, &path.display().to_string(), domain)?;
+    Ok(Arc::new(SimModel { profile }))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::vlm::Truth;
+
+    pub(crate) fn names_domain(names: &[&str]) -> Domain {
+        crate::search::testkit::domain(names)
+    }
+
+    fn query(set: ConceptSet, expected: u32, key: u64) -> Query {
+        Query {
+            image: None,
+            image_hash: String::new(),
+            prompt: "Q?".into(),
+            options: vec!["stop".into(), "slow".into(), "go".into()],
+            truth: Some(Truth { set, concepts: vec![], expected, key }),
+        }
+    }
+
+    #[test]
+    fn most_specific_mode_wins_then_highest_error() {
+        let d = names_domain(&["debris_far", "town_town02", "obstruction_far", "fog"]);
+        let text = r#"
+name = "t"
+base_error = 0.05
+[[mode]]
+concepts = ["debris_far"]
+error = 0.3
+[[mode]]
+concepts = ["debris_far", "town_town02"]
+error = 0.9
+[[mode]]
+concepts = ["obstruction_far", "town_town02"]
+error = 0.0
+[[mode]]
+concepts = ["fog", "town_town02"]
+error = 0.7
+"#;
+        let p = Profile::parse(text, "t.toml", &d).unwrap();
+        let s = |names: &[&str]| d.parse_set(names).unwrap();
+        assert_eq!(p.error_for(s(&["fog"])), 0.05);
+        assert_eq!(p.error_for(s(&["debris_far", "fog"])), 0.3);
+        assert_eq!(p.error_for(s(&["debris_far", "town_town02"])), 0.9);
+        assert_eq!(p.error_for(s(&["obstruction_far", "town_town02", "fog"])), 0.7);
+    }
+
+    #[test]
+    fn unknown_concept_suggests_a_name() {
+        let d = names_domain(&["debris_far", "town_town02"]);
+        let e = Profile::parse("name = \"t\"\n[[mode]]\nconcepts = [\"debris_farr\"]\nerror = 1.0\n", "p.toml", &d)
+            .unwrap_err();
+        assert_eq!(
+            e,
+            "invalid sim profile `p.toml`: unknown concept `debris_farr` in domain `test`; did you mean `debris_far`?"
+        );
+        let e =
+            Profile::parse("name = \"t\"\n[[mode]]\nconcepts = [\"zzz\"]\nerror = 1.0\n", "p.toml", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p.toml`: unknown concept `zzz` in domain `test`");
+    }
+
+    #[test]
+    fn malformed_profiles_name_the_problem() {
+        let d = names_domain(&["a"]);
+        let e = Profile::parse("name = \"t\"\nbase_error = \n", "p.toml", &d).unwrap_err();
+        assert!(e.starts_with("invalid sim profile `p.toml`: ") && e.contains("line 2"), "{e}");
+        let e = Profile::parse("name = \"t\"\nbase_eror = 0.1\n", "p.toml", &d).unwrap_err();
+        assert!(e.contains("unknown field `base_eror`"), "{e}");
+        let e = Profile::parse("name = \"t\"\nbase_error = 1.5\n", "p.toml", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p.toml`: `base_error` must be between 0 and 1, got 1.5");
+        let e = Profile::parse("name = \"t\"\n[[mode]]\nconcepts = []\nerror = 0.5\n", "p.toml", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p.toml`: mode 1 has no concepts");
+    }
+
+    #[test]
+    fn replies_are_deterministic_and_wrong_at_the_planted_rate() {
+        let d = names_domain(&["a", "b"]);
+        let p = Profile::parse("name = \"t\"\n[[mode]]\nconcepts = [\"a\"]\nerror = 0.8\n", "p", &d).unwrap();
+        let m = SimModel { profile: p };
+        let set = d.parse_set(&["a"]).unwrap();
+        let mut wrong = 0;
+        for key in 0..2000 {
+            let r = m.answer(&query(set, 1, key));
+            assert_eq!(r, m.answer(&query(set, 1, key)));
+            assert!(r.raw.ends_with(&format!(
+                "\nAnswer: {}",
+                match r.answer {
+                    Answer::Option(o) => crate::vlm::prompt::letter(o as usize),
+                    _ => unreachable!(),
+                }
+            )));
+            if r.answer != Answer::Option(1) {
+                wrong += 1;
+            }
+        }
+        assert!((1500..1700).contains(&wrong), "{wrong}");
+        // No mode and no base error: always right.
+        let other = d.parse_set(&["b"]).unwrap();
+        assert!((0..200).all(|k| m.answer(&query(other, 2, k)).answer == Answer::Option(2)));
+    }
+
+    #[test]
+    fn unparsed_replies_and_missing_truth() {
+        let d = names_domain(&["a"]);
+        let p = Profile::parse("name = \"t\"\nunparsed = 1.0\n", "p", &d).unwrap();
+        let m = SimModel { profile: p };
+        assert_eq!(m.answer(&query(ConceptSet::EMPTY, 0, 1)).answer, Answer::Unparsed);
+        let mut q = query(ConceptSet::EMPTY, 0, 1);
+        q.truth = None;
+        assert_eq!(m.answer(&q).answer, Answer::ApiError);
+    }
 }

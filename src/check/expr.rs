@@ -1,0 +1,183 @@
+//! Conditions (`when …` of rules, shape parts and stage items) → IR expressions.
+
+use super::codes;
+use super::diagnostic::Diagnostic;
+use super::lower::Checker;
+use super::names::unknown;
+use crate::ir::{AttrType, CmpOp, Expr, KindId};
+use crate::syntax::ast::{self, ExprKind, Ident};
+
+/// What names an expression can see: variables bound by `exists` (with the kinds they may
+/// stand for) and, in shape conditions, `self`.
+#[derive(Debug, Default)]
+pub(crate) struct Scope {
+    vars: Vec<(String, Vec<KindId>)>,
+    self_kinds: Option<Vec<KindId>>,
+}
+
+impl Scope {
+    pub fn for_self(kinds: Vec<KindId>) -> Self {
+        Scope { vars: Vec::new(), self_kinds: Some(kinds) }
+    }
+    fn lookup(&self, name: &str) -> Option<&Vec<KindId>> {
+        if name == "self" {
+            return self.self_kinds.as_ref();
+        }
+        self.vars.iter().rev().find(|(n, _)| n == name).map(|(_, k)| k)
+    }
+}
+
+impl Checker<'_> {
+    pub(crate) fn lower_expr(&mut self, e: &ast::Expr, scope: &mut Scope) -> Option<Expr> {
+        match &e.kind {
+            ExprKind::Bool(b) => Some(Expr::Bool(*b)),
+            ExprKind::Not(inner) => Some(Expr::Not(Box::new(self.lower_expr(inner, scope)?))),
+            ExprKind::And(terms) => self.lower_terms(terms, scope).map(Expr::And),
+            ExprKind::Or(terms) => self.lower_terms(terms, scope).map(Expr::Or),
+            ExprKind::Has(name) => match self.concepts.get(&name.name) {
+                Some(id) => Some(Expr::Has(*id)),
+                None => {
+                    let d = unknown("concept", name, self.concepts.names());
+                    self.error(d);
+                    None
+                }
+            },
+            ExprKind::Exists { var, filter, cond } => {
+                self.check_var_name(var)?;
+                let f = self.lower_filter(filter);
+                let kinds = self.matching_kinds(&f);
+                scope.vars.push((var.name.clone(), kinds));
+                let cond = cond.as_ref().map(|c| self.lower_expr(c, scope));
+                scope.vars.pop();
+                let cond = match cond {
+                    Some(c) => Some(Box::new(c?)),
+                    None => None,
+                };
+                Some(Expr::Exists { var: var.name.clone(), filter: f, cond })
+            }
+            ExprKind::Count { filter, op, n } => {
+                Some(Expr::Count { filter: self.lower_filter(filter), op: *op, n: *n })
+            }
+            ExprKind::In { var, region } => {
+                self.bound_var(var, scope)?;
+                match self.regions.get(&region.name) {
+                    Some(r) => Some(Expr::InRegion { var: var.name.clone(), region: *r }),
+                    None => {
+                        let d = unknown("region", region, self.regions.names());
+                        self.error(d);
+                        None
+                    }
+                }
+            }
+            ExprKind::Cmp { path, op, value } => self.lower_cmp(path, *op, value, scope),
+        }
+    }
+
+    fn lower_terms(&mut self, terms: &[ast::Expr], scope: &mut Scope) -> Option<Vec<Expr>> {
+        let lowered: Vec<Option<Expr>> = terms.iter().map(|t| self.lower_expr(t, scope)).collect();
+        lowered.into_iter().collect()
+    }
+
+    fn check_var_name(&mut self, var: &Ident) -> Option<()> {
+        if matches!(var.name.as_str(), "world" | "self" | "ego") {
+            self.error(
+                Diagnostic::error(codes::BAD_REFERENCE, var.span, format!("`{}` cannot be a variable name", var.name))
+                    .with_label("reserved name")
+                    .with_help("`world`, `self` and `ego` have fixed meanings; pick another name"),
+            );
+            return None;
+        }
+        Some(())
+    }
+
+    /// The kinds a variable may stand for, reporting an unbound one.
+    fn bound_var(&mut self, var: &Ident, scope: &Scope) -> Option<Vec<KindId>> {
+        if let Some(k) = scope.lookup(&var.name) {
+            return Some(k.clone());
+        }
+        let d = if var.name == "self" {
+            Diagnostic::error(codes::BAD_REFERENCE, var.span, "`self` is only bound in shape conditions")
+                .with_label("no entity here")
+                .with_help("bind an entity with `exists e: KIND where …` and use `e.ATTR`")
+        } else {
+            Diagnostic::error(codes::BAD_REFERENCE, var.span, format!("unknown variable `{}`", var.name))
+                .with_label("not bound here")
+                .with_help(format!("bind it with `exists {}: KIND where …`", var.name))
+        };
+        self.error(d);
+        None
+    }
+
+    fn lower_cmp(&mut self, path: &ast::Path, op: CmpOp, value: &ast::ValueLit, scope: &Scope) -> Option<Expr> {
+        let [head, attr] = path.parts.as_slice() else {
+            self.error(
+                Diagnostic::error(codes::BAD_REFERENCE, path.span, "expected `VAR.ATTR`, `world.ATTR` or `self.ATTR`")
+                    .with_label("cannot compare this")
+                    .with_help("compare an attribute of an entity bound by `exists`, of `self`, or of the world"),
+            );
+            return None;
+        };
+        let (var, ty) = if head.name == "world" {
+            match self.world_attrs.get(&attr.name) {
+                Some(&i) => (None, self.d.world[i].ty.clone()),
+                None => {
+                    let mut d = unknown("world attribute", attr, self.world_attrs.names());
+                    d.code = codes::UNKNOWN_ATTR;
+                    self.error(d);
+                    return None;
+                }
+            }
+        } else {
+            let kinds = self.bound_var(head, scope)?;
+            (Some(head.name.clone()), self.entity_attr_type(&kinds, attr)?)
+        };
+        if matches!(ty, AttrType::Bool | AttrType::Enum(_)) && !matches!(op, CmpOp::Eq | CmpOp::Ne) {
+            let t = self.type_name(&ty);
+            self.error(
+                Diagnostic::error(
+                    codes::TYPE_MISMATCH,
+                    path.span,
+                    format!("`{}` is {t} and can only be compared with `==` or `!=`", attr.name),
+                )
+                .with_label("ordered comparison of a non-number"),
+            );
+            return None;
+        }
+        // Thresholds may lie outside the attribute's bounds (`distance > 200m` is simply never
+        // true), so compare against the type without its bounds.
+        let unbounded = match &ty {
+            AttrType::Number { dimension, .. } => {
+                AttrType::Number { dimension: dimension.clone(), min: f64::MIN, max: f64::MAX }
+            }
+            other => other.clone(),
+        };
+        let value = self.lower_value(value, &unbounded, &attr.name)?;
+        Some(Expr::Cmp { var, attr: attr.name.clone(), op, value })
+    }
+
+    /// The type of attribute `attr` on entities of `kinds`; it must exist on at least one.
+    fn entity_attr_type(&mut self, kinds: &[KindId], attr: &Ident) -> Option<AttrType> {
+        for k in kinds {
+            let kind = &self.d.kinds[k.index()];
+            if let Some(i) = kind.attr(&attr.name) {
+                return Some(kind.attrs[i].ty.clone());
+            }
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for k in kinds {
+            for a in &self.d.kinds[k.index()].attrs {
+                if !names.contains(&a.name.as_str()) {
+                    names.push(&a.name);
+                }
+            }
+        }
+        let mut d = unknown("attribute", attr, names.iter().copied()).with_label(if kinds.is_empty() {
+            "no kind matches this entity's filter"
+        } else {
+            "no matching kind has it"
+        });
+        d.code = codes::UNKNOWN_ATTR;
+        self.error(d);
+        None
+    }
+}

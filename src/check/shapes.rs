@@ -1,0 +1,201 @@
+//! Builtin-renderer shapes: kinds' looks (`shape { … }` or `look KIND { … }`), stage items, and
+//! the shape parts they are made of.
+
+use super::codes;
+use super::diagnostic::Diagnostic;
+use super::expr::Scope;
+use super::lower::{Checker, TypeSym, duplicate_statement};
+use crate::ir::*;
+use crate::syntax::ast::{self, Item, ItemKind};
+
+/// Materials the builtin renderer knows.
+pub const MATERIALS: &[&str] = &["matte", "metal", "glass", "emissive", "water", "flame", "smoke"];
+
+impl Checker<'_> {
+    /// Give each kind its look: its own `shape { … }` or one `look KIND { … }`, not both.
+    pub(crate) fn lower_looks(&mut self, items: &[(u32, &Item)]) {
+        for k in 0..self.kind_items.len() {
+            let item = self.kind_items[k];
+            let ItemKind::Kind { shapes, .. } = &item.kind else { continue };
+            for parts in shapes {
+                self.set_look(KindId(k as u32), parts, "`shape` block");
+            }
+        }
+        for (_, item) in items {
+            let ItemKind::Look { kind, parts } = &item.kind else { continue };
+            match self.resolve_type(kind, "kind") {
+                Some(TypeSym::Kind(k)) => self.set_look(k, parts, "`look`"),
+                Some(other) => self.error(
+                    Diagnostic::error(
+                        codes::WRONG_SORT,
+                        kind.span,
+                        format!("`{}` is {}, not a kind", kind.name, other.sort()),
+                    )
+                    .with_label("only kinds have a look"),
+                ),
+                None => {}
+            }
+        }
+    }
+
+    fn set_look(&mut self, k: KindId, parts: &ast::Parts, source: &'static str) {
+        if let Some((first, first_source)) = self.look_spans[k.index()] {
+            let name = self.d.kinds[k.index()].name.clone();
+            self.error(
+                Diagnostic::error(codes::DUPLICATE_LOOK, parts.span, format!("kind `{name}` already has a look"))
+                    .with_label(format!("second look, from a {source}"))
+                    .with_related(first, format!("first look, from a {first_source}"))
+                    .with_help("give each kind one look: either `shape { … }` in the kind or one `look` item"),
+            );
+            return;
+        }
+        self.look_spans[k.index()] = Some((parts.span, source));
+        let mut scope = Scope::for_self(vec![k]);
+        if let Some(shape) = self.lower_parts(parts, &mut scope) {
+            self.d.kinds[k.index()].shape = shape;
+        }
+    }
+
+    pub(crate) fn lower_stage(&mut self, items: &[(u32, &Item)]) {
+        for (_, item) in items {
+            let ItemKind::Stage { name, opts, parts } = &item.kind else { continue };
+            let mut at = [0.0; 3];
+            let mut repeat = None;
+            let mut when = None;
+            let mut seen: Vec<(&'static str, Span)> = Vec::new();
+            for o in opts {
+                let (key, span) = match o {
+                    ast::StageOpt::At(_, s) => ("at", *s),
+                    ast::StageOpt::Repeat { span, .. } => ("repeat", *span),
+                    ast::StageOpt::When(_, s) => ("when", *s),
+                };
+                if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == key) {
+                    let prev = *prev;
+                    self.error(duplicate_statement(key, span, prev));
+                    continue;
+                }
+                seen.push((key, span));
+                match o {
+                    ast::StageOpt::At(v, _) => at = self.vec3(v, "length").unwrap_or(at),
+                    ast::StageOpt::Repeat { count, step, .. } => {
+                        repeat = self.vec3(step, "length").map(|s| (*count, s));
+                    }
+                    ast::StageOpt::When(e, _) => when = self.lower_expr(e, &mut Scope::default()),
+                }
+            }
+            let mut scope = Scope::default();
+            let Some(parts) = self.lower_parts(parts, &mut scope) else { continue };
+            if self.stages.span(&name.name) == Some(name.span) {
+                self.d.stage.push(StageItem { name: name.name.clone(), parts, at, repeat, when, span: item.span });
+            }
+        }
+    }
+
+    /// Lower a list of shape parts; `None` when any part has an error.
+    pub(crate) fn lower_parts(&mut self, parts: &ast::Parts, scope: &mut Scope) -> Option<Vec<ShapePart>> {
+        let mut out = Vec::new();
+        let mut ok = true;
+        for p in &parts.parts {
+            match self.lower_part(p, scope) {
+                Some(part) => out.push(part),
+                None => ok = false,
+            }
+        }
+        ok.then_some(out)
+    }
+
+    fn lower_part(&mut self, p: &ast::ShapePart, scope: &mut Scope) -> Option<ShapePart> {
+        let mut part = ShapePart {
+            prim: p.prim,
+            size: [0.0; 3],
+            at: [0.0; 3],
+            color: [0.0, 0.0, 0.0, 1.0],
+            yaw_deg: 0.0,
+            roll_deg: 0.0,
+            material: "matte".to_string(),
+            when: None,
+        };
+        let mut ok = true;
+        let mut seen: Vec<(&'static str, Span)> = Vec::new();
+        for prop in &p.props {
+            let (key, span) = prop_key(prop);
+            if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == key) {
+                let prev = *prev;
+                self.error(duplicate_statement(key, span, prev));
+                ok = false;
+                continue;
+            }
+            seen.push((key, span));
+            let done = match prop {
+                ast::PartProp::Size(v, _) => self.vec3(v, "length").map(|v| part.size = v),
+                ast::PartProp::At(v, _) => self.vec3(v, "length").map(|v| part.at = v),
+                ast::PartProp::Color(text, _) => parse_color(text).map(|c| part.color = c),
+                ast::PartProp::Material(m) => {
+                    if MATERIALS.contains(&m.name.as_str()) {
+                        part.material = m.name.clone();
+                        Some(())
+                    } else {
+                        let d = super::names::unknown("material", m, MATERIALS.iter().copied())
+                            .with_label(format!("materials: {}", MATERIALS.join(", ")));
+                        self.error(d);
+                        None
+                    }
+                }
+                ast::PartProp::Yaw(n) => self.number(n, "angle").map(|v| part.yaw_deg = v),
+                ast::PartProp::Roll(n) => self.number(n, "angle").map(|v| part.roll_deg = v),
+                ast::PartProp::When(e, _) => self.lower_expr(e, scope).map(|e| part.when = Some(e)),
+            };
+            ok &= done.is_some();
+        }
+        for required in ["size", "color"] {
+            if !seen.iter().any(|(k, _)| *k == required) {
+                self.error(
+                    Diagnostic::error(codes::MISSING_STATEMENT, p.span, format!("shape part has no `{required}`"))
+                        .with_label(format!("add `{required} …`"))
+                        .with_help(if required == "size" {
+                            "give the full extents, e.g. `size (1m, 1m, 1m)`"
+                        } else {
+                            "give an sRGB colour, e.g. `color #808080`"
+                        }),
+                );
+                ok = false;
+            }
+        }
+        ok.then_some(part)
+    }
+}
+
+fn prop_key(p: &ast::PartProp) -> (&'static str, Span) {
+    match p {
+        ast::PartProp::Size(_, s) => ("size", *s),
+        ast::PartProp::At(_, s) => ("at", *s),
+        ast::PartProp::Color(_, s) => ("color", *s),
+        ast::PartProp::Material(m) => ("material", m.span),
+        ast::PartProp::Yaw(n) => ("yaw", n.span),
+        ast::PartProp::Roll(n) => ("roll", n.span),
+        ast::PartProp::When(_, s) => ("when", *s),
+    }
+}
+
+/// `#rrggbb` or `#rrggbbaa` to components in 0..=1 (the parser already reported other lengths).
+fn parse_color(text: &str) -> Option<[f64; 4]> {
+    let hex = text.strip_prefix('#')?;
+    if !matches!(hex.len(), 6 | 8) {
+        return None;
+    }
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).ok().map(|b| f64::from(b) / 255.0);
+    let alpha = if hex.len() == 8 { byte(6)? } else { 1.0 };
+    Some([byte(0)?, byte(2)?, byte(4)?, alpha])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colors() {
+        assert_eq!(parse_color("#ff0000"), Some([1.0, 0.0, 0.0, 1.0]));
+        assert_eq!(parse_color("#00000000"), Some([0.0, 0.0, 0.0, 0.0]));
+        assert_eq!(parse_color("#fff"), None);
+    }
+}

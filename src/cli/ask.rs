@@ -1,0 +1,328 @@
+//! `revelio ask FILE CONCEPT... --model M`: render one scene of a concept set, ask the model
+//! once, and show the question, the reply, the parsed option, the expected option and the
+//! verdict. The quickest check that a model, its key and its settings work.
+//!
+//! Exit codes: 0 when the model replied (whatever the verdict), 1 when the call, the domain or
+//! the scene failed, 2 for usage errors (unknown concepts, bad flags).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use sha2::{Digest, Sha256};
+
+use crate::ir::{ConceptSet, Domain};
+use crate::render::RendererOptions;
+use crate::vlm::registry::{ModelOptions, build_model};
+use crate::vlm::{Answer, Outcome, Query, Reply, Truth, prompt};
+
+#[derive(clap::Args, Debug)]
+pub struct AskArgs {
+    /// The domain file (`.rev`).
+    pub file: PathBuf,
+    /// Concept names of the set to show the model.
+    #[arg(required = true)]
+    pub concepts: Vec<String>,
+    /// The model, e.g. `gemini:gemini-3-flash-preview`, `openai:Qwen/Qwen3-VL-8B-Instruct`.
+    #[arg(long, short)]
+    pub model: String,
+    /// Scene sampling seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// `builtin`, `none`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`.
+    #[arg(long, default_value = "builtin")]
+    pub renderer: String,
+    /// Endpoint override for the model's (and image generator's) provider.
+    #[arg(long)]
+    pub base_url: Option<String>,
+    /// Per-model settings TOML (see `examples/models/`).
+    #[arg(long)]
+    pub model_config: Option<PathBuf>,
+    /// Thinking level: `minimal`, `low`, `medium`, `high` (provider-dependent).
+    #[arg(long)]
+    pub thinking: Option<String>,
+    /// Response and image cache folder; without it nothing is cached.
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Ask even when the cache has the reply.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+pub fn run(args: AskArgs) -> ExitCode {
+    let domain = match crate::cli::load_domain(&args.file) {
+        Ok(d) => d,
+        Err(code) => return code,
+    };
+    let set = match concept_set(&domain, &args.concepts) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    match runtime.block_on(ask(&domain, set, &args)) {
+        Ok(report) => {
+            print!("{report}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Concept names → a set, with "did you mean" for typos.
+fn concept_set(domain: &Domain, names: &[String]) -> Result<ConceptSet, String> {
+    let mut ids = Vec::new();
+    for n in names {
+        match domain.concepts.iter().find(|c| &c.name == n) {
+            Some(c) => ids.push(c.id),
+            None => {
+                let near = domain.concepts.iter().map(|c| (edit_distance(n, &c.name), &c.name)).min();
+                return Err(match near {
+                    Some((d, name)) if d <= 1 + n.len() / 4 => {
+                        format!("unknown concept `{n}` in domain `{}`: did you mean `{name}`?", domain.name)
+                    }
+                    _ => format!("unknown concept `{n}` in domain `{}`", domain.name),
+                });
+            }
+        }
+    }
+    Ok(ConceptSet::from_ids(ids))
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur.push((prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1));
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, String> {
+    let verdict = crate::oracle::evaluate(domain, set).map_err(|e| e.to_string())?;
+    let question = domain.questions.get(verdict.question.index()).ok_or_else(|| {
+        format!("the oracle named question {} that the domain does not have", verdict.question.index())
+    })?;
+    let options: Vec<String> = question.options.iter().map(|o| o.text.clone()).collect();
+    let scene = crate::sample::sample(domain, set, args.seed).map_err(|e| e.to_string())?;
+    let render_opts = RendererOptions {
+        size: None,
+        cache_dir: args.cache_dir.as_ref().map(|d| d.join("images")),
+        base_url: args.base_url.clone(),
+    };
+    let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
+        None => None,
+        Some(r) => {
+            let image_prompt = crate::emit::prompt(domain, &scene).map_err(|e| e.to_string())?;
+            Some(r.render(&scene, &image_prompt).await.map_err(|e| e.to_string())?.png)
+        }
+    };
+    let image_hash = match &image {
+        Some(png) => hex::encode(Sha256::digest(png)),
+        None => hex::encode(Sha256::digest(serde_json::to_vec(&scene).map_err(|e| e.to_string())?)),
+    };
+    let model_opts = ModelOptions {
+        base_url: args.base_url.clone(),
+        config: args.model_config.clone(),
+        thinking: args.thinking.clone(),
+        no_cache: args.no_cache,
+        cache_dir: args.cache_dir.as_ref().map(|d| d.join("replies")),
+    };
+    let model = build_model(&args.model, domain, &model_opts)?;
+    let concepts: Vec<String> =
+        set.iter().filter_map(|id| domain.concepts.get(id.index())).map(|c| c.name.clone()).collect();
+    let query = Query {
+        image: image.map(Arc::new),
+        image_hash,
+        prompt: prompt::build(&question.text, &options),
+        options: options.clone(),
+        truth: Some(Truth { set, concepts, expected: verdict.expected, key: args.seed }),
+    };
+    let reply = model.ask(&query).await;
+    let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
+    if reply.answer == Answer::ApiError {
+        return Err(format!("`{}` failed: {}", model.id(), reply.raw));
+    }
+    Ok(report(&model.id(), &query.prompt, &options, &reply, verdict.expected, rule))
+}
+
+fn option_label(i: u32, options: &[String]) -> String {
+    let text = options.get(i as usize).map_or("?", String::as_str);
+    format!("{} ({text})", prompt::letter(i as usize))
+}
+
+/// The human-readable result of one question.
+fn report(model: &str, prompt_text: &str, options: &[String], reply: &Reply, expected: u32, rule: &str) -> String {
+    let indent = |s: &str| s.trim().lines().collect::<Vec<_>>().join("\n           ");
+    let parsed = match reply.answer {
+        Answer::Option(i) => option_label(i, options),
+        other => serde_json::to_value(other).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default(),
+    };
+    let verdict = Outcome::from_answer(reply.answer, expected);
+    let verdict = serde_json::to_value(verdict).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();
+    let mut out = String::new();
+    out.push_str(&format!("model      {model}\n"));
+    out.push_str(&format!("prompt     {}\n", indent(prompt_text)));
+    if let Some(t) = &reply.thinking {
+        let short: String = t.chars().take(600).collect();
+        let more = if t.chars().count() > 600 { " …" } else { "" };
+        out.push_str(&format!("thinking   {}{more}\n", indent(&short)));
+    }
+    out.push_str(&format!("reply      {}\n", indent(&reply.raw)));
+    out.push_str(&format!("parsed     {parsed}\n"));
+    out.push_str(&format!("expected   {} by rule `{rule}`\n", option_label(expected, options)));
+    out.push_str(&format!("verdict    {verdict}\n"));
+    let u = &reply.usage;
+    let source = if reply.cached {
+        "from the cache".to_string()
+    } else {
+        let s = if reply.attempts == 1 { "" } else { "s" };
+        format!("{:.1} s, {} attempt{s}", reply.latency_ms as f64 / 1000.0, reply.attempts)
+    };
+    out.push_str(&format!(
+        "usage      {} input / {} output tokens ({} thinking), ${:.4}, {source}\n",
+        u.input_tokens, u.output_tokens, u.thinking_tokens, u.cost_usd
+    ));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vlm::Usage;
+
+    #[test]
+    fn report_layout() {
+        let options = vec!["Stop".to_string(), "Slow down".to_string(), "Continue".to_string()];
+        let reply = Reply {
+            raw: "Debris lies in the lane.\nAnswer: B".into(),
+            thinking: Some("The object is small.".into()),
+            answer: Answer::Option(1),
+            usage: Usage { input_tokens: 1290, output_tokens: 262, thinking_tokens: 250, cost_usd: 0.00143 },
+            latency_ms: 2345,
+            cached: false,
+            attempts: 2,
+        };
+        let p = prompt::build("What should the ego vehicle do?", &options);
+        insta::assert_snapshot!(report(
+            "gemini:gemini-3-flash-preview@thinking=low",
+            &p,
+            &options,
+            &reply,
+            0,
+            "debris_in_lane"
+        ));
+    }
+
+    /// Echoes the request headers back, so a leak of the key would show in the reply.
+    struct Echo(u16);
+
+    impl wiremock::Respond for Echo {
+        fn respond(&self, r: &wiremock::Request) -> wiremock::ResponseTemplate {
+            let headers: String =
+                r.headers.iter().map(|(k, v)| format!("{k}: {}\n", v.to_str().unwrap_or(""))).collect();
+            let body = if self.0 == 200 {
+                serde_json::json!({"choices": [{"message": {"content": format!("{headers}\nAnswer: A")}, "finish_reason": "stop"}],
+                                   "usage": {"prompt_tokens": 900, "completion_tokens": 40}})
+            } else {
+                serde_json::json!({"error": {"message": format!("invalid key in {headers}"), "type": "invalid_request_error"}})
+            };
+            wiremock::ResponseTemplate::new(self.0).set_body_json(body)
+        }
+    }
+
+    fn args(base: String, cache: &std::path::Path) -> AskArgs {
+        AskArgs {
+            file: "driving.rev".into(),
+            concepts: vec![],
+            model: "openai:glm-4.6v-flash".into(),
+            seed: 3,
+            renderer: "none".into(),
+            base_url: Some(base),
+            model_config: None,
+            thinking: None,
+            cache_dir: Some(cache.to_path_buf()),
+            no_cache: false,
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn asks_a_mock_and_never_shows_the_key() {
+        const KEY: &str = "sk-ask-CANARY-3f9e61";
+        // SAFETY: no other test in this crate reads or writes `OPENAI_API_KEY`, and Rust's own
+        // environment accessors are serialised.
+        unsafe { std::env::set_var("OPENAI_API_KEY", KEY) };
+        let domain = crate::lattice::testkit::driving();
+        let set = concept_set(&domain, &["debris_near".into()]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mut outputs = Vec::new();
+        for status in [200, 401] {
+            let server = wiremock::MockServer::start().await;
+            wiremock::Mock::given(wiremock::matchers::method("POST")).respond_with(Echo(status)).mount(&server).await;
+            let mut a = args(server.uri(), dir.path());
+            // The 200 reply was cached; the error case must reach the server.
+            a.no_cache = status == 401;
+            let result = ask(&domain, set, &a).await;
+            let sent = &server.received_requests().await.unwrap()[0];
+            assert_eq!(sent.headers.get("authorization").unwrap(), &format!("Bearer {KEY}"));
+            match (status, result) {
+                (200, Ok(out)) => {
+                    assert!(out.contains("parsed     A (answer stop)"), "{out}");
+                    assert!(out.contains("expected   A (answer stop) by rule `near_in_lane`"), "{out}");
+                    assert!(out.contains("verdict    correct"), "{out}");
+                    assert!(out.contains("[redacted]"), "{out}");
+                    outputs.push(out);
+                }
+                (401, Err(e)) => {
+                    assert!(e.contains("HTTP 401"), "{e}");
+                    outputs.push(e);
+                }
+                (s, r) => panic!("status {s}: {r:?}"),
+            }
+        }
+        let mut files = vec![dir.path().to_path_buf()];
+        while let Some(p) = files.pop() {
+            if p.is_dir() {
+                files.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            } else {
+                outputs.push(String::from_utf8_lossy(&std::fs::read(&p).unwrap()).into_owned());
+            }
+        }
+        assert!(outputs.len() >= 3, "the parsed reply was cached");
+        for o in outputs {
+            assert!(!o.contains(KEY), "the key leaked: {o}");
+        }
+    }
+
+    #[test]
+    fn unknown_concepts_suggest_a_near_name() {
+        let d = crate::lattice::testkit::driving();
+        assert_eq!(
+            concept_set(&d, &["debris_nera".into()]).unwrap_err(),
+            "unknown concept `debris_nera` in domain `test`: did you mean `debris_near`?"
+        );
+        assert_eq!(concept_set(&d, &["zebra".into()]).unwrap_err(), "unknown concept `zebra` in domain `test`");
+    }
+
+    #[test]
+    fn edit_distances() {
+        assert_eq!(edit_distance("debris_far", "debris_far"), 0);
+        assert_eq!(edit_distance("debri_far", "debris_far"), 1);
+        assert_eq!(edit_distance("", "ab"), 2);
+    }
+}

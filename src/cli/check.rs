@@ -1,0 +1,392 @@
+//! `revelio check PATH...`: compile `.rev` files (folders are searched recursively) and report
+//! every diagnostic as human (miette), plain or JSON output. Also home of the diagnostic
+//! renderers the other subcommands use through [`super::load_domain`].
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, SourceSpan};
+
+use crate::check::diagnostic::{Diagnostic, Severity};
+use crate::check::{self, Compiled};
+use crate::ir::{SourceFile, Span};
+
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    /// `.rev` files or folders (searched recursively for `*.rev`)
+    #[arg(required = true, value_name = "PATH")]
+    pub paths: Vec<PathBuf>,
+    /// Output format: `human` (annotated source), `plain` (one line each) or `json` (one object
+    /// per line)
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Human,
+    Plain,
+    Json,
+}
+
+pub fn run(args: CheckArgs) -> ExitCode {
+    let files = match collect_rev_files(&args.paths) {
+        Ok(f) => f,
+        Err(msg) => {
+            eprintln!("error: {msg}");
+            return ExitCode::from(2);
+        }
+    };
+    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
+    reports.sort_by(|a, b| a.key().cmp(&b.key()));
+    reports.dedup_by(|a, b| a.key() == b.key());
+    let errors = reports.iter().filter(|r| r.diag.is_error()).count();
+    let allowed = reports.iter().filter(|r| r.allowed).count();
+    let warnings = reports.len() - errors - allowed;
+    let out = match args.format {
+        Format::Human => {
+            let theme = if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                GraphicalTheme::unicode()
+            } else {
+                GraphicalTheme::unicode_nocolor()
+            };
+            let mut s: String = reports.iter().filter(|r| !r.allowed).map(|r| r.human(&theme)).collect();
+            let _ = writeln!(s, "{}", summary(files.len(), errors, warnings, allowed));
+            s
+        }
+        Format::Plain => reports.iter().filter(|r| !r.allowed).map(Report::plain).collect(),
+        Format::Json => reports.iter().map(|r| r.json() + "\n").collect(),
+    };
+    write_stdout(&out);
+    if errors > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS }
+}
+
+/// Print to stdout; a closed pipe (`revelio check … | head`) is not an error worth a panic.
+pub fn write_stdout(s: &str) {
+    use std::io::Write as _;
+    let _ = std::io::stdout().lock().write_all(s.as_bytes());
+}
+
+fn summary(files: usize, errors: usize, warnings: usize, allowed: usize) -> String {
+    let plural = |n: usize, w: &str| if n == 1 { format!("1 {w}") } else { format!("{n} {w}s") };
+    let mut s =
+        format!("checked {}: {}, {}", plural(files, "file"), plural(errors, "error"), plural(warnings, "warning"));
+    if allowed > 0 {
+        let _ = write!(s, " ({allowed} allowed)");
+    }
+    s
+}
+
+/// The reports of one compilation; lints silenced by the domain's `allow` items are marked.
+pub fn reports_of(c: &Compiled) -> Vec<Report<'_>> {
+    let allowed: Vec<&str> = c.domain.iter().flat_map(|d| d.allow.iter().map(|a| a.code.as_str())).collect();
+    c.diagnostics
+        .iter()
+        .map(|d| {
+            let mut r = Report::new(&c.files, d);
+            r.allowed = d.severity == Severity::Warning && allowed.contains(&d.code);
+            r
+        })
+        .collect()
+}
+
+/// Compile one file from disk: `use "…"` paths are read relative to it. With `lints`, the
+/// lattice lints run on domain files that compiled without errors.
+pub fn compile_path(path: &Path, lints: bool) -> Compiled {
+    let name = path.to_string_lossy().into_owned();
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) => {
+            let d = Diagnostic::new(
+                crate::check::codes::FILE_NOT_FOUND,
+                Severity::Error,
+                None,
+                format!("cannot read `{name}`: {}", io_reason(&e)),
+            );
+            return Compiled { domain: None, diagnostics: vec![d], files: Vec::new() };
+        }
+    };
+    let mut compiled = check::compile(&name, &text, &|p| std::fs::read_to_string(p).ok());
+    if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
+        compiled.diagnostics.extend(crate::lattice::lints::lint_domain(domain));
+        check::sort_diagnostics(&mut compiled.diagnostics);
+    }
+    compiled
+}
+
+fn io_reason(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file".to_string(),
+        std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+        std::io::ErrorKind::InvalidData => "not UTF-8 text".to_string(),
+        _ => e.to_string().to_lowercase(),
+    }
+}
+
+/// The `.rev` files named by `paths`, folders searched recursively, sorted within a folder.
+pub fn collect_rev_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
+        } else if p.is_file() {
+            out.push(p.clone());
+        } else {
+            return Err(format!("`{}` does not exist", p.display()));
+        }
+    }
+    Ok(out)
+}
+
+fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)?.map(|e| e.map(|e| e.path())).collect::<Result<_, _>>()?;
+    entries.sort();
+    for e in entries {
+        if e.is_dir() {
+            walk(&e, out)?;
+        } else if e.extension().is_some_and(|x| x == "rev") {
+            out.push(e);
+        }
+    }
+    Ok(())
+}
+
+/// A diagnostic with the source files it points into, ready to render.
+pub struct Report<'a> {
+    pub diag: &'a Diagnostic,
+    files: &'a [SourceFile],
+    /// A lattice lint the domain silences with `allow CODE`: counted, shown only in JSON.
+    pub allowed: bool,
+}
+
+/// Line and column (1-based; columns count characters) of a byte offset.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(before, |i| &before[i + 1..]).chars().count() + 1;
+    (line, col)
+}
+
+impl<'a> Report<'a> {
+    pub fn new(files: &'a [SourceFile], diag: &'a Diagnostic) -> Self {
+        Report { diag, files, allowed: false }
+    }
+
+    fn file(&self, span: Span) -> Option<&'a SourceFile> {
+        self.files.get(span.file as usize)
+    }
+
+    /// Sort and dedup key: file name, position, code, message.
+    fn key(&self) -> (String, u32, u32, &'static str, String) {
+        match self.diag.span {
+            Some(s) => (
+                self.file(s).map(|f| f.name.clone()).unwrap_or_default(),
+                s.start,
+                s.end,
+                self.diag.code,
+                self.diag.message.clone(),
+            ),
+            None => (String::new(), 0, 0, self.diag.code, self.diag.message.clone()),
+        }
+    }
+
+    fn location(&self, span: Span) -> Option<(String, usize, usize)> {
+        let f = self.file(span)?;
+        let (line, col) = line_col(&f.text, span.start as usize);
+        Some((f.name.clone(), line, col))
+    }
+
+    /// `file:line:col: severity[CODE]: message`, then `  help: …` and `  note: …` lines.
+    pub fn plain(&self) -> String {
+        let d = self.diag;
+        let mut s = match d.span.and_then(|sp| self.location(sp)) {
+            Some((file, line, col)) => format!("{file}:{line}:{col}: "),
+            None => String::new(),
+        };
+        let _ = writeln!(s, "{}[{}]: {}", severity_word(d.severity), d.code, d.message);
+        for r in &d.related {
+            if let Some((file, line, col)) = self.location(r.span) {
+                let _ = writeln!(s, "  note: {file}:{line}:{col}: {}", r.message);
+            }
+        }
+        if let Some(h) = &d.help {
+            let _ = writeln!(s, "  help: {h}");
+        }
+        s
+    }
+
+    /// One JSON object (no newline).
+    pub fn json(&self) -> String {
+        let d = self.diag;
+        let place = |span: Span| {
+            let f = self.file(span);
+            let text = f.map_or("", |f| f.text.as_str());
+            let (line, column) = line_col(text, span.start as usize);
+            let (end_line, end_column) = line_col(text, span.end as usize);
+            serde_json::json!({
+                "file": f.map(|f| f.name.clone()),
+                "span": { "start": span.start, "end": span.end },
+                "line": line, "column": column, "end_line": end_line, "end_column": end_column,
+            })
+        };
+        let mut obj = serde_json::json!({
+            "code": d.code,
+            "severity": severity_word(d.severity),
+            "allowed": self.allowed,
+            "message": d.message,
+            "label": d.label,
+            "help": d.help,
+            "related": d.related.iter().map(|r| {
+                let mut p = place(r.span);
+                p["message"] = serde_json::Value::String(r.message.clone());
+                p
+            }).collect::<Vec<_>>(),
+        });
+        let loc = match d.span {
+            Some(s) => place(s),
+            None => serde_json::json!({
+                "file": null, "span": null, "line": null, "column": null, "end_line": null, "end_column": null
+            }),
+        };
+        if let (Some(o), serde_json::Value::Object(l)) = (obj.as_object_mut(), loc) {
+            o.extend(l);
+        }
+        obj.to_string()
+    }
+
+    /// miette's graphical rendering, with `theme`.
+    pub fn human(&self, theme: &GraphicalTheme) -> String {
+        let handler = GraphicalReportHandler::new_themed(theme.clone()).with_links(false).with_width(100);
+        let mut out = String::new();
+        let _ = handler.render_report(&mut out, &MietteDiag::new(self));
+        out.push('\n');
+        out
+    }
+}
+
+fn severity_word(s: Severity) -> &'static str {
+    match s {
+        Severity::Error => "error",
+        Severity::Warning => "warning",
+    }
+}
+
+/// Adapter from our diagnostic to miette's trait. Related spans in the primary's file become
+/// secondary labels; those in other files become related reports with their own source.
+struct MietteDiag {
+    message: String,
+    code: &'static str,
+    severity: miette::Severity,
+    help: Option<String>,
+    source: Option<NamedSource<String>>,
+    labels: Vec<LabeledSpan>,
+    related: Vec<MietteDiag>,
+}
+
+impl MietteDiag {
+    fn new(r: &Report) -> Self {
+        let d = r.diag;
+        let primary_file = d.span.map(|s| s.file);
+        let mut labels = Vec::new();
+        let mut related = Vec::new();
+        if let Some(s) = d.span {
+            let label = (!d.label.is_empty()).then(|| d.label.clone());
+            labels.push(LabeledSpan::new_primary_with_span(label, to_source_span(s)));
+        }
+        for l in &d.related {
+            if Some(l.span.file) == primary_file {
+                labels.push(LabeledSpan::new_with_span(Some(l.message.clone()), to_source_span(l.span)));
+            } else {
+                related.push(MietteDiag {
+                    message: l.message.clone(),
+                    code: d.code,
+                    severity: miette::Severity::Advice,
+                    help: None,
+                    source: named_source(r, l.span.file),
+                    labels: vec![LabeledSpan::new_primary_with_span(None, to_source_span(l.span))],
+                    related: Vec::new(),
+                });
+            }
+        }
+        MietteDiag {
+            message: d.message.clone(),
+            code: d.code,
+            severity: match d.severity {
+                Severity::Error => miette::Severity::Error,
+                Severity::Warning => miette::Severity::Warning,
+            },
+            help: d.help.clone(),
+            source: primary_file.and_then(|f| named_source(r, f)),
+            labels,
+            related,
+        }
+    }
+}
+
+fn named_source(r: &Report, file: u32) -> Option<NamedSource<String>> {
+    r.files.get(file as usize).map(|f| NamedSource::new(f.name.clone(), f.text.clone()))
+}
+
+fn to_source_span(s: Span) -> SourceSpan {
+    SourceSpan::from(s.start as usize..s.end.max(s.start) as usize)
+}
+
+impl std::fmt::Debug for MietteDiag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::fmt::Display for MietteDiag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for MietteDiag {}
+
+impl miette::Diagnostic for MietteDiag {
+    fn code<'a>(&'a self) -> Option<Box<dyn std::fmt::Display + 'a>> {
+        Some(Box::new(self.code))
+    }
+    fn severity(&self) -> Option<miette::Severity> {
+        Some(self.severity)
+    }
+    fn help<'a>(&'a self) -> Option<Box<dyn std::fmt::Display + 'a>> {
+        self.help.as_ref().map(|h| Box::new(h) as Box<dyn std::fmt::Display>)
+    }
+    fn source_code(&self) -> Option<&dyn miette::SourceCode> {
+        self.source.as_ref().map(|s| s as &dyn miette::SourceCode)
+    }
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        if self.labels.is_empty() { None } else { Some(Box::new(self.labels.iter().cloned())) }
+    }
+    fn related<'a>(&'a self) -> Option<Box<dyn Iterator<Item = &'a dyn miette::Diagnostic> + 'a>> {
+        if self.related.is_empty() {
+            None
+        } else {
+            Some(Box::new(self.related.iter().map(|r| r as &dyn miette::Diagnostic)))
+        }
+    }
+}
+
+/// Render all diagnostics of a compilation as human output (for `load_domain`).
+pub fn render_human(compiled: &Compiled, theme: &GraphicalTheme) -> String {
+    reports_of(compiled).iter().filter(|r| !r.allowed).map(|r| r.human(theme)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_and_column() {
+        assert_eq!(line_col("ab\ncd", 0), (1, 1));
+        assert_eq!(line_col("ab\ncd", 4), (2, 2));
+        assert_eq!(line_col("é\nx", 3), (2, 1));
+        assert_eq!(line_col("éx", 2), (1, 2));
+    }
+}

@@ -1,0 +1,279 @@
+//! `revelio search FILE --model M …`: search a domain for failure modes of a model, into a
+//! resumable run folder; prints the top failure modes (or `--json`).
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use crate::ir::Domain;
+use crate::journal::domain_hash;
+use crate::lattice::Lattice;
+use crate::render::{Renderer, RendererOptions, build_renderer};
+use crate::search::eval::{DomainWorld, World};
+use crate::search::runner::{self, RunConfig, Setup, Summary};
+use crate::search::{Algo, DEFAULT_LAMBDA, Params};
+use crate::vlm::Model;
+use crate::vlm::registry::{ModelOptions, build_model};
+
+#[derive(clap::Args, Debug)]
+pub struct SearchArgs {
+    /// The domain file (`.rev`)
+    pub file: PathBuf,
+    /// The model: `sim:PROFILE.toml`, `openai:MODEL`, `anthropic:MODEL`, `gemini:MODEL`, `bedrock:MODEL_ID`
+    #[arg(long)]
+    pub model: String,
+    #[arg(long, value_enum, default_value = "gpts")]
+    pub algo: Algo,
+    /// Inference budget (sets evaluated = budget / samples)
+    #[arg(long, default_value_t = 1000)]
+    pub budget: u64,
+    /// Observations per concept set (m)
+    #[arg(long, default_value_t = 5)]
+    pub samples: u32,
+    /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
+    #[arg(long, default_value_t = 0.6)]
+    pub threshold: f64,
+    #[arg(long, default_value_t = 5)]
+    pub beam_width: usize,
+    #[arg(long, default_value_t = 5)]
+    pub max_depth: usize,
+    /// Beam diversity weight λ in FR − λ·max Jaccard
+    #[arg(long, default_value_t = DEFAULT_LAMBDA)]
+    pub lambda: f64,
+    /// GPTS: inferences for the beam phase [default: budget / 2]
+    #[arg(long)]
+    pub beam_budget: Option<u64>,
+    /// GPTS: Thompson draws per round, evaluated in parallel
+    #[arg(long, default_value_t = 1)]
+    pub batch: usize,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Largest concept set searched
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
+    pub max_size: usize,
+    /// Model calls in flight at once
+    #[arg(long, default_value_t = 8)]
+    pub concurrency: usize,
+    /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// `builtin` (wgpu), `none` (no image), `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`
+    #[arg(long, default_value = "builtin")]
+    pub renderer: String,
+    #[command(flatten)]
+    pub model_opts: ModelFlags,
+    /// Failure modes shown in the table
+    #[arg(long, default_value_t = 10)]
+    pub top: usize,
+    /// Print the summary as JSON
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Flags that configure model clients (shared with `validate`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ModelFlags {
+    /// Override the provider endpoint
+    #[arg(long)]
+    pub base_url: Option<String>,
+    /// Per-model settings (TOML)
+    #[arg(long)]
+    pub model_config: Option<PathBuf>,
+    /// Thinking level: minimal, low, medium, high
+    #[arg(long)]
+    pub thinking: Option<String>,
+    /// Do not use the response cache
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl ModelFlags {
+    pub fn options(&self, out: &Path) -> ModelOptions {
+        ModelOptions {
+            base_url: self.base_url.clone(),
+            config: self.model_config.clone(),
+            thinking: self.thinking.clone(),
+            no_cache: self.no_cache,
+            cache_dir: Some(out.join("cache")),
+        }
+    }
+}
+
+pub fn run(args: SearchArgs) -> ExitCode {
+    let domain = match crate::cli::load_domain(&args.file) {
+        Ok(d) => d,
+        Err(code) => return code,
+    };
+    let params = Params {
+        algo: args.algo,
+        budget: args.budget,
+        samples: args.samples,
+        threshold: args.threshold,
+        beam_width: args.beam_width,
+        max_depth: args.max_depth,
+        lambda: args.lambda,
+        beam_budget: args.beam_budget.unwrap_or(args.budget / 2),
+        batch: args.batch,
+        seed: args.seed,
+        max_size: args.max_size,
+    };
+    if let Err(e) = params.validate() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
+    let (model, renderer) = match build_parts(&domain, &args.model, &args.renderer, &args.model_opts, &out) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let config = RunConfig {
+        domain_file: absolute(&args.file),
+        domain: domain.name.clone(),
+        domain_hash: domain_hash(&domain),
+        model_spec: args.model.clone(),
+        model: model.id(),
+        renderer: args.renderer.clone(),
+        params,
+    };
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
+    let lattice = Lattice::enumerate(&domain, config.params.max_size);
+    let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
+    if dropped > 0 {
+        eprintln!(
+            "note: {dropped} valid sets have no determined ground truth and are not searched (see `revelio check`)"
+        );
+    }
+    if space.sets.is_empty() {
+        eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
+        return ExitCode::from(1);
+    }
+    let setup = Setup {
+        domain: Arc::new(domain),
+        world,
+        model,
+        renderer,
+        concurrency: args.concurrency,
+        out: out.clone(),
+        progress: !args.json,
+    };
+    let started = std::time::Instant::now();
+    let report = match runtime().block_on(runner::search(&setup, &config, &space)) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    if report.dropped_torn_line {
+        eprintln!("note: dropped a torn last line of the journal (the previous run was killed mid-write)");
+    }
+    if report.replayed > 0 {
+        eprintln!("resumed `{}`: {} observations replayed from the journal", out.display(), report.replayed);
+    }
+    let mut stdout = std::io::stdout().lock();
+    let written = if args.json {
+        serde_json::to_writer_pretty(&mut stdout, &report.summary)
+            .map_err(std::io::Error::from)
+            .and_then(|_| writeln!(stdout))
+    } else {
+        print_summary(&mut stdout, &report.summary, args.top, &out, started.elapsed())
+    };
+    match written {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: cannot write the summary: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+pub(crate) type Parts = (Arc<dyn Model>, Option<Arc<dyn Renderer>>);
+
+pub(crate) fn build_parts(
+    domain: &Domain,
+    model: &str,
+    renderer: &str,
+    flags: &ModelFlags,
+    out: &Path,
+) -> Result<Parts, String> {
+    let model = build_model(model, domain, &flags.options(out))?;
+    let renderer = build_renderer(
+        renderer,
+        &RendererOptions { size: None, cache_dir: Some(out.join("image-cache")), base_url: flags.base_url.clone() },
+    )?;
+    Ok((model, renderer))
+}
+
+pub(crate) fn absolute(p: &Path) -> String {
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string()
+}
+
+pub(crate) fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("a tokio runtime starts")
+}
+
+fn fr_text(fr: Option<f64>) -> String {
+    fr.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
+}
+
+/// The human summary: metrics, then the top failure modes.
+pub fn print_summary(
+    w: &mut impl Write,
+    s: &Summary,
+    top: usize,
+    out: &Path,
+    elapsed: std::time::Duration,
+) -> std::io::Result<()> {
+    let m = &s.metrics;
+    writeln!(
+        w,
+        "{} on `{}` with {}: {} sets ({} inferences) of {} valid, in {:.1}s",
+        s.algo.name(),
+        s.domain,
+        s.model,
+        m.sets,
+        m.inferences,
+        s.space,
+        elapsed.as_secs_f64()
+    )?;
+    let div = m.div.map_or_else(|| "-".into(), |d| format!("{d:.2}"));
+    writeln!(
+        w,
+        "PFM {:.1}%  MFR {:.1}%  Div {div}  ({} failure modes at FR ≥ {})",
+        m.pfm, m.mfr, m.failure_modes, s.threshold
+    )?;
+    if !m.unanswered.is_empty() {
+        let parts: Vec<String> = m.unanswered.iter().map(|(o, n)| format!("{n} {}", outcome_name(*o))).collect();
+        writeln!(w, "not answered (excluded from FR): {}", parts.join(", "))?;
+    }
+    if s.failure_modes.is_empty() {
+        writeln!(w, "no failure modes found")?;
+    } else {
+        writeln!(w)?;
+        writeln!(w, "{:>4}  {:>5}  {:>5}  concepts", "#", "FR", "n")?;
+        for (i, row) in s.failure_modes.iter().take(top).enumerate() {
+            writeln!(w, "{:>4}  {:>5}  {:>5}  {}", i + 1, fr_text(row.fr), row.answered, row.concepts.join(" + "))?;
+        }
+        if s.failure_modes.len() > top {
+            writeln!(w, "      … {} more in summary.json", s.failure_modes.len() - top)?;
+        }
+    }
+    writeln!(w)?;
+    writeln!(
+        w,
+        "run folder: {} (journal.jsonl, summary.json; `revelio validate {}` re-checks the top sets)",
+        out.display(),
+        out.display()
+    )
+}
+
+pub(crate) fn outcome_name(o: crate::vlm::Outcome) -> String {
+    serde_json::to_value(o).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
+}

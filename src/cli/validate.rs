@@ -1,0 +1,123 @@
+//! `revelio validate RUN_DIR --top 10 --samples 20`: re-evaluate a run's top sets with fresh
+//! scenes (paper section 4), journaled in the run folder; reports mean ± sd FR and how many
+//! reach FR ≥ 0.8.
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use crate::journal::domain_hash;
+use crate::search::eval::{DomainWorld, World};
+use crate::search::runner::{self, CONSISTENT_FR, Setup, Validation};
+
+use super::search::{ModelFlags, build_parts, runtime};
+
+#[derive(clap::Args, Debug)]
+pub struct ValidateArgs {
+    /// A finished `revelio search` run folder
+    pub run_dir: PathBuf,
+    /// Sets to validate (highest failure rate first)
+    #[arg(long, default_value_t = 10)]
+    pub top: usize,
+    /// Fresh observations per set
+    #[arg(long, default_value_t = 20)]
+    pub samples: u32,
+    #[arg(long, default_value_t = 8)]
+    pub concurrency: usize,
+    #[command(flatten)]
+    pub model_opts: ModelFlags,
+    /// Print JSON
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: ValidateArgs) -> ExitCode {
+    let (config, summary) = match runner::load_run(&args.run_dir) {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let domain = match crate::cli::load_domain(std::path::Path::new(&config.domain_file)) {
+        Ok(d) => d,
+        Err(code) => return code,
+    };
+    if domain_hash(&domain) != config.domain_hash {
+        eprintln!(
+            "error: `{}` changed since the run in `{}`; validation needs the domain the search used",
+            config.domain_file,
+            args.run_dir.display()
+        );
+        return ExitCode::from(1);
+    }
+    let (model, renderer) =
+        match build_parts(&domain, &config.model_spec, &config.renderer, &args.model_opts, &args.run_dir) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        };
+    if model.id() != config.model {
+        eprintln!(
+            "error: the model now resolves to `{}`, but the run used `{}`; pass the same model flags as the search",
+            model.id(),
+            config.model
+        );
+        return ExitCode::from(2);
+    }
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
+    let setup = Setup {
+        domain: Arc::new(domain),
+        world,
+        model,
+        renderer,
+        concurrency: args.concurrency,
+        out: args.run_dir.clone(),
+        progress: !args.json,
+    };
+    let v = match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples)) {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let mut out = std::io::stdout().lock();
+    let written = if args.json {
+        serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
+    } else {
+        print_validation(&mut out, &v)
+    };
+    match written {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            eprintln!("error: cannot write the report: {e}");
+            ExitCode::from(1)
+        }
+        _ => ExitCode::SUCCESS,
+    }
+}
+
+fn pct(f: Option<f64>) -> String {
+    f.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
+}
+
+pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<()> {
+    writeln!(w, "{:>4}  {:>9}  {:>9}  concepts", "#", "search FR", "valid. FR")?;
+    for (i, s) in v.sets.iter().enumerate() {
+        let fr = format!("{} /{}", pct(s.validation.fr), s.validation.answered);
+        writeln!(w, "{:>4}  {:>9}  {:>9}  {}", i + 1, pct(s.search.fr), fr, s.search.concepts.join(" + "))?;
+    }
+    writeln!(
+        w,
+        "validated FR {:.1}% ± {:.1}% over {} sets × {} samples; {} of {} reach FR ≥ {:.0}%",
+        100.0 * v.mean_fr,
+        100.0 * v.sd_fr,
+        v.sets.len(),
+        v.samples,
+        v.consistent,
+        v.sets.len(),
+        100.0 * CONSISTENT_FR
+    )
+}

@@ -1,0 +1,80 @@
+//! GP Thompson sampling (paper Algorithm 2): a beam phase, then rounds of fit → draw → evaluate.
+//!
+//! Each round fits the surrogate on the multi-hot vectors of every evaluated set and their
+//! observed failure rates, makes `batch` Thompson draws with fresh randomness from the run's
+//! ChaCha stream (never a fixed `random_state`: reusing one draw would pick the same argmax every
+//! round), and evaluates the distinct argmaxes over all unexplored valid sets in parallel. Ties go
+//! to the set earliest in the lattice order. When the beam phase produced no data (a beam budget
+//! of 0) the first round draws uniformly, since a fit on no data says nothing.
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::ir::ConceptSet;
+
+use super::gp::{Draw, Gp};
+use super::{Driver, Evaluate, Params, Space};
+
+/// Salt for the GPTS random stream, so it differs from Random's stream for the same seed.
+const STREAM: u64 = 0x6770_7473_0000_0001;
+
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+    let total = driver.remaining();
+    let beam_sets = (params.beam_budget / u64::from(params.samples)) as usize;
+    driver.set_max_sets(beam_sets.min(total));
+    super::beam::run(params, space, driver).await?;
+    driver.set_max_sets(total);
+
+    let mut rng = ChaCha8Rng::seed_from_u64(params.seed ^ STREAM);
+    // Explored flags by lattice position: one pass over the history now, then only the picks of
+    // each round are marked (no per-round hash lookups over the whole lattice).
+    let mut explored = vec![false; space.sets.len()];
+    let mut left = space.sets.len();
+    let mark = |explored: &mut [bool], set: ConceptSet, left: &mut usize| {
+        if let Some(i) = space.position(set).filter(|&i| !explored[i]) {
+            explored[i] = true;
+            *left -= 1;
+        }
+    };
+    for s in &driver.history {
+        mark(&mut explored, s.set, &mut left);
+    }
+    while driver.remaining() > 0 && left > 0 {
+        let picks: Vec<ConceptSet> = if driver.history.is_empty() {
+            let open: Vec<usize> = (0..space.sets.len()).filter(|&i| !explored[i]).collect();
+            let n = params.batch.min(open.len());
+            rand::seq::index::sample(&mut rng, open.len(), n).into_iter().map(|k| space.sets[open[k]]).collect()
+        } else {
+            let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
+            let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
+            let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
+            let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
+            for _ in 0..params.batch {
+                let draw = model.draw(&mut rng);
+                if let Some(best) = argmax(&explored, space, &draw).filter(|b| !picks.contains(b)) {
+                    picks.push(best);
+                }
+            }
+            picks
+        };
+        driver.evaluate(&picks).await?;
+        for p in picks {
+            mark(&mut explored, p, &mut left);
+        }
+    }
+    Ok(())
+}
+
+/// The unexplored set with the highest drawn score; ties go to the earliest in lattice order.
+fn argmax(explored: &[bool], space: &Space, draw: &Draw) -> Option<ConceptSet> {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, set) in space.sets.iter().enumerate() {
+        if explored[i] {
+            continue;
+        }
+        let v = draw.score(*set);
+        if best.is_none_or(|(_, b)| v > b) {
+            best = Some((i, v));
+        }
+    }
+    best.map(|(i, _)| space.sets[i])
+}

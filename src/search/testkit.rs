@@ -1,0 +1,84 @@
+//! Test fixtures: tiny domains built in Rust and a synthetic world, so the search runtime is
+//! tested without the front end, the sampler or the oracle.
+use crate::ir::{Camera, Concept, ConceptId, ConceptKind, ConceptSet, Domain, Probe, RenderBindings, Selection, Span};
+
+/// A domain whose concepts are `names` (in index order) with no constraints.
+pub fn domain(names: &[&str]) -> Domain {
+    Domain {
+        name: "test".into(),
+        files: vec![crate::ir::SourceFile { name: "test.rev".into(), text: names.join(",") }],
+        units: vec![],
+        relations: vec![],
+        enums: vec![],
+        tags: vec![],
+        kinds: vec![],
+        world: vec![],
+        regions: vec![],
+        presets: vec![],
+        stage: vec![],
+        concepts: names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| Concept {
+                name: (*n).into(),
+                id: ConceptId(i as u32),
+                kind: ConceptKind::Concept,
+                description: String::new(),
+                category: String::new(),
+                probe: Probe::default(),
+                effects: vec![],
+                target: None,
+                render: RenderBindings::default(),
+                span: Span::default(),
+            })
+            .collect(),
+        constraints: vec![],
+        questions: vec![],
+        selection: Selection::Priority,
+        rules: vec![],
+        camera: Camera::default(),
+        allow: vec![],
+    }
+}
+
+/// A domain of `n` concepts `c0 … c{n-1}`.
+pub fn numbered(n: usize) -> Domain {
+    let names: Vec<String> = (0..n).map(|i| format!("c{i}")).collect();
+    domain(&names.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+/// All sets of `1..=max_size` concepts out of `n`, except those holding both concept 0 and
+/// concept 1 (an exclusive pair, so that validity matters).
+pub fn lattice(n: usize, max_size: usize) -> Vec<ConceptSet> {
+    let excl = ConceptSet(0b11);
+    (1u128..1 << n).map(ConceptSet).filter(|s| s.len() <= max_size && s.intersection(excl) != excl).collect()
+}
+
+/// A world without oracle or sampler: three options, the expected one fixed per set, and a
+/// scene that only records the set and seed.
+pub struct FakeWorld(pub Domain);
+
+impl crate::search::eval::World for FakeWorld {
+    fn task(&self, set: ConceptSet) -> Result<crate::search::eval::Task, String> {
+        Ok(crate::search::eval::Task {
+            question: "What should the car do?".into(),
+            options: vec!["stop".into(), "slow down".into(), "continue".into()],
+            expected: (set.0 % 3) as u32,
+        })
+    }
+
+    fn scene(&self, set: ConceptSet, seed: u64) -> Result<crate::scene::Scene, String> {
+        Ok(crate::scene::Scene {
+            domain: self.0.name.clone(),
+            domain_hash: String::new(),
+            concepts: self.0.set_names(set).into_iter().map(String::from).collect(),
+            seed,
+            world: Default::default(),
+            environment: Default::default(),
+            entities: vec![],
+            extras: vec![],
+            stage: vec![],
+            camera: Camera::default(),
+        })
+    }
+}

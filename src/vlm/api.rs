@@ -1,0 +1,350 @@
+//! The generic API model: cache lookup, image encoding, the resilient HTTP call, answer parsing,
+//! usage and cost. Each provider supplies only its wire format as a [`Protocol`].
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::vlm::cache::ReplyCache;
+use crate::vlm::config::{ImageFormat, Resolved};
+use crate::vlm::cost::{Ledger, Prices, Spend};
+use crate::vlm::http::{self, Gate, Limits, Request, Response, Transport, Verdict};
+use crate::vlm::image::{self, Encoded};
+use crate::vlm::{Answer, BoxFuture, Model, Query, Reply, Usage, parse};
+
+/// How a successful response ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Stop {
+    Complete,
+    Truncated,
+    /// Blocked by the provider's filters, with the provider's reason.
+    Blocked(String),
+    /// The provider reported a refusal (OpenAI `refusal`, Anthropic `stop_reason: refusal`).
+    Refusal(String),
+}
+
+/// A provider response reduced to what Revelio needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parsed {
+    /// Final text only (thinking parts left out where the provider separates them).
+    pub text: String,
+    pub thinking: Option<String>,
+    pub stop: Stop,
+    pub input_tokens: u64,
+    /// Output tokens including thinking.
+    pub output_tokens: u64,
+    pub thinking_tokens: u64,
+}
+
+/// A provider's error response.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProviderError {
+    pub message: String,
+    /// Never worth retrying even on a transient status (quota and spend limits).
+    pub permanent: bool,
+    /// A retry delay the body asks for (Gemini's `RetryInfo`).
+    pub retry_after: Option<Duration>,
+}
+
+/// One provider's wire format.
+pub trait Protocol: Send + Sync + 'static {
+    /// Build the request for one attempt.
+    fn request(&self, prompt: &str, image: Option<&Encoded>) -> Result<Request, String>;
+    /// Read a 2xx body; an error means the body is malformed (retried).
+    fn parse(&self, body: &[u8]) -> Result<Parsed, String>;
+    /// Read a non-2xx body.
+    fn error(&self, status: u16, body: &[u8]) -> ProviderError;
+    /// The credentials this protocol sends, scrubbed from every message and reply text in case
+    /// a server echoes them back.
+    fn secrets(&self) -> Vec<&str>;
+}
+
+/// Replace every occurrence of the secrets in `text`.
+pub fn redact(text: String, secrets: &[&str]) -> String {
+    secrets
+        .iter()
+        .filter(|s| s.len() >= 4)
+        .fold(text, |t, s| if t.contains(*s) { t.replace(*s, "[redacted]") } else { t })
+}
+
+/// A secret (API key, AWS secret) whose `Debug` never shows the value.
+#[derive(Clone)]
+pub struct Secret(pub String);
+
+impl std::fmt::Debug for Secret {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Secret(***)")
+    }
+}
+
+/// The first set, non-empty environment variable of `names`.
+pub fn env_any(names: &[&str]) -> Option<String> {
+    names.iter().find_map(|n| std::env::var(n).ok().filter(|v| !v.trim().is_empty()))
+}
+
+/// `--base-url` first, then the provider's environment variables, then the default; without a
+/// trailing slash.
+pub fn base_url(flag: Option<&str>, env: &[&str], default: &str) -> Result<String, String> {
+    let url = flag.map(str::to_string).or_else(|| env_any(env)).unwrap_or_else(|| default.to_string());
+    let url = url.trim().trim_end_matches('/').to_string();
+    match reqwest::Url::parse(&url) {
+        Ok(u) if matches!(u.scheme(), "http" | "https") && u.host().is_some() => Ok(url),
+        _ => Err(format!("invalid base URL `{url}`: expected an http:// or https:// URL")),
+    }
+}
+
+/// Judge a response with the provider's parser and the standard retry rules.
+pub fn judge<P: Protocol + ?Sized>(proto: &P, resp: Response) -> Verdict<Parsed> {
+    if (200..300).contains(&resp.status) {
+        return match proto.parse(&resp.body) {
+            Ok(p) => Verdict::Done(p),
+            Err(e) => Verdict::Retry { reason: format!("malformed response: {e}"), after: None },
+        };
+    }
+    let err = proto.error(resp.status, &resp.body);
+    let reason = format!("HTTP {}: {}", resp.status, err.message);
+    if err.permanent || !http::is_transient(resp.status) {
+        Verdict::Fail(reason)
+    } else {
+        Verdict::Retry { reason, after: resp.retry_after.or(err.retry_after) }
+    }
+}
+
+/// A model behind an HTTP API.
+pub struct ApiModel<P: Protocol> {
+    id: String,
+    proto: P,
+    transport: Transport,
+    settings: Resolved,
+    cache: Option<ReplyCache>,
+    ledger: Arc<Ledger>,
+}
+
+/// The model id: the spec plus the settings that change answers.
+pub fn model_id(spec: &str, s: &Resolved) -> String {
+    let mut parts = Vec::new();
+    if let Some(t) = &s.thinking {
+        parts.push(format!("thinking={t}"));
+    }
+    if let Some(b) = s.thinking_budget {
+        parts.push(format!("thinking_budget={b}"));
+    }
+    if let Some(t) = s.temperature {
+        parts.push(format!("temperature={t}"));
+    }
+    if s.max_tokens != 8192 {
+        parts.push(format!("max_tokens={}", s.max_tokens));
+    }
+    if s.image_format == ImageFormat::Jpeg {
+        parts.push(format!("image=jpeg{}", s.jpeg_quality));
+    }
+    if let Some(m) = s.image_max_side {
+        parts.push(format!("max_side={m}"));
+    }
+    if let Some(e) = &s.extra {
+        let json = serde_json::Value::Object(e.clone()).to_string();
+        parts.push(format!("extra={}", &crate::vlm::cache::key(&[json.as_bytes()])[..8]));
+    }
+    if parts.is_empty() { spec.to_string() } else { format!("{spec}@{}", parts.join(",")) }
+}
+
+impl<P: Protocol> ApiModel<P> {
+    /// `endpoint` keys the shared concurrency gate (provider and base URL).
+    pub fn new(
+        spec: &str,
+        endpoint: &str,
+        proto: P,
+        settings: Resolved,
+        cache_dir: Option<&std::path::Path>,
+    ) -> Result<ApiModel<P>, String> {
+        let id = model_id(spec, &settings);
+        let gate = Gate::shared(endpoint, settings.concurrency, settings.requests_per_minute);
+        let mut limits = Limits::new(settings.timeout, settings.retry_attempts, settings.retry_deadline);
+        limits.backoff_base = settings.retry_backoff;
+        let transport = Transport::new(gate, limits)?;
+        let cache = cache_dir.map(|d| ReplyCache::new(d, &id));
+        Ok(ApiModel { id, proto, transport, settings, cache, ledger: Arc::new(Ledger::default()) })
+    }
+
+    async fn ask_uncached(&self, q: &Query) -> Reply {
+        let image = match &q.image {
+            None => None,
+            Some(bytes) => {
+                let s = &self.settings;
+                match image::encode(bytes, s.image_format, s.image_max_side, s.jpeg_quality) {
+                    Ok(e) => Some(e),
+                    Err(e) => return error_reply(e, 0, Duration::ZERO),
+                }
+            }
+        };
+        let called =
+            self.transport.call(|| self.proto.request(&q.prompt, image.as_ref()), |r| judge(&self.proto, r)).await;
+        match called.result {
+            Err(e) => error_reply(e, called.attempts, called.latency),
+            Ok(p) => {
+                let prices = Prices {
+                    input_per_mtok: self.settings.price_input_per_mtok,
+                    output_per_mtok: self.settings.price_output_per_mtok,
+                };
+                let usage = Usage {
+                    input_tokens: p.input_tokens,
+                    output_tokens: p.output_tokens,
+                    thinking_tokens: p.thinking_tokens,
+                    cost_usd: prices.cost(p.input_tokens, p.output_tokens),
+                };
+                let (text, inline) = parse::split_thinking(&p.text);
+                let thinking = match (p.thinking, inline) {
+                    (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
+                    (a, b) => a.or(b),
+                };
+                let (raw, answer) = match p.stop {
+                    Stop::Complete => {
+                        let a = parse::parse(&text, &q.options);
+                        (text, a)
+                    }
+                    Stop::Truncated => (text, Answer::Truncated),
+                    Stop::Blocked(why) if text.is_empty() => {
+                        (format!("blocked by the provider: {why}"), Answer::Blocked)
+                    }
+                    Stop::Blocked(_) => (text, Answer::Blocked),
+                    Stop::Refusal(msg) => (if text.is_empty() { msg } else { text }, Answer::Refusal),
+                };
+                Reply {
+                    raw,
+                    thinking,
+                    answer,
+                    usage,
+                    latency_ms: called.latency.as_millis() as u64,
+                    cached: false,
+                    attempts: called.attempts,
+                }
+            }
+        }
+    }
+}
+
+fn error_reply(message: String, attempts: u32, latency: Duration) -> Reply {
+    Reply {
+        raw: message,
+        thinking: None,
+        answer: Answer::ApiError,
+        usage: Usage::default(),
+        latency_ms: latency.as_millis() as u64,
+        cached: false,
+        attempts,
+    }
+}
+
+impl<P: Protocol> Model for ApiModel<P> {
+    fn id(&self) -> String {
+        self.id.clone()
+    }
+
+    fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply> {
+        Box::pin(async move {
+            let key = self.cache.as_ref().map(|c| c.key(&query.image_hash, &query.prompt));
+            if let (Some(c), Some(k)) = (&self.cache, &key)
+                && let Some(hit) = c.get(k)
+            {
+                self.ledger.record(&hit.usage, true, false);
+                return hit;
+            }
+            let mut reply = self.ask_uncached(query).await;
+            let secrets = self.proto.secrets();
+            reply.raw = redact(std::mem::take(&mut reply.raw), &secrets);
+            reply.thinking = reply.thinking.map(|t| redact(t, &secrets));
+            self.ledger.record(&reply.usage, false, reply.answer == Answer::ApiError);
+            if let (Some(c), Some(k)) = (&self.cache, &key)
+                && let Err(e) = c.put(k, &reply)
+            {
+                warn_once(&e);
+            }
+            reply
+        })
+    }
+
+    fn spend(&self) -> Option<Spend> {
+        Some(self.ledger.snapshot())
+    }
+}
+
+/// A cache that cannot be written makes the run slower on resume but not wrong: say so once.
+fn warn_once(msg: &str) {
+    static WARNED: std::sync::Once = std::sync::Once::new();
+    WARNED.call_once(|| eprintln!("warning: {msg}; replies will not be cached"));
+}
+
+/// JSON helpers for the providers' loosely typed bodies.
+pub mod json {
+    use serde_json::Value;
+
+    pub fn u64_at(v: &Value, path: &[&str]) -> u64 {
+        at(v, path).and_then(Value::as_u64).unwrap_or(0)
+    }
+
+    pub fn str_at<'a>(v: &'a Value, path: &[&str]) -> Option<&'a str> {
+        at(v, path).and_then(Value::as_str)
+    }
+
+    pub fn at<'a>(v: &'a Value, path: &[&str]) -> Option<&'a Value> {
+        path.iter().try_fold(v, |v, k| match k.parse::<usize>() {
+            Ok(i) => v.get(i),
+            Err(_) => v.get(*k),
+        })
+    }
+
+    /// Parse a body as a JSON object.
+    pub fn object(body: &[u8]) -> Result<Value, String> {
+        match serde_json::from_slice::<Value>(body) {
+            Ok(v @ Value::Object(_)) => Ok(v),
+            Ok(_) => Err("expected a JSON object".into()),
+            Err(e) => Err(format!("invalid JSON: {e}")),
+        }
+    }
+
+    /// Merge `extra` fields into a request body (top level, overriding).
+    pub fn merge(body: &mut Value, extra: Option<&serde_json::Map<String, Value>>) {
+        if let (Value::Object(b), Some(e)) = (body, extra) {
+            for (k, v) in e {
+                b.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base_url_precedence_and_validation() {
+        assert_eq!(base_url(Some("http://localhost:8000/v1/"), &[], "https://x").unwrap(), "http://localhost:8000/v1");
+        assert_eq!(
+            base_url(None, &["REVELIO_TEST_UNSET_VAR"], "https://api.example.com").unwrap(),
+            "https://api.example.com"
+        );
+        assert_eq!(
+            base_url(Some("localhost:8000"), &[], "https://x").unwrap_err(),
+            "invalid base URL `localhost:8000`: expected an http:// or https:// URL"
+        );
+    }
+
+    #[test]
+    fn ids_carry_answer_changing_settings() {
+        let mut s = crate::vlm::config::settings_for("gemini:g", None, Some("low")).unwrap();
+        assert_eq!(model_id("gemini:g", &s), "gemini:g@thinking=low");
+        s.temperature = Some(0.0);
+        s.image_format = ImageFormat::Jpeg;
+        assert_eq!(model_id("gemini:g", &s), "gemini:g@thinking=low,temperature=0,image=jpeg90");
+    }
+
+    #[test]
+    fn redaction() {
+        assert_eq!(redact("bad key sk-abcdef given".into(), &["sk-abcdef"]), "bad key [redacted] given");
+        assert_eq!(redact("x".into(), &[""]), "x");
+    }
+
+    #[test]
+    fn secrets_do_not_debug_print() {
+        assert_eq!(format!("{:?}", Secret("sk-123".into())), "Secret(***)");
+    }
+}

@@ -1,0 +1,171 @@
+//! Content-addressed caches on disk: model replies (keyed by model id with its settings, image
+//! hash and prompt) and generated images. Files are written to a temporary name and renamed, so
+//! a killed run never leaves a half-written entry that a resumed run would trust.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::vlm::{Answer, Reply};
+
+/// SHA-256 hex of the parts, each length-prefixed so `("ab", "c")` and `("a", "bc")` differ.
+pub fn key(parts: &[&[u8]]) -> String {
+    let mut h = Sha256::new();
+    for p in parts {
+        h.update((p.len() as u64).to_le_bytes());
+        h.update(p);
+    }
+    hex::encode(h.finalize())
+}
+
+/// A folder of files named by their key, fanned out by the key's first two hex digits.
+#[derive(Debug, Clone)]
+pub struct Store {
+    dir: PathBuf,
+    ext: &'static str,
+}
+
+impl Store {
+    pub fn new(dir: impl Into<PathBuf>, ext: &'static str) -> Store {
+        Store { dir: dir.into(), ext }
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    fn path(&self, key: &str) -> PathBuf {
+        self.dir.join(&key[..2.min(key.len())]).join(format!("{key}.{}", self.ext))
+    }
+
+    pub fn get(&self, key: &str) -> Option<Vec<u8>> {
+        std::fs::read(self.path(key)).ok()
+    }
+
+    /// Write atomically: temporary file in the same folder, then rename.
+    pub fn put(&self, key: &str, bytes: &[u8]) -> Result<(), String> {
+        static SEQ: AtomicU64 = AtomicU64::new(0);
+        let path = self.path(key);
+        let parent = path.parent().unwrap_or(&self.dir);
+        std::fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create cache folder `{}`: {e}", parent.display()))?;
+        let tmp = parent.join(format!(".{key}.{}.{}.tmp", std::process::id(), SEQ.fetch_add(1, Ordering::Relaxed)));
+        std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, &path)).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            format!("cannot write cache entry `{}`: {e}", path.display())
+        })
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+struct Entry {
+    model: String,
+    reply: Reply,
+}
+
+/// The reply cache of one model.
+#[derive(Debug, Clone)]
+pub struct ReplyCache {
+    store: Store,
+    model: String,
+}
+
+impl ReplyCache {
+    pub fn new(dir: impl Into<PathBuf>, model_id: &str) -> ReplyCache {
+        ReplyCache { store: Store::new(dir, "json"), model: model_id.to_string() }
+    }
+
+    pub fn key(&self, image_hash: &str, prompt: &str) -> String {
+        key(&[b"reply-v1", self.model.as_bytes(), image_hash.as_bytes(), prompt.as_bytes()])
+    }
+
+    /// A cached reply, marked as cached and free. Unreadable or foreign entries are misses.
+    pub fn get(&self, key: &str) -> Option<Reply> {
+        let entry: Entry = serde_json::from_slice(&self.store.get(key)?).ok()?;
+        if entry.model != self.model {
+            return None;
+        }
+        let mut reply = entry.reply;
+        reply.cached = true;
+        reply.usage.cost_usd = 0.0;
+        reply.latency_ms = 0;
+        reply.attempts = 0;
+        Some(reply)
+    }
+
+    /// Store a reply if it is a successful, parsed answer (anything else is worth asking again).
+    pub fn put(&self, key: &str, reply: &Reply) -> Result<(), String> {
+        if !matches!(reply.answer, Answer::Option(_)) || reply.cached {
+            return Ok(());
+        }
+        let entry = Entry { model: self.model.clone(), reply: reply.clone() };
+        let bytes = serde_json::to_vec(&entry).map_err(|e| format!("cannot encode cache entry: {e}"))?;
+        self.store.put(key, &bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vlm::Usage;
+
+    fn reply(answer: Answer) -> Reply {
+        Reply {
+            raw: "Answer: B".into(),
+            thinking: None,
+            answer,
+            usage: Usage { input_tokens: 10, output_tokens: 5, thinking_tokens: 0, cost_usd: 0.01 },
+            latency_ms: 1234,
+            cached: false,
+            attempts: 2,
+        }
+    }
+
+    #[test]
+    fn keys_are_length_prefixed() {
+        assert_ne!(key(&[b"ab", b"c"]), key(&[b"a", b"bc"]));
+        assert_eq!(key(&[b"x"]).len(), 64);
+    }
+
+    #[test]
+    fn parsed_replies_round_trip_as_cached_and_free() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = ReplyCache::new(dir.path(), "openai:m");
+        let k = c.key("img", "prompt");
+        assert!(c.get(&k).is_none());
+        c.put(&k, &reply(Answer::Option(1))).unwrap();
+        let got = c.get(&k).unwrap();
+        assert!(got.cached);
+        assert_eq!(got.answer, Answer::Option(1));
+        assert_eq!(got.usage.cost_usd, 0.0);
+        assert_eq!(got.usage.input_tokens, 10);
+        // No temporary files left behind.
+        let sub = dir.path().join(&k[..2]);
+        let names: Vec<_> = std::fs::read_dir(sub).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 1);
+    }
+
+    #[test]
+    fn failures_and_unparsed_replies_are_not_cached() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = ReplyCache::new(dir.path(), "openai:m");
+        for a in [Answer::ApiError, Answer::Unparsed, Answer::Truncated, Answer::Blocked] {
+            let k = c.key("img", &format!("{a:?}"));
+            c.put(&k, &reply(a)).unwrap();
+            assert!(c.get(&k).is_none());
+        }
+    }
+
+    #[test]
+    fn a_different_model_id_misses() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = ReplyCache::new(dir.path(), "gemini:m@thinking=low");
+        let b = ReplyCache::new(dir.path(), "gemini:m@thinking=high");
+        let k = a.key("img", "p");
+        a.put(&k, &reply(Answer::Option(0))).unwrap();
+        assert_ne!(k, b.key("img", "p"));
+        assert!(b.get(&k).is_none(), "a foreign entry under the same key must not be trusted");
+    }
+}

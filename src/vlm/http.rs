@@ -1,0 +1,353 @@
+//! The one HTTP path every provider client goes through: a concurrency gate and a
+//! requests-per-minute limiter shared per provider endpoint, a per-attempt timeout, and retries
+//! with exponential backoff that honour `Retry-After` — bounded by an attempt count and by a
+//! total deadline, so a call always ends.
+
+use std::collections::HashMap;
+use std::num::NonZeroU32;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant, SystemTime};
+
+use governor::{DefaultDirectRateLimiter, Quota, RateLimiter};
+use tokio::sync::Semaphore;
+
+/// One HTTP request, rebuilt for every attempt (Bedrock signs with the attempt's time).
+pub struct Request {
+    pub url: String,
+    /// Header names and values; values may be secrets and are never put into messages.
+    pub headers: Vec<(String, String)>,
+    pub body: Vec<u8>,
+}
+
+/// What came back from the server.
+pub struct Response {
+    pub status: u16,
+    pub retry_after: Option<Duration>,
+    pub body: Vec<u8>,
+}
+
+/// How the caller judges a response.
+pub enum Verdict<T> {
+    Done(T),
+    /// Worth another attempt; `after` overrides the backoff (from `Retry-After` or the body).
+    Retry {
+        reason: String,
+        after: Option<Duration>,
+    },
+    /// Permanent failure (bad request, auth, quota/spend limit).
+    Fail(String),
+}
+
+/// The result of a call with its bookkeeping.
+pub struct Called<T> {
+    pub result: Result<T, String>,
+    pub attempts: u32,
+    /// From the first byte sent to the final result, retries and waits included.
+    pub latency: Duration,
+}
+
+/// Retry and timeout bounds.
+#[derive(Debug, Clone, Copy)]
+pub struct Limits {
+    pub timeout: Duration,
+    pub attempts: u32,
+    pub deadline: Duration,
+    /// First backoff step; doubles per retry up to `backoff_max`.
+    pub backoff_base: Duration,
+    pub backoff_max: Duration,
+}
+
+impl Limits {
+    pub fn new(timeout: Duration, attempts: u32, deadline: Duration) -> Limits {
+        Limits {
+            timeout,
+            attempts,
+            deadline,
+            backoff_base: Duration::from_millis(500),
+            backoff_max: Duration::from_secs(60),
+        }
+    }
+}
+
+/// Concurrency and rate gate, shared by every client of one provider endpoint.
+pub struct Gate {
+    sem: Arc<Semaphore>,
+    rpm: Option<Arc<DefaultDirectRateLimiter>>,
+}
+
+type GateKey = (String, usize, Option<u32>);
+
+impl Gate {
+    /// The gate for `key` (provider and endpoint). Clients asking for the same endpoint with the
+    /// same limits share one gate, so two models on one server do not double its load.
+    pub fn shared(key: &str, concurrency: usize, rpm: Option<u32>) -> Arc<Gate> {
+        static GATES: OnceLock<Mutex<HashMap<GateKey, Arc<Gate>>>> = OnceLock::new();
+        let map = GATES.get_or_init(Default::default);
+        let mut map = map.lock().unwrap_or_else(|p| p.into_inner());
+        map.entry((key.to_string(), concurrency, rpm))
+            .or_insert_with(|| {
+                Arc::new(Gate {
+                    sem: Arc::new(Semaphore::new(concurrency.max(1))),
+                    rpm: rpm.and_then(NonZeroU32::new).map(|n| Arc::new(RateLimiter::direct(Quota::per_minute(n)))),
+                })
+            })
+            .clone()
+    }
+}
+
+/// The shared HTTP client (rustls with the ring provider).
+pub fn client() -> Result<reqwest::Client, String> {
+    static CLIENT: OnceLock<Result<reqwest::Client, String>> = OnceLock::new();
+    CLIENT
+        .get_or_init(|| {
+            let _ = rustls::crypto::ring::default_provider().install_default();
+            reqwest::Client::builder()
+                .connect_timeout(Duration::from_secs(20))
+                .pool_max_idle_per_host(256)
+                .build()
+                .map_err(|e| format!("cannot start the HTTP client: {}", e.without_url()))
+        })
+        .clone()
+}
+
+pub struct Transport {
+    client: reqwest::Client,
+    gate: Arc<Gate>,
+    limits: Limits,
+}
+
+impl Transport {
+    pub fn new(gate: Arc<Gate>, limits: Limits) -> Result<Transport, String> {
+        Ok(Transport { client: client()?, gate, limits })
+    }
+
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// POST the request built by `build` until `judge` accepts a response, the attempts run
+    /// out, or the deadline would pass.
+    pub async fn call<T>(
+        &self,
+        build: impl Fn() -> Result<Request, String>,
+        judge: impl Fn(Response) -> Verdict<T>,
+    ) -> Called<T> {
+        let mut started: Option<Instant> = None;
+        let mut attempt = 0;
+        loop {
+            attempt += 1;
+            let verdict = {
+                let Ok(_permit) = self.gate.sem.acquire().await else {
+                    return self.end(Err("the request gate was closed".into()), attempt, started);
+                };
+                if let Some(l) = &self.gate.rpm {
+                    l.until_ready().await;
+                }
+                let start = *started.get_or_insert_with(Instant::now);
+                let left = self.limits.deadline.saturating_sub(start.elapsed());
+                if left.is_zero() {
+                    return self.end(Err(deadline_message(self.limits.deadline)), attempt - 1, started);
+                }
+                let req = match build() {
+                    Ok(r) => r,
+                    Err(e) => return self.end(Err(e), attempt, started),
+                };
+                let timeout = self.limits.timeout.min(left);
+                match tokio::time::timeout(timeout, self.send(req)).await {
+                    Err(_) => Verdict::Retry {
+                        reason: format!("timed out after {:.1} s", timeout.as_secs_f64()),
+                        after: None,
+                    },
+                    Ok(Err(e)) => Verdict::Retry { reason: e, after: None },
+                    Ok(Ok(resp)) => judge(resp),
+                }
+            };
+            let (reason, after) = match verdict {
+                Verdict::Done(t) => return self.end(Ok(t), attempt, started),
+                Verdict::Fail(m) => return self.end(Err(m), attempt, started),
+                Verdict::Retry { reason, after } => (reason, after),
+            };
+            if attempt >= self.limits.attempts {
+                let msg = format!("{reason} (gave up after {attempt} attempts)");
+                return self.end(Err(msg), attempt, started);
+            }
+            let wait = after.unwrap_or_else(|| backoff(&self.limits, attempt));
+            let elapsed = started.map_or(Duration::ZERO, |s| s.elapsed());
+            if elapsed + wait >= self.limits.deadline {
+                let msg = format!(
+                    "{reason} (gave up after {attempt} attempts: waiting {:.1} s more would pass the {:.0} s deadline)",
+                    wait.as_secs_f64(),
+                    self.limits.deadline.as_secs_f64()
+                );
+                return self.end(Err(msg), attempt, started);
+            }
+            tokio::time::sleep(wait).await;
+        }
+    }
+
+    fn end<T>(&self, result: Result<T, String>, attempts: u32, started: Option<Instant>) -> Called<T> {
+        Called { result, attempts: attempts.max(1), latency: started.map_or(Duration::ZERO, |s| s.elapsed()) }
+    }
+
+    async fn send(&self, req: Request) -> Result<Response, String> {
+        let mut rb = self.client.post(&req.url).body(req.body);
+        for (k, v) in &req.headers {
+            rb = rb.header(k.as_str(), v.as_str());
+        }
+        // `without_url`: the message must not carry query strings or hosts with credentials.
+        let resp = rb.send().await.map_err(|e| describe(&e.without_url()))?;
+        let status = resp.status().as_u16();
+        let retry_after = resp
+            .headers()
+            .get(reqwest::header::RETRY_AFTER)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| parse_retry_after(v, SystemTime::now()));
+        let body = resp.bytes().await.map_err(|e| describe(&e.without_url()))?.to_vec();
+        Ok(Response { status, retry_after, body })
+    }
+}
+
+fn describe(e: &reqwest::Error) -> String {
+    use std::error::Error;
+    let mut msg = e.to_string();
+    let mut src = e.source();
+    while let Some(s) = src {
+        msg.push_str(": ");
+        msg.push_str(&s.to_string());
+        src = s.source();
+    }
+    msg
+}
+
+fn deadline_message(deadline: Duration) -> String {
+    format!("the call passed its {:.0} s deadline", deadline.as_secs_f64())
+}
+
+/// Exponential backoff with jitter, so a burst of throttled calls does not retry in lockstep.
+fn backoff(limits: &Limits, attempt: u32) -> Duration {
+    let exp = limits.backoff_base.saturating_mul(1u32 << attempt.saturating_sub(1).min(16));
+    let capped = exp.min(limits.backoff_max);
+    let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+    // Between 50% and 100% of the step.
+    capped.mul_f64(0.5 + 0.5 * f64::from(nanos % 1000) / 1000.0)
+}
+
+/// The standard retry rule by status: 408, 409 (lock conflicts), 429 and 5xx (incl. Anthropic's
+/// 529) are transient; other 4xx are not.
+pub fn is_transient(status: u16) -> bool {
+    matches!(status, 408 | 409 | 429) || (500..600).contains(&status)
+}
+
+/// `Retry-After` as seconds or an HTTP date (RFC 9110 §10.2.3).
+pub fn parse_retry_after(v: &str, now: SystemTime) -> Option<Duration> {
+    let v = v.trim();
+    if let Ok(secs) = v.parse::<f64>() {
+        return (secs.is_finite() && secs >= 0.0).then(|| Duration::from_secs_f64(secs.min(86_400.0)));
+    }
+    let at = parse_http_date(v)?;
+    Some(at.duration_since(now).unwrap_or(Duration::ZERO))
+}
+
+/// IMF-fixdate, e.g. `Wed, 21 Oct 2015 07:28:00 GMT`.
+pub fn parse_http_date(v: &str) -> Option<SystemTime> {
+    let parts: Vec<&str> = v.split_whitespace().collect();
+    let [_, day, mon, year, time, "GMT"] = parts.as_slice() else { return None };
+    const MONTHS: [&str; 12] = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"];
+    let month = MONTHS.iter().position(|m| m == mon)? as u32 + 1;
+    let day: u32 = day.parse().ok()?;
+    let year: i64 = year.parse().ok()?;
+    let hms: Vec<u64> = time.split(':').map(|p| p.parse().ok()).collect::<Option<_>>()?;
+    let [h, m, s] = hms.as_slice() else { return None };
+    if !(1..=31).contains(&day) || *h > 23 || *m > 59 || *s > 60 {
+        return None;
+    }
+    let days = days_from_civil(year, month, day);
+    let secs = days.checked_mul(86_400)? + (*h * 3600 + *m * 60 + *s) as i64;
+    (secs >= 0).then(|| SystemTime::UNIX_EPOCH + Duration::from_secs(secs as u64))
+}
+
+/// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's algorithm).
+pub fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = (i64::from(m) + 9) % 12;
+    let doy = (153 * mp + 2) / 5 + i64::from(d) - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// `(year, month, day)` of a day count since 1970-01-01.
+pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+/// A provider error body's message, shortened: error bodies can be long HTML pages.
+pub fn snippet(body: &[u8]) -> String {
+    let text = String::from_utf8_lossy(body);
+    let one_line: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    if one_line.chars().count() > 300 {
+        format!("{}…", one_line.chars().take(300).collect::<String>())
+    } else {
+        one_line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn retry_after_seconds_and_dates() {
+        let now = SystemTime::UNIX_EPOCH + Duration::from_secs(1_445_412_480); // Wed, 21 Oct 2015 07:28:00 GMT
+        assert_eq!(parse_retry_after("0", now), Some(Duration::ZERO));
+        assert_eq!(parse_retry_after(" 7 ", now), Some(Duration::from_secs(7)));
+        assert_eq!(parse_retry_after("1.5", now), Some(Duration::from_millis(1500)));
+        assert_eq!(parse_retry_after("Wed, 21 Oct 2015 07:28:30 GMT", now), Some(Duration::from_secs(30)));
+        // A date in the past means "now".
+        assert_eq!(parse_retry_after("Wed, 21 Oct 2015 07:00:00 GMT", now), Some(Duration::ZERO));
+        assert_eq!(parse_retry_after("-3", now), None);
+        assert_eq!(parse_retry_after("soon", now), None);
+        assert_eq!(parse_retry_after("Wed, 21 Foo 2015 07:28:30 GMT", now), None);
+    }
+
+    #[test]
+    fn civil_dates_round_trip() {
+        assert_eq!(days_from_civil(1970, 1, 1), 0);
+        assert_eq!(days_from_civil(2015, 8, 30), 16_677);
+        assert_eq!(civil_from_days(16_677), (2015, 8, 30));
+        assert_eq!(civil_from_days(days_from_civil(2000, 2, 29)), (2000, 2, 29));
+    }
+
+    #[test]
+    fn transient_statuses() {
+        for s in [408, 429, 500, 502, 503, 504, 529] {
+            assert!(is_transient(s), "{s}");
+        }
+        for s in [400, 401, 403, 404, 413, 422] {
+            assert!(!is_transient(s), "{s}");
+        }
+    }
+
+    #[test]
+    fn backoff_grows_and_is_capped() {
+        let l = Limits::new(Duration::from_secs(1), 5, Duration::from_secs(10));
+        assert!(backoff(&l, 1) <= Duration::from_millis(500));
+        assert!(backoff(&l, 3) >= Duration::from_secs(1));
+        assert!(backoff(&l, 30) <= Duration::from_secs(60));
+    }
+
+    #[test]
+    fn snippets_are_short_single_lines() {
+        assert_eq!(snippet(b"bad\n  request"), "bad request");
+        assert_eq!(snippet(&[b'x'; 1000]).chars().count(), 301);
+    }
+}
