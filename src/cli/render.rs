@@ -8,7 +8,7 @@ use image::RgbaImage;
 
 use crate::ir::{ConceptSet, Domain};
 use crate::lattice::Lattice;
-use crate::render::{BuiltinRenderer, encode_png, sheet};
+use crate::render::{BuiltinRenderer, encode_png, encode_png_small, sheet};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -76,8 +76,11 @@ pub fn run(args: RenderArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match draw(&domain, &renderer, &jobs, args.grid.is_some() || args.all) {
-        Ok(img) => match encode_png(&img).map_err(|e| e.0).and_then(|png| {
+    let as_sheet = args.grid.is_some() || args.all;
+    // Sheets are kept and shared, so they get the slower, smaller encoding.
+    let encode = if as_sheet { encode_png_small } else { encode_png };
+    match draw(&domain, &renderer, &jobs, as_sheet) {
+        Ok(img) => match encode(&img).map_err(|e| e.0).and_then(|png| {
             std::fs::write(&args.output, png).map_err(|e| format!("cannot write `{}`: {e}", args.output.display()))
         }) {
             Ok(()) => {

@@ -81,9 +81,18 @@ impl BuiltinRenderer {
 
 /// Encode as PNG with fast settings: the images go to models and caches, not archives.
 pub fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    encode_png_with(img, image::codecs::png::CompressionType::Fast)
+}
+
+/// Encode as a small PNG (slower), for images that are kept: contact sheets, examples.
+pub fn encode_png_small(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
+    encode_png_with(img, image::codecs::png::CompressionType::Best)
+}
+
+fn encode_png_with(img: &RgbaImage, compression: image::codecs::png::CompressionType) -> Result<Vec<u8>, RenderError> {
+    use image::codecs::png::{FilterType, PngEncoder};
     let mut out = Vec::with_capacity(img.as_raw().len() / 4);
-    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Adaptive)
+    PngEncoder::new_with_quality(&mut out, compression, FilterType::Adaptive)
         .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgba8)
         .map_err(|e| RenderError(format!("cannot encode the image as png: {e}")))?;
     Ok(out)

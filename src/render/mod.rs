@@ -14,7 +14,7 @@ pub mod mesh;
 pub mod sheet;
 
 pub use atmosphere::{Weather, project};
-pub use builtin::{BuiltinRenderer, adapter_info, encode_png};
+pub use builtin::{BuiltinRenderer, adapter_info, encode_png, encode_png_small};
 pub use gpu::{AdapterSummary, DRIVER_PACKAGES};
 
 /// An encoded image.
