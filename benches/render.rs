@@ -36,6 +36,10 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(encode_png(&img).unwrap()))
         });
     }
+    // The same street in clear weather: what rain and fog add.
+    let mut clear = scene("driving");
+    clear.environment.clear();
+    g.bench_function("driving_640x360_clear_rgba", |b| b.iter(|| black_box(r.render_rgba(&clear).unwrap())));
     // The fixed cost of a frame: sky only, no geometry.
     let mut empty = scene("driving");
     (empty.stage, empty.entities, empty.extras) = (Vec::new(), Vec::new(), Vec::new());

@@ -9,7 +9,9 @@ use crate::scene::Scene;
 
 /// Segments around a round primitive: enough for smooth silhouettes at 640×360.
 const ROUND_SEGMENTS: usize = 16;
-/// Latitude bands of a sphere / capsule cap.
+/// Fewest segments, for parts a few pixels across.
+const MIN_SEGMENTS: usize = 6;
+/// Most latitude bands of a sphere (a capsule cap gets half).
 const SPHERE_BANDS: usize = 8;
 
 /// Shading model of a part, as the fragment shader reads it (`Vertex::material`).
@@ -208,7 +210,7 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
 
     let mut mesh = Mesh::default();
     for p in &opaque {
-        emit_part(&mut mesh, p);
+        emit_part(&mut mesh, p, eye);
     }
     mesh.opaque_len = mesh.indices.len() as u32;
     // Shadows lie on the ground under everything translucent, so they go first.
@@ -216,7 +218,7 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
         emit_shadow(&mut mesh, s);
     }
     for p in &translucent {
-        emit_part(&mut mesh, p);
+        emit_part(&mut mesh, p, eye);
     }
     mesh
 }
@@ -298,7 +300,18 @@ fn vertex(xf: &Xf, p: [f64; 3], n: [f64; 3], color: [f32; 4], m: Material) -> Ve
     }
 }
 
-fn emit_part(mesh: &mut Mesh, p: &Placed) {
+/// Level of detail of a round part: `(segments around, bands per quarter circle)`, from its
+/// angular size seen from `eye`. Far heads and wheels need few triangles, and the triangle
+/// count is what a CPU rasteriser pays for; the choice depends only on the scene.
+fn detail(p: &Placed, eye: [f64; 3]) -> (usize, usize) {
+    let size = p.part.size.iter().fold(0.0f64, |m, s| m.max(*s));
+    let angle = size / dist2(p.xf.t, eye).sqrt().max(1e-3);
+    let segments = ((angle * 80.0).round() as usize).clamp(MIN_SEGMENTS, ROUND_SEGMENTS);
+    (segments, (segments / 2).clamp(3, SPHERE_BANDS))
+}
+
+fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3]) {
+    let (segs, bands) = detail(p, eye);
     let part = p.part;
     let m = Material::from_hint(&part.material);
     let c = part.color;
@@ -315,18 +328,20 @@ fn emit_part(mesh: &mut Mesh, p: &Placed) {
             let n = [0.0, 0.0, 1.0];
             quad(&mut tri, [[-hx, -hy, 0.0], [hx, -hy, 0.0], [hx, hy, 0.0], [-hx, hy, 0.0]], n);
         }
-        Primitive::Cylinder => lathe(&mut tri, &[(0.5, -0.5), (0.5, 0.5)], [sx, sy_round, sz], true),
-        Primitive::Cone => lathe(&mut tri, &[(0.5, -0.5), (0.0, 0.5)], [sx, sy_round, sz], true),
-        Primitive::Sphere => lathe(&mut tri, &sphere_profile(0.0, 0.5, -1.0, 1.0), [sx, sy_round, sz], false),
+        Primitive::Cylinder => lathe(&mut tri, &[(0.5, -0.5), (0.5, 0.5)], [sx, sy_round, sz], true, segs),
+        Primitive::Cone => lathe(&mut tri, &[(0.5, -0.5), (0.0, 0.5)], [sx, sy_round, sz], true, segs),
+        Primitive::Sphere => {
+            lathe(&mut tri, &sphere_profile(0.0, 0.5, -1.0, 1.0, bands), [sx, sy_round, sz], false, segs)
+        }
         Primitive::Capsule => {
             // Caps keep a round radius (r = x/2) whatever the height, as a capsule should.
             let r = (sx / 2.0).min(sz / 2.0);
-            let profile = sphere_profile(-sz / 2.0 + r, r, -1.0, 0.0)
+            let profile = sphere_profile(-sz / 2.0 + r, r, -1.0, 0.0, (bands / 2).max(2))
                 .into_iter()
-                .chain(sphere_profile(sz / 2.0 - r, r, 0.0, 1.0))
+                .chain(sphere_profile(sz / 2.0 - r, r, 0.0, 1.0, (bands / 2).max(2)))
                 .map(|(rad, z)| (rad / sx, z))
                 .collect::<Vec<_>>();
-            lathe(&mut tri, &profile, [sx, sy_round, 1.0], false);
+            lathe(&mut tri, &profile, [sx, sy_round, 1.0], false, segs);
         }
     }
 }
@@ -359,10 +374,10 @@ fn unit_box(tri: &mut Tri, s: [f64; 3]) {
 
 /// Points `(radius, z)` of a circle of radius `r` centred at height `zc`, from latitude `from`
 /// to `to` (in quarter turns: -1 = bottom pole, 0 = equator, 1 = top pole).
-fn sphere_profile(zc: f64, r: f64, from: f64, to: f64) -> Vec<(f64, f64)> {
-    (0..=SPHERE_BANDS)
+fn sphere_profile(zc: f64, r: f64, from: f64, to: f64, bands: usize) -> Vec<(f64, f64)> {
+    (0..=bands)
         .map(|i| {
-            let lat = (from + (to - from) * i as f64 / SPHERE_BANDS as f64) * std::f64::consts::FRAC_PI_2;
+            let lat = (from + (to - from) * i as f64 / bands as f64) * std::f64::consts::FRAC_PI_2;
             (r * lat.cos(), zc + r * lat.sin())
         })
         .collect()
@@ -371,9 +386,9 @@ fn sphere_profile(zc: f64, r: f64, from: f64, to: f64) -> Vec<(f64, f64)> {
 /// Revolve a profile of `(radius, z)` points about z, scaling x, y, z by `s`. Vertex normals
 /// average the adjacent profile segments, so spheres and capsules shade smoothly while a
 /// cylinder's side stays straight. `caps` closes the end rings with flat discs.
-fn lathe(tri: &mut Tri, profile: &[(f64, f64)], s: [f64; 3], caps: bool) {
+fn lathe(tri: &mut Tri, profile: &[(f64, f64)], s: [f64; 3], caps: bool, segments: usize) {
     let ring = |k: usize| {
-        let a = (k % ROUND_SEGMENTS) as f64 / ROUND_SEGMENTS as f64 * std::f64::consts::TAU;
+        let a = (k % segments) as f64 / segments as f64 * std::f64::consts::TAU;
         (a.cos(), a.sin())
     };
     let seg_normal = |i: usize| {
@@ -395,7 +410,7 @@ fn lathe(tri: &mut Tri, profile: &[(f64, f64)], s: [f64; 3], caps: bool) {
     let at = |(r, z): (f64, f64), (c, sn): (f64, f64)| [r * c * s[0], r * sn * s[1], z * s[2]];
     for i in 0..segs {
         let (n0, n1) = (vert_normal(i, i), vert_normal(i + 1, i));
-        for k in 0..ROUND_SEGMENTS {
+        for k in 0..segments {
             let (a, b) = (ring(k), ring(k + 1));
             let v = |p: usize, n: (f64, f64), r: (f64, f64)| (at(profile[p], r), world_n(n, r));
             tri(v(i, n0, a), v(i, n0, b), v(i + 1, n1, b));
@@ -408,7 +423,7 @@ fn lathe(tri: &mut Tri, profile: &[(f64, f64)], s: [f64; 3], caps: bool) {
                 continue;
             }
             let (centre, n) = ([0.0, 0.0, p.1 * s[2]], [0.0, 0.0, nz]);
-            for k in 0..ROUND_SEGMENTS {
+            for k in 0..segments {
                 tri((centre, n), (at(p, ring(k)), n), (at(p, ring(k + 1)), n));
             }
         }
