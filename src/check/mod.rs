@@ -26,7 +26,9 @@ use diagnostic::Diagnostic;
 pub const STDLIB: &[(&str, &str)] = &[
     ("core", include_str!("../../stdlib/core.rev")),
     ("driving", include_str!("../../stdlib/driving.rev")),
+    ("driving_look", include_str!("../../stdlib/driving_look.rev")),
     ("kitchen", include_str!("../../stdlib/kitchen.rev")),
+    ("kitchen_look", include_str!("../../stdlib/kitchen_look.rev")),
 ];
 
 /// The result of compiling a domain (or a library module).

@@ -12,6 +12,7 @@ pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
+pub mod render;
 pub mod search;
 pub mod validate;
 
@@ -42,6 +43,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Render one scene of a concept set, ask a model once, and show the verdict
     Ask(ask::AskArgs),
+    /// Draw a concept set with the builtin renderer (or a contact sheet)
+    Render(render::RenderArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -63,6 +66,7 @@ pub fn main() -> ExitCode {
         Command::Validate(a) => validate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
+        Command::Render(args) => render::run(args),
     }
 }
 

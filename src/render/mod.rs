@@ -1,8 +1,21 @@
-//! Renderers: Scene → image (being built).
+//! Renderers: Scene → image. `builtin` draws the scene's resolved shapes with wgpu (the
+//! embedded default, see `builtin`); image-generation renderers live in their own modules.
 pub mod imagegen;
 
 use crate::scene::Scene;
 use crate::vlm::BoxFuture;
+
+mod atmosphere;
+pub mod builtin;
+#[cfg(test)]
+pub(crate) mod fixtures;
+mod gpu;
+pub mod mesh;
+pub mod sheet;
+
+pub use atmosphere::{Weather, project};
+pub use builtin::{BuiltinRenderer, adapter_info, encode_png, encode_png_small};
+pub use gpu::{AdapterSummary, DRIVER_PACKAGES};
 
 /// An encoded image.
 #[derive(Debug, Clone)]
@@ -38,6 +51,7 @@ pub struct RendererOptions {
 pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::sync::Arc<dyn Renderer>>, String> {
     match spec {
         "none" => Ok(None),
+        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.0)?))),
         s if s.starts_with("imagegen:") => imagegen::build(s, opts).map(Some),
         other => Err(format!(
             "unknown renderer `{other}`: expected `none`, `builtin`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`"

@@ -1,0 +1,284 @@
+//! The embedded default renderer: draws a [`Scene`] from its resolved shapes and environment
+//! with wgpu, headless, on a GPU or on Mesa's CPU drivers (lavapipe, llvmpipe).
+
+use std::sync::{Arc, OnceLock};
+
+use image::{ImageEncoder, RgbaImage};
+
+use super::gpu::{AdapterSummary, Gpu};
+use super::{RenderError, Rendered, Renderer, atmosphere, mesh};
+use crate::scene::Scene;
+use crate::vlm::BoxFuture;
+
+/// Largest image side accepted; wgpu's guaranteed minimum texture size.
+pub const MAX_SIDE: u32 = 8192;
+
+/// The process-wide device: created on first use, shared by every renderer instance.
+fn shared_gpu() -> Result<Arc<Gpu>, RenderError> {
+    static GPU: OnceLock<Result<Arc<Gpu>, String>> = OnceLock::new();
+    GPU.get_or_init(|| Gpu::new().map(Arc::new)).clone().map_err(RenderError)
+}
+
+/// Summary of the adapter the builtin renderer uses (`revelio render --info`).
+pub fn adapter_info() -> Result<AdapterSummary, RenderError> {
+    Ok(shared_gpu()?.summary().clone())
+}
+
+#[derive(Clone)]
+pub struct BuiltinRenderer {
+    gpu: Arc<Gpu>,
+    size: Option<(u32, u32)>,
+}
+
+impl std::fmt::Debug for BuiltinRenderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BuiltinRenderer").field("adapter", self.gpu.summary()).field("size", &self.size).finish()
+    }
+}
+
+/// Check an image size from the user.
+pub fn check_size(w: u32, h: u32) -> Result<(), RenderError> {
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(RenderError(format!("image size `{w}x{h}` is out of range: each side must be 1..={MAX_SIDE}")));
+    }
+    Ok(())
+}
+
+impl BuiltinRenderer {
+    /// `size` overrides the scene camera's image size.
+    pub fn new(size: Option<(u32, u32)>) -> Result<BuiltinRenderer, RenderError> {
+        if let Some((w, h)) = size {
+            check_size(w, h)?;
+        }
+        Ok(BuiltinRenderer { gpu: shared_gpu()?, size })
+    }
+
+    pub fn adapter(&self) -> &AdapterSummary {
+        self.gpu.summary()
+    }
+
+    /// The image size used for `scene`.
+    pub fn size_for(&self, scene: &Scene) -> (u32, u32) {
+        self.size.unwrap_or((scene.camera.width, scene.camera.height))
+    }
+
+    /// Render to pixels (sRGB RGBA8).
+    pub fn render_rgba(&self, scene: &Scene) -> Result<RgbaImage, RenderError> {
+        let (w, h) = self.size_for(scene);
+        check_size(w, h)?;
+        let mesh = mesh::build(scene, scene.camera.at);
+        let frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
+        let rain = frame.wet[2] > 0.0;
+        let pixels = self.gpu.draw(&mesh, &frame, rain).map_err(RenderError)?;
+        RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RenderError("the rendered image has the wrong size".into()))
+    }
+
+    /// Render and encode as PNG.
+    pub fn render_png(&self, scene: &Scene) -> Result<Vec<u8>, RenderError> {
+        encode_png(&self.render_rgba(scene)?)
+    }
+}
+
+/// Encode as PNG with fast settings: the images go to models and caches, not archives.
+pub fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
+    encode_png_with(img, image::codecs::png::CompressionType::Fast)
+}
+
+/// Encode as a small PNG (slower), for images that are kept: contact sheets, examples.
+pub fn encode_png_small(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
+    encode_png_with(img, image::codecs::png::CompressionType::Best)
+}
+
+fn encode_png_with(img: &RgbaImage, compression: image::codecs::png::CompressionType) -> Result<Vec<u8>, RenderError> {
+    use image::codecs::png::{FilterType, PngEncoder};
+    let mut out = Vec::with_capacity(img.as_raw().len() / 4);
+    PngEncoder::new_with_quality(&mut out, compression, FilterType::Adaptive)
+        .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgba8)
+        .map_err(|e| RenderError(format!("cannot encode the image as png: {e}")))?;
+    Ok(out)
+}
+
+impl Renderer for BuiltinRenderer {
+    fn id(&self) -> String {
+        match self.size {
+            Some((w, h)) => format!("builtin@{w}x{h}"),
+            None => "builtin".to_string(),
+        }
+    }
+
+    fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
+        // Rendering is a few milliseconds of blocking work; callers that care run it on a
+        // blocking thread. The future is ready when polled.
+        Box::pin(async move { Ok(Rendered { png: self.render_png(scene)?, cached: false }) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::fixtures::*;
+    use crate::render::project;
+
+    fn renderer() -> BuiltinRenderer {
+        BuiltinRenderer::new(None).expect("the renderer tests need a graphics adapter (Mesa llvmpipe is enough)")
+    }
+
+    fn clear() -> std::collections::BTreeMap<String, f64> {
+        weather(10.0, 0.0, 0.0, 0.0, 60.0)
+    }
+
+    /// Pixel bounds of the projection of an axis-aligned box (scene frame).
+    fn screen_box(s: &Scene, lo: [f64; 3], hi: [f64; 3]) -> (u32, u32, u32, u32) {
+        let (w, h) = (s.camera.width, s.camera.height);
+        let mut b = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for i in 0..8 {
+            let p = [[lo[0], hi[0]][i & 1], [lo[1], hi[1]][i >> 1 & 1], [lo[2], hi[2]][i >> 2 & 1]];
+            let (xy, _) = project(&s.camera, w, h, p).expect("in front of the camera");
+            b = (b.0.min(xy[0]), b.1.min(xy[1]), b.2.max(xy[0]), b.3.max(xy[1]));
+        }
+        let c = |v: f64, m: u32| v.clamp(0.0, (m - 1) as f64) as u32;
+        (c(b.0, w), c(b.1, h), c(b.2, w), c(b.3, h))
+    }
+
+    fn is_red(p: &image::Rgba<u8>) -> bool {
+        let [r, g, b, _] = p.0;
+        r > 90 && r as u32 > 2 * g as u32 && r as u32 > 2 * b as u32
+    }
+
+    fn count(img: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32), f: impl Fn(&image::Rgba<u8>) -> bool) -> usize {
+        (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| (x, y))).filter(|&(x, y)| f(img.get_pixel(x, y))).count()
+    }
+
+    #[test]
+    fn an_entity_shows_its_colour_inside_its_projected_box() {
+        let s = scene(vec![red_box(12.0)], clear());
+        let img = renderer().render_rgba(&s).unwrap();
+        let bbox = screen_box(&s, [11.5, -0.5, 0.0], [12.5, 0.5, 1.0]);
+        let area = ((bbox.2 - bbox.0 + 1) * (bbox.3 - bbox.1 + 1)) as usize;
+        let red = count(&img, bbox, is_red);
+        assert!(red * 2 > area, "{red} of {area} pixels in the box are red");
+        assert!(count(&img, (0, 0, 639, 359), is_red) < red + area / 4, "red appears only around the box");
+    }
+
+    #[test]
+    fn a_near_object_covers_more_pixels_than_the_same_object_far() {
+        let r = renderer();
+        let reds = |d| count(&r.render_rgba(&scene(vec![red_box(d)], clear())).unwrap(), (0, 0, 639, 359), is_red);
+        let (near, far) = (reds(5.0), reds(30.0));
+        assert!(far > 0, "the far box is visible");
+        assert!(near > 10 * far, "near {near} px, far {far} px");
+    }
+
+    #[test]
+    fn fog_lowers_the_contrast_of_distant_objects() {
+        let r = renderer();
+        let saturation = |env| {
+            let s = scene(vec![red_box(35.0)], env);
+            let img = r.render_rgba(&s).unwrap();
+            let (x0, y0, x1, y1) = screen_box(&s, [34.8, -0.3, 0.2], [35.2, 0.3, 0.8]);
+            let px: Vec<_> = (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| (x, y))).collect();
+            px.iter().map(|&(x, y)| img.get_pixel(x, y).0[0] as f64 - img.get_pixel(x, y).0[1] as f64).sum::<f64>()
+                / px.len() as f64
+        };
+        let (clear_sat, foggy_sat) = (saturation(clear()), saturation(weather(60.0, 0.0, 0.0, 70.0, 60.0)));
+        assert!(clear_sat > 60.0, "clear: red minus green {clear_sat}");
+        assert!(foggy_sat < clear_sat * 0.6, "foggy {foggy_sat} vs clear {clear_sat}");
+    }
+
+    #[test]
+    fn red_and_green_lights_differ_at_the_lamp() {
+        let r = renderer();
+        let lamp = |green| {
+            let s = scene(vec![traffic_light(15.0, green)], clear());
+            let img = r.render_rgba(&s).unwrap();
+            let z = if green { 4.1 } else { 4.7 };
+            let (xy, _) = project(&s.camera, 640, 360, [15.0 - 0.16, -3.0, z]).unwrap();
+            let p = img.get_pixel(xy[0].round() as u32, xy[1].round() as u32).0;
+            (p[0] as i32, p[1] as i32)
+        };
+        let ((rr, rg), (gr, gg)) = (lamp(false), lamp(true));
+        assert!(rr > 200 && rr > rg + 100, "red lamp pixel r={rr} g={rg}");
+        assert!(gg > 200 && gg > gr + 100, "green lamp pixel r={gr} g={gg}");
+    }
+
+    #[test]
+    fn rendering_is_deterministic_and_safe_to_call_concurrently() {
+        let r = renderer();
+        let s = scene(vec![pedestrian(8.0, 0.5), traffic_light(20.0, true)], weather(90.0, 90.0, 80.0, 10.0, 60.0));
+        let first = r.render_png(&s).unwrap();
+        let others: Vec<Vec<u8>> = std::thread::scope(|sc| {
+            let hs: Vec<_> = (0..3).map(|_| sc.spawn(|| r.render_png(&s).unwrap())).collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert!(others.iter().all(|o| *o == first), "same scene, same bytes");
+        let mut reseeded = s.clone();
+        reseeded.seed += 1;
+        assert_ne!(r.render_png(&reseeded).unwrap(), first, "the rain pattern follows the seed");
+    }
+
+    #[test]
+    fn rain_darkens_the_scene_and_draws_streaks() {
+        let r = renderer();
+        let mean = |img: &RgbaImage| img.pixels().map(|p| p.0[..3].iter().map(|&c| c as u64).sum::<u64>()).sum::<u64>();
+        let dry = r.render_rgba(&scene(vec![], clear())).unwrap();
+        let wet = r.render_rgba(&scene(vec![], weather(100.0, 100.0, 90.0, 7.0, 75.0))).unwrap();
+        assert!(mean(&wet) < mean(&dry), "rain is darker");
+        // Streaks: bright thin verticals in the sky, which is otherwise smooth.
+        let streaks = |img: &RgbaImage| {
+            (10..120)
+                .flat_map(|y| (1..639).map(move |x| (x, y)))
+                .filter(|&(x, y)| {
+                    let [a, b, c] = [x - 1, x, x + 1].map(|x| img.get_pixel(x, y).0[1] as i32);
+                    b - a > 4 && b - c > 4
+                })
+                .count()
+        };
+        let (wet_streaks, dry_streaks) = (streaks(&wet), streaks(&dry));
+        assert!(wet_streaks > 50 && dry_streaks == 0, "streak pixels: wet {wet_streaks}, dry {dry_streaks}");
+    }
+
+    #[test]
+    fn size_override_and_bad_sizes() {
+        let r = BuiltinRenderer::new(Some((160, 90))).unwrap();
+        assert_eq!(r.render_rgba(&scene(vec![], clear())).unwrap().dimensions(), (160, 90));
+        assert_eq!(r.id(), "builtin@160x90");
+        assert!(BuiltinRenderer::new(Some((0, 90))).unwrap_err().0.contains("`0x90` is out of range"));
+    }
+
+    /// Golden image of the fixture street. Backends differ in a few edge pixels, so the check
+    /// allows 1% of pixels off by more than 12 levels. `REVELIO_BLESS=1` rewrites it.
+    #[test]
+    fn matches_the_golden_street() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/street.png");
+        let s = scene(vec![pedestrian(8.0, 0.0), red_box(20.0), traffic_light(25.0, false)], clear());
+        let img = renderer().render_rgba(&s).unwrap();
+        if std::env::var_os("REVELIO_BLESS").is_some() {
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            img.save(&path).unwrap();
+        }
+        let golden = image::open(&path).expect("tests/golden/street.png (REVELIO_BLESS=1 writes it)").to_rgba8();
+        assert_eq!(golden.dimensions(), img.dimensions());
+        let off = img
+            .pixels()
+            .zip(golden.pixels())
+            .filter(|(a, b)| a.0.iter().zip(b.0).any(|(x, y)| x.abs_diff(y) > 12))
+            .count();
+        assert!(off * 100 < (img.width() * img.height()) as usize, "{off} pixels differ from the golden image");
+    }
+
+    #[test]
+    fn dump_for_review() {
+        // Writes the fixture scenes for a person to look at when REVELIO_RENDER_DUMP is set.
+        let Ok(dir) = std::env::var("REVELIO_RENDER_DUMP") else { return };
+        let r = renderer();
+        for (name, env) in [
+            ("clear", clear()),
+            ("rain", weather(90.0, 90.0, 80.0, 10.0, 60.0)),
+            ("fog", weather(60.0, 0.0, 0.0, 60.0, 40.0)),
+            ("night", weather(10.0, 0.0, 0.0, 0.0, -20.0)),
+        ] {
+            let s = scene(vec![pedestrian(8.0, 0.0), red_box(20.0), traffic_light(25.0, false)], env);
+            r.render_rgba(&s).unwrap().save(std::path::Path::new(&dir).join(format!("{name}.png"))).unwrap();
+        }
+    }
+}

@@ -1,0 +1,377 @@
+//! The headless wgpu device: adapter choice, pipelines, and one frame → RGBA8 pixels.
+//!
+//! The device is created once per process and shared: a search renders thousands of images, and
+//! creating a device costs far more than a frame. Frames are serialised by one mutex that owns
+//! the per-size targets and the growable vertex buffer (the GPU queue is a single queue anyway).
+
+use std::sync::Mutex;
+
+use wgpu::util::DeviceExt;
+
+use super::atmosphere::Frame;
+use super::mesh::{Mesh, Vertex};
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Multisampling for clean edges; falls back to 1 where the adapter cannot.
+const MSAA: u32 = 4;
+/// Packages that provide the Mesa CPU drivers on Debian/Ubuntu, named in the error.
+pub const DRIVER_PACKAGES: &str =
+    "mesa-vulkan-drivers (Vulkan, lavapipe) or libegl1 libegl-mesa0 libgl1-mesa-dri (OpenGL, llvmpipe)";
+
+/// What `revelio render --info` prints.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+}
+
+impl std::fmt::Display for AdapterSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({}, {})", self.name, self.backend, self.device_type)?;
+        if !self.driver.is_empty() {
+            write!(f, ", driver {}", self.driver)?;
+        }
+        Ok(())
+    }
+}
+
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    summary: AdapterSummary,
+    samples: u32,
+    layout: wgpu::BindGroupLayout,
+    sky: wgpu::RenderPipeline,
+    opaque: wgpu::RenderPipeline,
+    blended: wgpu::RenderPipeline,
+    rain: wgpu::RenderPipeline,
+    state: Mutex<State>,
+}
+
+/// Per-size render targets and the geometry buffers, reused across frames.
+#[derive(Default)]
+struct State {
+    targets: Option<Targets>,
+    vertices: Option<(wgpu::Buffer, u64)>,
+    indices: Option<(wgpu::Buffer, u64)>,
+}
+
+impl Gpu {
+    /// Make `slot` hold a buffer of at least `need` bytes (grown to a power of two).
+    fn ensure(&self, slot: &mut Option<(wgpu::Buffer, u64)>, need: u64, usage: wgpu::BufferUsages) {
+        let need = need.max(4);
+        if slot.as_ref().is_none_or(|(_, cap)| *cap < need) {
+            let cap = need.next_power_of_two();
+            let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: cap,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            *slot = Some((buf, cap));
+        }
+    }
+}
+
+struct Targets {
+    size: (u32, u32),
+    msaa: Option<wgpu::TextureView>,
+    resolve: wgpu::Texture,
+    resolve_view: wgpu::TextureView,
+    depth: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    padded_row: u32,
+    uniforms: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+/// Rank adapters: a real GPU first, then Vulkan over GL (lavapipe is faster than llvmpipe).
+fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan => 0,
+        wgpu::Backend::Gl => 1,
+        _ => 2,
+    };
+    (kind, backend)
+}
+
+impl Gpu {
+    /// Pick the best adapter (`WGPU_BACKEND=vulkan|gl` restricts the choice) and build the
+    /// pipelines.
+    pub fn new() -> Result<Gpu, String> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::GL;
+        let instance = wgpu::Instance::new(desc.with_env());
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        adapters.sort_by_key(|a| adapter_rank(&a.get_info()));
+        let adapter = adapters.into_iter().next().ok_or_else(|| {
+            format!(
+                "no graphics adapter found for the builtin renderer: install {DRIVER_PACKAGES}, or use a GPU driver"
+            )
+        })?;
+        let info = adapter.get_info();
+        let summary = AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            device_type: format!("{:?}", info.device_type),
+            driver: [info.driver.as_str(), info.driver_info.as_str()]
+                .iter()
+                .filter(|s| !s.is_empty())
+                .copied()
+                .collect::<Vec<_>>()
+                .join(" "),
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("revelio"),
+            required_limits: wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("cannot open the graphics device `{}`: {e}", summary.name))?;
+        let flags = adapter.get_texture_format_features(COLOR_FORMAT).flags;
+        let samples = if flags.sample_count_supported(MSAA) { MSAA } else { 1 };
+        Ok(Gpu::with_device(device, queue, summary, samples))
+    }
+
+    pub fn summary(&self) -> &AdapterSummary {
+        &self.summary
+    }
+
+    fn with_device(device: wgpu::Device, queue: wgpu::Queue, summary: AdapterSummary, samples: u32) -> Gpu {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("revelio"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32];
+        let vbuf = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attrs,
+        })];
+        let pipeline =
+            |vs: &str, fs: &str, buffers: &[Option<wgpu::VertexBufferLayout>], depth_write: bool, blend: bool| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(fs),
+                    layout: Some(&pl),
+                    vertex: wgpu::VertexState {
+                        module: &shader,
+                        entry_point: Some(vs),
+                        compilation_options: Default::default(),
+                        buffers,
+                    },
+                    primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(depth_write),
+                        depth_compare: Some(if buffers.is_empty() {
+                            wgpu::CompareFunction::Always
+                        } else {
+                            wgpu::CompareFunction::GreaterEqual
+                        }),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
+                    fragment: Some(wgpu::FragmentState {
+                        module: &shader,
+                        entry_point: Some(fs),
+                        compilation_options: Default::default(),
+                        targets: &[Some(wgpu::ColorTargetState {
+                            format: COLOR_FORMAT,
+                            blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                            write_mask: wgpu::ColorWrites::ALL,
+                        })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+        let sky = pipeline("vs_fullscreen", "fs_sky", &[], false, false);
+        let opaque = pipeline("vs_main", "fs_main", &vbuf, true, false);
+        let blended = pipeline("vs_main", "fs_main", &vbuf, false, true);
+        let rain = pipeline("vs_fullscreen", "fs_rain", &[], false, true);
+        Gpu { device, queue, summary, samples, layout, sky, opaque, blended, rain, state: Mutex::new(State::default()) }
+    }
+
+    /// Render one frame and read it back as tightly packed sRGB RGBA8 rows.
+    pub fn draw(&self, mesh: &Mesh, frame: &Frame, rain: bool) -> Result<Vec<u8>, String> {
+        let (w, h) = (frame.viewport[0] as u32, frame.viewport[1] as u32);
+        // A poisoned lock only means another frame panicked mid-way; the state is rebuilt below.
+        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        if state.targets.as_ref().is_none_or(|t| t.size != (w, h)) {
+            state.targets = Some(self.targets(w, h));
+        }
+        let vbytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
+        let ibytes: &[u8] = bytemuck::cast_slice(&mesh.indices);
+        self.ensure(&mut state.vertices, vbytes.len() as u64, wgpu::BufferUsages::VERTEX);
+        self.ensure(&mut state.indices, ibytes.len() as u64, wgpu::BufferUsages::INDEX);
+        let State { targets: Some(t), vertices: Some((vbuf, _)), indices: Some((ibuf, _)) } = &*state else {
+            unreachable!("targets and geometry buffers are created above");
+        };
+        if !ibytes.is_empty() {
+            self.queue.write_buffer(vbuf, 0, vbytes);
+            self.queue.write_buffer(ibuf, 0, ibytes);
+        }
+        self.queue.write_buffer(&t.uniforms, 0, bytemuck::bytes_of(frame));
+
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let (view, resolve_target) = match &t.msaa {
+                Some(m) => (m, Some(&t.resolve_view)),
+                None => (&t.resolve_view, None),
+            };
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: None,
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &t.depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &t.bind_group, &[]);
+            pass.set_pipeline(&self.sky);
+            pass.draw(0..3, 0..1);
+            let n = mesh.indices.len() as u32;
+            if n > 0 {
+                pass.set_vertex_buffer(0, vbuf.slice(..));
+                pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+                pass.set_pipeline(&self.opaque);
+                pass.draw_indexed(0..mesh.opaque_len, 0, 0..1);
+                pass.set_pipeline(&self.blended);
+                pass.draw_indexed(mesh.opaque_len..n, 0, 0..1);
+            }
+            if rain {
+                pass.set_pipeline(&self.rain);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &t.resolve,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &t.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(t.padded_row),
+                    rows_per_image: None,
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        let index = self.queue.submit([enc.finish()]);
+        let slice = t.readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+            .map_err(|e| format!("the graphics device failed while rendering: {e}"))?;
+        rx.recv()
+            .map_err(|_| "the graphics device dropped a readback".to_string())?
+            .map_err(|e| format!("cannot read the rendered image back: {e}"))?;
+        let mut out = Vec::with_capacity((w * h * 4) as usize);
+        {
+            let data = slice.get_mapped_range().map_err(|e| format!("cannot read the rendered image back: {e}"))?;
+            for row in data.chunks(t.padded_row as usize).take(h as usize) {
+                out.extend_from_slice(&row[..(w * 4) as usize]);
+            }
+        }
+        t.readback.unmap();
+        Ok(out)
+    }
+
+    fn targets(&self, w: u32, h: u32) -> Targets {
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        let tex = |label, format, samples, usage| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let msaa = (self.samples > 1)
+            .then(|| tex("msaa", COLOR_FORMAT, self.samples, attach).create_view(&Default::default()));
+        let resolve = tex("resolve", COLOR_FORMAT, 1, attach | wgpu::TextureUsages::COPY_SRC);
+        let depth = tex("depth", DEPTH_FORMAT, self.samples, attach).create_view(&Default::default());
+        let padded_row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: padded_row as u64 * h as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let uniforms = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("frame"),
+            contents: bytemuck::bytes_of(&Frame::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &self.layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
+        });
+        Targets {
+            size: (w, h),
+            msaa,
+            resolve_view: resolve.create_view(&Default::default()),
+            resolve,
+            depth,
+            readback,
+            padded_row,
+            uniforms,
+            bind_group,
+        }
+    }
+}
+
+use bytemuck::Zeroable;

@@ -1,0 +1,224 @@
+// Revelio builtin renderer: one uniform block, three pipelines (sky, geometry, rain).
+// Everything is in linear light; the target is sRGB, so the hardware encodes on write.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    inv_view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+    // xyz: direction towards the sun; w: direct light strength.
+    sun_dir: vec4<f32>,
+    sun_color: vec4<f32>,
+    // rgb: sky ambient; w: blob shadow strength.
+    ambient: vec4<f32>,
+    sky_zenith: vec4<f32>,
+    // rgb: horizon; w: how visible the sun disc is.
+    sky_horizon: vec4<f32>,
+    // rgb: fog colour; w: extinction per metre.
+    fog: vec4<f32>,
+    // x: wetness, y: puddles (precipitation deposits), z: rain, w: seed in 0..1.
+    wet: vec4<f32>,
+    // x: width, y: height, z: fog start distance.
+    viewport: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+
+const MATTE: i32 = 0;
+const METAL: i32 = 1;
+const GLASS: i32 = 2;
+const EMISSIVE: i32 = 3;
+const WATER: i32 = 4;
+const FLAME: i32 = 5;
+const SMOKE: i32 = 6;
+const SHADOW: i32 = 7;
+
+fn sky(dir: vec3<f32>) -> vec3<f32> {
+    let up = clamp(dir.z, -1.0, 1.0);
+    var c = mix(frame.sky_horizon.rgb, frame.sky_zenith.rgb, pow(max(up, 0.0), 0.55));
+    if up < 0.0 {
+        c = frame.sky_horizon.rgb * (1.0 + up * 0.4);
+    }
+    let s = dot(dir, frame.sun_dir.xyz);
+    c += frame.sun_color.rgb * frame.sky_horizon.w * (smoothstep(0.9990, 0.9996, s) * 4.0 + pow(max(s, 0.0), 64.0) * 0.35);
+    return c;
+}
+
+fn fog_amount(dist: f32) -> f32 {
+    return 1.0 - exp(-frame.fog.w * max(dist - frame.viewport.z, 0.0));
+}
+
+fn hash2(p: vec2<f32>) -> f32 {
+    let q = fract(p * vec2<f32>(0.1031, 0.1030));
+    let r = q + dot(q, q.yx + 33.33);
+    return fract((r.x + r.y) * r.x);
+}
+
+fn value_noise(p: vec2<f32>) -> f32 {
+    let i = floor(p);
+    let f = fract(p);
+    let u = f * f * (3.0 - 2.0 * f);
+    let a = hash2(i);
+    let b = hash2(i + vec2<f32>(1.0, 0.0));
+    let c = hash2(i + vec2<f32>(0.0, 1.0));
+    let d = hash2(i + vec2<f32>(1.0, 1.0));
+    return mix(mix(a, b, u.x), mix(c, d, u.x), u.y);
+}
+
+// ---- sky: a full-screen triangle behind everything ----
+
+struct SkyOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) ndc: vec2<f32>,
+};
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> SkyOut {
+    let xy = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
+    var o: SkyOut;
+    o.clip = vec4<f32>(xy, 0.0, 1.0);
+    o.ndc = xy;
+    return o;
+}
+
+@fragment
+fn fs_sky(in: SkyOut) -> @location(0) vec4<f32> {
+    // Reversed z: 1 is the near plane; 0 would be infinitely far, so take a point between.
+    let far = frame.inv_view_proj * vec4<f32>(in.ndc, 0.5, 1.0);
+    let near = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
+    let dir = normalize(far.xyz / far.w - near.xyz / near.w);
+    // Fog thick enough to hide things at 200 m hides the sky too.
+    let c = mix(sky(dir), frame.fog.rgb, fog_amount(200.0));
+    return vec4<f32>(c, 1.0);
+}
+
+// ---- rain: screen-space streaks, a fixed pattern from the scene seed ----
+
+fn streak_layer(px: vec2<f32>, cell: vec2<f32>, density: f32, salt: f32) -> f32 {
+    let p = vec2<f32>(px.x + px.y * 0.18, px.y);
+    let id = floor(p / cell);
+    let local = p / cell - id;
+    let h = hash2(id + vec2<f32>(frame.wet.w * 613.0 + salt, salt));
+    if h > density {
+        return 0.0;
+    }
+    let x0 = 0.2 + 0.6 * hash2(id + vec2<f32>(7.0 + salt, 3.0));
+    let y0 = 0.5 * hash2(id + vec2<f32>(1.0, 11.0 + salt));
+    let width = 0.75 / cell.x;
+    let along = (local.y - y0) / 0.5;
+    let on = step(abs(local.x - x0), width) * step(0.0, along) * step(along, 1.0);
+    return on * (0.4 + 0.6 * along);
+}
+
+@fragment
+fn fs_rain(in: SkyOut) -> @location(0) vec4<f32> {
+    let px = (in.ndc * vec2<f32>(0.5, -0.5) + 0.5) * frame.viewport.xy;
+    let h = frame.viewport.y;
+    let d = frame.wet.z;
+    let a = max(streak_layer(px, vec2<f32>(h / 45.0, h / 5.0), d * 0.45, 0.0),
+                streak_layer(px, vec2<f32>(h / 90.0, h / 9.0), d * 0.35, 17.0) * 0.6);
+    // Lighter than the sky behind, whatever the light: streaks must read as rain.
+    return vec4<f32>(frame.sky_horizon.rgb * 1.6 + vec3<f32>(0.08, 0.085, 0.09), a * 0.5);
+}
+
+// ---- geometry ----
+
+struct VsIn {
+    @location(0) pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+    @location(3) material: f32,
+};
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+    @location(3) material: f32,
+};
+
+@vertex
+fn vs_main(v: VsIn) -> VsOut {
+    var o: VsOut;
+    o.clip = frame.view_proj * vec4<f32>(v.pos, 1.0);
+    o.world = v.pos;
+    o.normal = v.normal;
+    o.color = v.color;
+    o.material = v.material;
+    return o;
+}
+
+@fragment
+fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+    let m = i32(round(in.material));
+    let to_eye = frame.eye.xyz - in.world;
+    let dist = length(to_eye);
+    let v = to_eye / max(dist, 1e-4);
+    let fog = fog_amount(dist);
+
+    if m == SHADOW {
+        return vec4<f32>(0.0, 0.0, 0.0, in.color.a * frame.ambient.w * (1.0 - fog));
+    }
+    if m == EMISSIVE || m == FLAME {
+        // Light sources are not darkened by weather and pierce fog better than lit surfaces.
+        let c = mix(in.color.rgb * 1.15, frame.fog.rgb, fog * 0.45);
+        return vec4<f32>(c, in.color.a);
+    }
+
+    var n = normalize(in.normal);
+    // Planes and thin parts seen from behind: shade the side facing the camera.
+    if dot(n, v) < -0.2 {
+        n = -n;
+    }
+    let l = frame.sun_dir.xyz;
+    let sun = frame.sun_color.rgb * frame.sun_dir.w;
+    let diffuse = sun * max(dot(n, l), 0.0);
+    let hemi = frame.ambient.rgb * (0.7 + 0.3 * n.z);
+    var albedo = in.color.rgb;
+    var alpha = in.color.a;
+
+    if m == SMOKE {
+        let c = albedo * (hemi * 1.3 + diffuse * 0.4);
+        return vec4<f32>(mix(c, frame.fog.rgb, fog), alpha);
+    }
+
+    // Wet ground: up-facing surfaces near z = 0 darken and mirror the sky; puddles (from
+    // precipitation deposits) are patches where the mirror is complete.
+    var mirror = 0.0;
+    var shine = 16.0;
+    var spec_k = 0.03;
+    if m == MATTE && n.z > 0.9 && in.world.z < 0.35 {
+        let puddle = smoothstep(0.6, 0.68, value_noise(in.world.xy * vec2<f32>(0.25, 0.6))) * frame.wet.y;
+        // Saturated ground (grass, paint) shows less of the sky than tarmac and tiles do.
+        let sat = max(albedo.r, max(albedo.g, albedo.b)) - min(albedo.r, min(albedo.g, albedo.b));
+        mirror = max(frame.wet.x * 0.45, puddle) * (1.0 - clamp(sat * 3.0, 0.0, 0.8));
+        albedo = albedo * (1.0 - 0.5 * mirror);
+        shine = mix(16.0, 96.0, mirror);
+        spec_k = mix(0.03, 0.9, mirror);
+    } else if m == WATER {
+        mirror = 0.9;
+        shine = 128.0;
+        spec_k = 1.0;
+    } else if m == METAL {
+        mirror = 0.25;
+        shine = 48.0;
+        spec_k = 0.7;
+    } else if m == GLASS {
+        mirror = 0.3;
+        shine = 96.0;
+        spec_k = 0.9;
+    }
+
+    var c = albedo * (diffuse + hemi);
+    let h = normalize(l + v);
+    c += sun * spec_k * pow(max(dot(n, h), 0.0), shine);
+    let fresnel = 0.04 + 0.96 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+    if mirror > 0.0 {
+        let r = reflect(-v, n);
+        c = mix(c, sky(r) * 0.9, clamp(mirror * (0.3 + 0.7 * fresnel), 0.0, 1.0));
+    }
+    if m == GLASS {
+        alpha = clamp(alpha + fresnel * 0.4, 0.0, 1.0);
+    }
+    return vec4<f32>(mix(c, frame.fog.rgb, fog), alpha);
+}

@@ -1,0 +1,185 @@
+//! The builtin renderer on the shipped domains: every concept of both domains must be visible
+//! in its image, checked from the pixels. Needs a graphics adapter (Mesa llvmpipe is enough);
+//! without one the tests fail with the packages to install.
+
+use image::RgbaImage;
+use revelio::cli::render::concept_sheet;
+use revelio::ir::{ConceptSet, Domain, Effect};
+use revelio::render::{BuiltinRenderer, project};
+use revelio::scene::{Scene, SceneEntity};
+
+fn domain(path: &str) -> Domain {
+    let full = format!("{}/{path}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&full).unwrap();
+    revelio::check::compile_source(path, &text).unwrap_or_else(|d| panic!("`{path}` does not compile: {d:?}"))
+}
+
+fn renderer() -> BuiltinRenderer {
+    BuiltinRenderer::new(None).unwrap_or_else(|e| panic!("the renderer tests need a graphics adapter: {e}"))
+}
+
+/// Pixel box of an entity: every part's bounding sphere, projected. `None` when behind the
+/// camera or off screen.
+fn screen_box(scene: &Scene, e: &SceneEntity, w: u32, h: u32) -> Option<(u32, u32, u32, u32)> {
+    let (sin, cos) = e.yaw_deg.to_radians().sin_cos();
+    let mut b = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in &e.shape {
+        let r = p.size.iter().map(|s| s * s).sum::<f64>().sqrt() / 2.0;
+        let c = [
+            e.position[0] + cos * p.at[0] - sin * p.at[1],
+            e.position[1] + sin * p.at[0] + cos * p.at[1],
+            e.position[2] + p.at[2],
+        ];
+        for i in 0..8 {
+            let s = |k: usize| if i >> k & 1 == 1 { r } else { -r };
+            let (xy, _) = project(&scene.camera, w, h, [c[0] + s(0), c[1] + s(1), c[2] + s(2)])?;
+            b = (b.0.min(xy[0]), b.1.min(xy[1]), b.2.max(xy[0]), b.3.max(xy[1]));
+        }
+    }
+    let (x0, y0) = (b.0.max(0.0), b.1.max(0.0));
+    let (x1, y1) = (b.2.min(w as f64 - 1.0), b.3.min(h as f64 - 1.0));
+    (x0 <= x1 && y0 <= y1).then_some((x0 as u32, y0 as u32, x1 as u32, y1 as u32))
+}
+
+/// Pixels of the box that differ between two images by more than 24 levels in a channel.
+fn changed(a: &RgbaImage, b: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> usize {
+    (y0..=y1)
+        .flat_map(|y| (x0..=x1).map(move |x| (x, y)))
+        .filter(|&(x, y)| a.get_pixel(x, y).0.iter().zip(b.get_pixel(x, y).0).any(|(p, q)| p.abs_diff(q) > 24))
+        .count()
+}
+
+/// For each concept (alone or in its smallest valid set): each entity the concept added changes
+/// the pixels inside its own projected box when it is removed; a concept that adds nothing
+/// (town, weather, junction, lighting, a modifier) changes the image against the same set
+/// without it.
+fn every_concept_is_visible(path: &str) {
+    let d = domain(path);
+    let r = renderer();
+    let sets = concept_sheet(&d);
+    assert_eq!(sets.len(), d.concepts.len(), "every concept of `{path}` is in some small valid set");
+    let mut failures = Vec::new();
+    for (concept, set) in d.concepts.iter().zip(sets) {
+        let names = d.set_names(set).join("+");
+        let scene = revelio::sample::sample(&d, set, 0).unwrap();
+        let img = r.render_rgba(&scene).unwrap();
+        let (w, h) = img.dimensions();
+        // Only the entities of the concept the set stands for: the others may stand in front.
+        let own = |e: &SceneEntity| e.concept.as_deref() == Some(concept.name.as_str());
+        for (i, e) in scene.entities.iter().enumerate().filter(|(_, e)| own(e)) {
+            let Some(bbox) = screen_box(&scene, e, w, h) else {
+                failures.push(format!("{names}: `{}` is off screen", e.name));
+                continue;
+            };
+            let mut without = scene.clone();
+            without.entities.remove(i);
+            let n = changed(&img, &r.render_rgba(&without).unwrap(), bbox);
+            let area = ((bbox.2 - bbox.0 + 1) * (bbox.3 - bbox.1 + 1)) as usize;
+            if n < 6 || n * 100 < area * 3 {
+                failures.push(format!("{names}: `{}` changes {n} of {area} pixels of its box", e.name));
+            }
+        }
+        // A concept that only sets world attributes to their defaults (`town_town01`) looks
+        // like the set without it by construction.
+        let sets_defaults = concept.effects.iter().all(|e| match e {
+            Effect::SetWorld { attr, value, .. } => d.world_attr(attr).is_some_and(|a| a.default == *value),
+            _ => false,
+        });
+        if !scene.entities.iter().any(own) && !sets_defaults {
+            // Against the same set without the concept (a modifier moves its target; a world
+            // concept changes the scenery or the light).
+            let base = revelio::sample::sample(&d, set.without(concept.id), 0)
+                .or_else(|_| revelio::sample::sample(&d, ConceptSet::EMPTY, 0))
+                .unwrap();
+            let n = changed(&img, &r.render_rgba(&base).unwrap(), (0, 0, w - 1, h - 1));
+            if n * 100 < (w * h) as usize {
+                failures.push(format!("{names}: only {n} pixels differ without `{}`", concept.name));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "invisible concepts in `{path}`:\n{}", failures.join("\n"));
+}
+
+#[test]
+fn every_driving_concept_is_visible() {
+    every_concept_is_visible("domains/driving.rev");
+}
+
+#[test]
+fn every_indoor_concept_is_visible() {
+    every_concept_is_visible("domains/indoor.rev");
+}
+
+fn sample(d: &Domain, names: &[&str], seed: u64) -> Scene {
+    revelio::sample::sample(d, d.parse_set(names).unwrap(), seed).unwrap()
+}
+
+/// The lit lamp shows its colour: red dominates at a red light's lamp, green at a green one's.
+#[test]
+fn red_and_green_lights_differ_at_the_lamp() {
+    let d = domain("domains/driving.rev");
+    let r = renderer();
+    for (concept, channel) in [("light_red", 0), ("light_green", 1)] {
+        let scene = sample(&d, &[concept], 3);
+        let img = r.render_rgba(&scene).unwrap();
+        let light = &scene.entities[0];
+        let lamps: Vec<_> = light.shape.iter().filter(|p| p.material == "emissive").collect();
+        assert!(!lamps.is_empty(), "{concept}: a lit lamp");
+        for lamp in lamps {
+            let (sin, cos) = light.yaw_deg.to_radians().sin_cos();
+            let at = [
+                light.position[0] + cos * lamp.at[0] - sin * lamp.at[1],
+                light.position[1] + sin * lamp.at[0] + cos * lamp.at[1],
+                light.position[2] + lamp.at[2],
+            ];
+            let (xy, _) = project(&scene.camera, img.width(), img.height(), at).unwrap();
+            let p = img.get_pixel(xy[0].round() as u32, xy[1].round() as u32).0;
+            let other = if channel == 0 { p[1] } else { p[0] };
+            assert!(p[channel] > 180 && p[channel] > other + 80, "{concept}: lamp pixel {p:?}");
+        }
+    }
+}
+
+/// The same set and seed render to the same bytes; another seed to other bytes.
+#[test]
+fn same_scene_same_bytes() {
+    let d = domain("domains/driving.rev");
+    let r = renderer();
+    let a = r.render_png(&sample(&d, &["debris_near", "weather_hard_rain"], 9)).unwrap();
+    let b = r.render_png(&sample(&d, &["debris_near", "weather_hard_rain"], 9)).unwrap();
+    let c = r.render_png(&sample(&d, &["debris_near", "weather_hard_rain"], 10)).unwrap();
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+}
+
+/// Fog hides what clear air shows: a far container has less contrast with the road.
+#[test]
+fn fog_lowers_contrast_far_away() {
+    let d = domain("domains/driving.rev");
+    let r = renderer();
+    let spread = |names: &[&str]| {
+        let scene = sample(&d, names, 4);
+        let img = r.render_rgba(&scene).unwrap();
+        let bbox = screen_box(&scene, &scene.entities[0], img.width(), img.height()).unwrap();
+        let lum: Vec<f64> = (bbox.1..=bbox.3)
+            .flat_map(|y| (bbox.0..=bbox.2).map(move |x| (x, y)))
+            .map(|(x, y)| img.get_pixel(x, y).0[..3].iter().map(|&c| c as f64).sum::<f64>() / 3.0)
+            .collect();
+        let mean = lum.iter().sum::<f64>() / lum.len() as f64;
+        (lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64).sqrt()
+    };
+    let (clear, foggy) = (spread(&["obstruction_far"]), spread(&["obstruction_far", "weather_foggy"]));
+    assert!(foggy < clear * 0.7, "contrast: foggy {foggy:.1}, clear {clear:.1}");
+}
+
+/// The two towns are told apart by their buildings, not only by a few pixels.
+#[test]
+fn towns_look_different() {
+    let d = domain("domains/driving.rev");
+    let r = renderer();
+    let town01 = r.render_rgba(&sample(&d, &["town_town01"], 0)).unwrap();
+    let town02 = r.render_rgba(&sample(&d, &["town_town02"], 0)).unwrap();
+    let (w, h) = town01.dimensions();
+    let n = changed(&town01, &town02, (0, 0, w - 1, h - 1));
+    assert!(n * 5 > (w * h) as usize, "only {n} pixels differ between the towns");
+}
