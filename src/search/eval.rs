@@ -126,6 +126,10 @@ impl Evaluator {
     pub fn new(c: EvaluatorConfig) -> Result<Evaluator, String> {
         let mut replay = HashMap::new();
         for r in &c.journal.records {
+            // A failed call is not a paid answer: a resumed run asks again (the newer line wins).
+            if r.outcome == Outcome::ApiError {
+                continue;
+            }
             let set = c.domain.parse_set(&r.set).map_err(|e| format!("cannot resume from the journal: {e}"))?;
             replay.insert((r.phase, set, r.obs), r.outcome);
         }
