@@ -8,7 +8,7 @@
 //! | R0100 | a concept appears in no valid set |
 //! | R0101 | a rule is never selected (shadowed, or its condition never holds) |
 //! | R0102 | a rule leaves the expected answer undetermined for some valid set |
-//! | R0103 | best fit: two rules with different answers tie for some valid set |
+//! | R0103 | best fit: two rules with different answers tie (same score and specificity) for some valid set |
 //! | R0104 | an answer option is never expected |
 //! | R0105 | a modifier has no possible target |
 //! | R0106 | no rule matches some valid set |
@@ -94,7 +94,7 @@ impl Survey {
             self.applies[i] |= *t == Tri::True;
         }
         match decision {
-            Decision::Selected { rule, score } => {
+            Decision::Selected { rule, .. } => {
                 self.selected[rule] = true;
                 let r = &domain.rules[rule];
                 if let Some(slot) = self.expected.get_mut(r.question.index()).and_then(|q| q.get_mut(r.expect as usize))
@@ -107,7 +107,7 @@ impl Survey {
                     }
                 }
                 if domain.selection == Selection::BestFit {
-                    for other in oracle::tied_later(domain, set, conditions, rule, score) {
+                    for other in oracle::tied_later(domain, set, conditions, rule) {
                         let o = &domain.rules[other];
                         if (o.question, o.expect) != (r.question, r.expect) {
                             Example::note(&mut self.ties[rule][other], set);
@@ -178,8 +178,14 @@ impl Survey {
         // Name the rule that takes most of the sets this one applies to (the first on a tie).
         let shadows: Vec<(usize, Example)> =
             self.shadowed_by[i].iter().enumerate().filter_map(|(w, e)| e.map(|e| (w, e))).collect();
-        let &(winner, ex) =
-            shadows.iter().rev().max_by_key(|(_, e)| e.count).expect("a rule that applies was shadowed");
+        let Some(&(winner, ex)) = shadows.iter().rev().max_by_key(|(_, e)| e.count) else {
+            d.message = format!(
+                "rule `{}` is never selected: wherever its condition holds, the answer is undetermined",
+                rule.name
+            );
+            d.help = Some("resolve the undetermined rules reported for these sets (R0102)".into());
+            return d;
+        };
         let w = &domain.rules[winner];
         let more = match shadows.len() {
             1 => String::new(),

@@ -48,8 +48,8 @@ impl Dom {
             questions: vec![],
             selection,
             rules: vec![],
-            allow: vec![],
             camera: Camera::default(),
+            allow: vec![],
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");
@@ -232,6 +232,13 @@ impl Dom {
             span,
         });
         id
+    }
+
+    /// Mark the last rule as a safe-scene rule.
+    pub fn safe(&mut self) {
+        if let Some(r) = self.d.rules.last_mut() {
+            r.safe = true;
+        }
     }
 
     pub fn build(self) -> Domain {

@@ -10,8 +10,12 @@
 //! - **priority**: the first rule, in order, whose condition is true decides; an unknown
 //!   condition before it makes the decision undetermined.
 //! - **best fit**: among the rules whose condition is true, the one with the highest element-fit
-//!   score |set ∩ elements| decides, ties going to the rule declared first; an unknown condition
-//!   of a rule that would win if true makes the decision undetermined.
+//!   score |set ∩ elements| decides; ties go to the more specific rule (the higher fraction
+//!   |set ∩ elements| / |elements| of its elements covered), then to the rule declared first. An
+//!   unknown condition of a rule that would win if true makes the decision undetermined.
+//!
+//! A `safe` rule (a safe-scene rule) only matches sets made entirely of its elements: its
+//! condition is false for any set holding another concept, under either selection.
 
 pub mod explain;
 
@@ -132,11 +136,7 @@ impl<'d> Oracle<'d> {
                 invalid(Violation::TargetLacksAttr { modifier, attr, target })
             }
         })?;
-        let conditions: Vec<Tri> = d
-            .rules
-            .iter()
-            .map(|r| r.when.as_ref().map_or(Tri::True, |w| anchor::eval(d, &graph, w, &mut Vec::new())))
-            .collect();
+        let conditions: Vec<Tri> = (0..d.rules.len()).map(|i| condition(d, &graph, i)).collect();
         let decision = decide(d, set, &conditions);
         Ok(Judgement { graph, conditions, decision })
     }
@@ -163,25 +163,57 @@ impl<'d> Oracle<'d> {
                 let elements = d.set_names(j.graph.set.intersection(r.elements));
                 let listed = elements.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
                 let fit = if elements.is_empty() { String::new() } else { format!(" ({listed})") };
-                let ties = tied_later(d, j.graph.set, &j.conditions, rule, score);
-                let tie = if ties.is_empty() {
-                    String::new()
-                } else {
-                    format!("; it ties with {} and is declared first", quote_rules(d, &ties))
-                };
+                let mut tie = String::new();
+                let specific = less_specific(d, j.graph.set, &j.conditions, rule);
+                if !specific.is_empty() {
+                    tie.push_str(&format!(
+                        "; it is more specific than {} (a higher fraction of its elements)",
+                        quote_rules(d, &specific)
+                    ));
+                }
+                let ties = tied_later(d, j.graph.set, &j.conditions, rule);
+                if !ties.is_empty() {
+                    tie.push_str(&format!("; it ties with {} and is declared first", quote_rules(d, &ties)));
+                }
                 format!(
-                    "`{}` fits best among {matching} matching rule{}: {score} of the set's concepts are its elements{fit}{tie}; {why}",
+                    "`{}` fits best among {matching} matching rule{}: {score} of the set's concepts {} among its \
+                     elements{fit}{tie}; {why}",
                     r.name,
-                    if matching == 1 { "" } else { "s" }
+                    if matching == 1 { "" } else { "s" },
+                    if score == 1 { "is" } else { "are" }
                 )
             }
         }
     }
 }
 
+/// Rule `rule`'s condition on a set's anchor graph: its `when` (true when absent), and for a
+/// safe rule also that every concept of the set is one of its elements.
+pub fn condition(domain: &Domain, graph: &AnchorGraph, rule: usize) -> Tri {
+    let r = &domain.rules[rule];
+    if r.safe && !graph.set.is_subset_of(r.elements) {
+        return Tri::False;
+    }
+    r.when.as_ref().map_or(Tri::True, |w| anchor::eval(domain, graph, w, &mut Vec::new()))
+}
+
 /// The element-fit score of rule `rule` for `set`.
 pub fn score(domain: &Domain, set: ConceptSet, rule: usize) -> u32 {
     set.intersection(domain.rules[rule].elements).len() as u32
+}
+
+/// Best fit: how rules `a` and `b` rank for `set` before declaration order breaks the tie —
+/// by score, then by the fraction of their elements covered (compared exactly, as
+/// `score_a / |elements_a|` vs `score_b / |elements_b|`; a rule without elements covers 0).
+pub fn fit_cmp(domain: &Domain, set: ConceptSet, a: usize, b: usize) -> std::cmp::Ordering {
+    let (sa, sb) = (u64::from(score(domain, set, a)), u64::from(score(domain, set, b)));
+    let (ea, eb) = (domain.rules[a].elements.len() as u64, domain.rules[b].elements.len() as u64);
+    sa.cmp(&sb).then_with(|| (sa * eb).cmp(&(sb * ea)))
+}
+
+/// Best fit: whether rule `a` beats rule `b` for `set` (declaration order last).
+fn beats(domain: &Domain, set: ConceptSet, a: usize, b: usize) -> bool {
+    fit_cmp(domain, set, a, b).then(b.cmp(&a)).is_gt()
 }
 
 /// The decision of the domain's selection given every rule's condition value.
@@ -198,31 +230,42 @@ pub fn decide(domain: &Domain, set: ConceptSet, conditions: &[Tri]) -> Decision 
             Decision::NoRule
         }
         Selection::BestFit => {
-            let mut best: Option<(usize, u32)> = None;
+            let mut best: Option<usize> = None;
             for (i, t) in conditions.iter().enumerate() {
-                let s = score(domain, set, i);
-                if *t == Tri::True && best.is_none_or(|(_, b)| s > b) {
-                    best = Some((i, s));
+                if *t == Tri::True && best.is_none_or(|b| beats(domain, set, i, b)) {
+                    best = Some(i);
                 }
             }
-            // An unknown rule matters when, were it true, it would beat or pre-empt the winner.
-            let upset = conditions.iter().enumerate().find(|&(i, t)| {
-                *t == Tri::Unknown
-                    && best.is_none_or(|(w, b)| score(domain, set, i) > b || (score(domain, set, i) == b && i < w))
-            });
+            // An unknown rule matters when, were it true, it would beat the winner.
+            let upset = (0..conditions.len())
+                .find(|&i| conditions[i] == Tri::Unknown && best.is_none_or(|b| beats(domain, set, i, b)));
             match (upset, best) {
-                (Some((i, _)), _) => Decision::Undetermined { rule: i },
-                (None, Some((rule, score))) => Decision::Selected { rule, score },
+                (Some(i), _) => Decision::Undetermined { rule: i },
+                (None, Some(rule)) => Decision::Selected { rule, score: score(domain, set, rule) },
                 (None, None) => Decision::NoRule,
             }
         }
     }
 }
 
-/// Best fit: the true rules declared after `winner` with the same score (the ones it beat only
-/// by declaration order).
-pub fn tied_later(domain: &Domain, set: ConceptSet, conditions: &[Tri], winner: usize, best: u32) -> Vec<usize> {
-    (winner + 1..conditions.len()).filter(|&i| conditions[i] == Tri::True && score(domain, set, i) == best).collect()
+/// Best fit: the true rules declared after `winner` that rank equal to it (it beat them only by
+/// declaration order).
+pub fn tied_later(domain: &Domain, set: ConceptSet, conditions: &[Tri], winner: usize) -> Vec<usize> {
+    (winner + 1..conditions.len())
+        .filter(|&i| conditions[i] == Tri::True && fit_cmp(domain, set, i, winner).is_eq())
+        .collect()
+}
+
+/// Best fit: the true rules with the winner's score that it beat by covering a higher fraction
+/// of its elements.
+pub fn less_specific(domain: &Domain, set: ConceptSet, conditions: &[Tri], winner: usize) -> Vec<usize> {
+    (0..conditions.len())
+        .filter(|&i| {
+            conditions[i] == Tri::True
+                && score(domain, set, i) == score(domain, set, winner)
+                && fit_cmp(domain, set, i, winner).is_lt()
+        })
+        .collect()
 }
 
 fn quote_rules(domain: &Domain, rules: &[usize]) -> String {

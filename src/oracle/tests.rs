@@ -120,6 +120,8 @@ fn indoor() -> Domain {
     b.rule("loose_glass", cut, 0, Some(Expr::Has(glass)), &[glass, kitchen]);
     b.rule("safe_child", cut, 1, Some(Expr::Has(safe)), &[safe, kitchen]);
     b.rule("hot_stove", burn, 0, Some(Expr::Has(stove)), &[stove, kitchen]);
+    b.rule("safe_scene", cut, 1, None, &[safe, toddler, kitchen]);
+    b.safe();
     b.build()
 }
 
@@ -135,7 +137,7 @@ fn best_fit_picks_the_highest_element_fit() {
     assert_eq!(d.rules[v.rule.index()].name, "glass_cut");
     assert_eq!(
         v.explanation,
-        "`glass_cut` fits best among 2 matching rules: 3 of the set's concepts are its elements \
+        "`glass_cut` fits best among 2 matching rules: 3 of the set's concepts are among its elements \
          (`glass_floor`, `barefoot_near_glass`, `toddler_standing`); `has glass_floor and has barefoot_near_glass` holds"
     );
 }
@@ -148,7 +150,30 @@ fn best_fit_ties_go_to_the_rule_declared_first() {
     assert_eq!(d.rules[v.rule.index()].name, "loose_glass");
     assert_eq!(v.score, Some(2));
     assert!(v.explanation.contains("it ties with `hot_stove` and is declared first"), "{}", v.explanation);
-    assert_eq!(evaluate(&d, set(&d, &["kitchen"])).unwrap_err().to_string(), "no rule matches {`kitchen`}");
+    assert_eq!(evaluate(&d, set(&d, &["stove_on"])).unwrap().score, Some(1));
+}
+
+#[test]
+fn best_fit_prefers_the_more_specific_rule_on_equal_scores() {
+    let d = indoor();
+    // `glass_cut` covers 2 of 3 elements, `loose_glass` 1 of 2: the score decides first.
+    expect(&d, &["glass_floor", "barefoot_near_glass"], "glass_cut", "yes", "A");
+    let v = evaluate(&d, set(&d, &["kitchen", "barefoot_child_safe"])).unwrap();
+    // `safe_child` covers 2/2, `safe_scene` 2/3: same score, the more specific rule wins.
+    assert_eq!(d.rules[v.rule.index()].name, "safe_child");
+    assert!(v.explanation.contains("it is more specific than `safe_scene`"), "{}", v.explanation);
+}
+
+#[test]
+fn safe_rules_match_only_sets_made_of_their_elements() {
+    let d = indoor();
+    expect(&d, &["kitchen"], "safe_scene", "no", "B");
+    expect(&d, &["kitchen", "toddler_standing"], "safe_scene", "no", "B");
+    // A hazard concept outside its elements turns the safe rule off.
+    assert_eq!(
+        evaluate(&d, set(&d, &["kitchen", "toddler_standing", "barefoot_near_glass"])).unwrap_err().to_string(),
+        "no rule matches {`kitchen`, `barefoot_near_glass`, `toddler_standing`}"
+    );
 }
 
 #[test]
@@ -172,4 +197,38 @@ fn every_image_of_a_set_shares_its_answer_because_ranges_are_decided_on_the_anch
     let d = driving();
     expect(&d, &["pedestrian", "near"], "near_in_lane", "stop", "A");
     expect(&d, &["pedestrian"], "hazard_ahead", "slow", "B");
+}
+
+#[test]
+fn best_fit_ties_go_to_the_more_specific_rule_before_declaration_order() {
+    let mut b = Dom::new(Selection::BestFit);
+    let k = b.kind("Thing", &[], &[]);
+    let outlet = b.concept("outlet_covered", &[("outlet", k, "lane", &[])]);
+    let toddler = b.concept("toddler_standing", &[("toddler", k, "lane", &[])]);
+    let glass = b.concept("glass_upright", &[("glass", k, "lane", &[])]);
+    let shock = b.question("shock", &["yes", "no"]);
+    let hazard = b.question("hazard", &["yes", "no"]);
+    // Declared first but broader: 2 of 3 elements covered vs. 2 of 2.
+    b.rule("broad", hazard, 1, None, &[outlet, toddler, glass]);
+    b.rule("narrow", shock, 1, Some(Expr::Has(outlet)), &[outlet, toddler]);
+    let d = b.build();
+    expect(&d, &["outlet_covered", "toddler_standing"], "narrow", "no", "B");
+    expect(&d, &["glass_upright", "toddler_standing"], "broad", "no", "B");
+}
+
+#[test]
+fn safe_rules_only_match_sets_made_of_their_elements() {
+    let mut b = Dom::new(Selection::BestFit);
+    let k = b.kind("Thing", &[], &[]);
+    let safe = b.concept("barefoot_child_safe", &[("toddler", k, "lane", &[])]);
+    let stove = b.concept("stove_on", &[("stove", k, "lane", &[])]);
+    let cut = b.question("cut_floor", &["yes", "no"]);
+    let fire = b.question("fire", &["yes", "no"]);
+    b.rule("safe_barefoot", cut, 1, Some(Expr::Has(safe)), &[safe]);
+    b.rule("stove_lit", fire, 0, Some(Expr::Has(stove)), &[stove]);
+    let mut d = b.build();
+    d.rules[0].safe = true;
+    expect(&d, &["barefoot_child_safe"], "safe_barefoot", "no", "B");
+    // The stove is not one of the safe rule's elements, so the scene is not a safe scene.
+    expect(&d, &["barefoot_child_safe", "stove_on"], "stove_lit", "yes", "A");
 }

@@ -293,17 +293,20 @@ struct Spectrum {
 
 impl Spectrum {
     fn new(s: &Stats) -> Spectrum {
-        let eigen = s.gram.clone().symmetric_eigen();
-        let v = &eigen.eigenvectors;
-        Spectrum {
-            n: s.n as f64,
-            // XᵀX ⪰ 0; rounding may leave tiny negative eigenvalues.
-            eig: eigen.eigenvalues.iter().map(|&l| l.max(0.0)).collect(),
-            p1: (v.transpose() * &s.counts).iter().copied().collect(),
-            py: (v.transpose() * &s.xty).iter().copied().collect(),
-            sum_y: s.sum_y,
-            yy: s.yy,
-        }
+        let (eig, p1, py) = if s.d == 0 {
+            // nalgebra's eigensolver rejects a 0×0 matrix; with no concepts only the bias is left.
+            (Vec::new(), Vec::new(), Vec::new())
+        } else {
+            let eigen = s.gram.clone().symmetric_eigen();
+            let vt = eigen.eigenvectors.transpose();
+            (
+                // XᵀX ⪰ 0; rounding may leave tiny negative eigenvalues.
+                eigen.eigenvalues.iter().map(|&l| l.max(0.0)).collect(),
+                (&vt * &s.counts).iter().copied().collect(),
+                (&vt * &s.xty).iter().copied().collect(),
+            )
+        };
+        Spectrum { n: s.n as f64, eig, p1, py, sum_y: s.sum_y, yy: s.yy }
     }
 
     /// Log marginal likelihood and its gradient with respect to (log σ0, log noise).
@@ -581,6 +584,20 @@ mod tests {
         let within_one = z.iter().filter(|v| v.abs() < 1.0).count() as f64 / z.len() as f64;
         assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.02, "mean {mean}, var {var}");
         assert!((within_one - 0.682_689).abs() < 0.01, "P(|z| < 1) = {within_one}");
+    }
+
+    #[test]
+    fn degenerate_data_fit_without_failing() {
+        // No concepts at all: only the bias is learnt.
+        let gp = Gp::fit(&[ConceptSet::EMPTY; 3], &[0.2, 0.4, 0.6], 0).unwrap();
+        let direct = Direct::new(&[ConceptSet::EMPTY; 3], &[0.2, 0.4, 0.6], gp.sigma0(), gp.noise_level());
+        assert!(close(gp.log_marginal_likelihood(), direct.lml, 1e-9));
+        assert!(close(gp.predict(ConceptSet::EMPTY).0, direct.predict(ConceptSet::EMPTY).0, 1e-9));
+        // One observation, the widest domain.
+        let gp = Gp::fit(&[set(&[0, 127])], &[1.0], MAX_CONCEPTS).unwrap();
+        let (mean, var) = gp.predict(set(&[127]));
+        assert!(mean.is_finite() && var > 0.0);
+        assert!(gp.draw(&mut ChaCha8Rng::seed_from_u64(1)).score(set(&[0, 127])).is_finite());
     }
 
     #[test]

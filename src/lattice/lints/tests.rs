@@ -103,10 +103,18 @@ fn undetermined_rules_name_an_example_and_the_attribute() {
     let q = b.question("drive", &["stop", "go"]);
     let close = exists(filter(&[k], &[]), Some(attr_cmp("distance", CmpOp::Le, num(4.0))));
     b.rule("close", q, 0, Some(close), &[]);
+    let parcel = b.d.concept_by_name("parcel").unwrap().id;
+    // Applies only where `close`, before it, is undetermined: never selected, never shadowed.
+    b.rule("parcel_seen", q, 0, Some(Expr::Has(parcel)), &[]);
     b.rule("open", q, 1, None, &[]);
     let d = b.build();
-    let diags = lint_domain(&d);
-    assert_eq!(diags.len(), 2, "{diags:#?}");
+    let all = lint_domain(&d);
+    assert_eq!(all.len(), 3, "{all:#?}");
+    assert_eq!(
+        all[1].message,
+        "rule `parcel_seen` is never selected: wherever its condition holds, the answer is undetermined"
+    );
+    let diags = [all[0].clone(), all[2].clone()];
     assert_eq!(diags[0].code, "R0102");
     assert_eq!(
         diags[0].message,
@@ -127,7 +135,8 @@ fn best_fit_ties_and_unmatched_sets() {
     let burn = b.question("burn_risk", &["yes", "no"]);
     b.rule("loose_glass", cut, 0, Some(Expr::Has(glass)), &[glass, kitchen]);
     b.rule("hot_stove", burn, 0, Some(Expr::Has(stove)), &[stove, kitchen]);
-    b.rule("glass_safe", cut, 1, Some(Expr::Has(glass)), &[glass]);
+    // Same condition and elements as `loose_glass`, other answer: always tied, always losing.
+    b.rule("glass_fine", cut, 1, Some(Expr::Has(glass)), &[glass, kitchen]);
     let d = b.build();
     let rule = |n: &str| span_of_rule(&d, n);
     let question = |i: usize| d.questions[i].span.start;
@@ -138,20 +147,34 @@ fn best_fit_ties_and_unmatched_sets() {
              other valid set",
             rule("hot_stove"),
         ),
-        ("R0101", "rule `glass_safe` is shadowed by `loose_glass`", rule("glass_safe")),
+        ("R0101", "rule `glass_fine` is shadowed by `loose_glass`", rule("glass_fine")),
         (
             "R0103",
-            "rules `loose_glass` and `glass_safe` tie with different answers for {`glass_floor`} and 1 other valid set",
-            rule("glass_safe"),
+            "rules `loose_glass` and `glass_fine` tie with different answers for {`glass_floor`} and 3 other valid sets",
+            rule("glass_fine"),
         ),
         ("R0104", "option `cut_risk.no` is never the expected answer", question(0)),
         ("R0104", "option `burn_risk.no` is never the expected answer", question(1)),
-        ("R0106", "no rule matches {`kitchen`}", rule("glass_safe")),
+        ("R0106", "no rule matches {`kitchen`}", rule("glass_fine")),
     ];
     let got = findings(&d);
     assert_eq!(got, expected.into_iter().map(|(c, m, s)| (c, m.to_string(), s)).collect::<Vec<_>>());
     let diags = lint_domain(&d);
     assert_eq!(diags[0].related[0].span, d.rules[0].span, "the tie's winner is the related span");
+}
+
+#[test]
+fn specificity_decides_before_declaration_order_so_it_is_no_tie() {
+    let mut b = Dom::new(Selection::BestFit);
+    let glass = b.concept("glass_floor", &[]);
+    let toddler = b.concept("toddler", &[]);
+    let q = b.question("cut_risk", &["yes", "no"]);
+    b.rule("broad", q, 0, Some(Expr::Has(glass)), &[glass, toddler]);
+    b.rule("narrow", q, 1, Some(Expr::Has(glass)), &[glass]);
+    b.rule("default", q, 1, None, &[]);
+    let d = b.build();
+    // {glass_floor}: `narrow` covers 1/1 and beats `broad` (1/2); with the toddler `broad` wins.
+    assert_eq!(findings(&d), vec![]);
 }
 
 #[test]
