@@ -8,9 +8,9 @@
 pub mod anchor;
 pub mod check;
 pub mod cli;
-pub mod emit;
 #[cfg(test)]
 mod editor_sync;
+pub mod emit;
 pub mod ir;
 pub mod journal;
 pub mod lattice;
