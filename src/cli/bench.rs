@@ -51,6 +51,11 @@ pub struct SearchBenchArgs {
     pub samples: u32,
     #[arg(long, default_value_t = 0.6)]
     pub threshold: f64,
+    /// Beam diversity weight λ (beam and the beam phase of GPTS)
+    #[arg(long, default_value_t = crate::search::DEFAULT_LAMBDA)]
+    pub lambda: f64,
+    #[arg(long, default_value_t = 5)]
+    pub beam_width: usize,
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
     /// Print JSON
@@ -115,6 +120,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         budget: args.budget,
         samples: args.samples,
         threshold: args.threshold,
+        lambda: args.lambda,
+        beam_width: args.beam_width,
         beam_budget: args.budget / 2,
         ..Params::default()
     };
@@ -224,11 +231,13 @@ pub fn recovered(history: &[SetStats], planted: &[crate::ir::ConceptSet], thresh
 fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], planted: usize) -> std::io::Result<()> {
     writeln!(
         w,
-        "{} seeds × budget {} (m = {}, τ = {}) against `{}`, renderer none",
+        "{} seeds × budget {} (m = {}, τ = {}, λ = {}, w = {}) against `{}`, renderer none",
         args.seeds,
         args.budget,
         args.samples,
         args.threshold,
+        args.lambda,
+        args.beam_width,
         args.profile.display()
     )?;
     writeln!(

@@ -277,3 +277,51 @@ pub fn print_summary(
 pub(crate) fn outcome_name(o: crate::vlm::Outcome) -> String {
     serde_json::to_value(o).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::*;
+    use crate::search::metrics::Metrics;
+    use crate::search::runner::SetRow;
+    use crate::vlm::Outcome;
+
+    fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
+        SetRow {
+            concepts: concepts.iter().map(|c| c.to_string()).collect(),
+            fr: Some(f64::from(wrong) / f64::from(answered)),
+            wrong,
+            answered,
+            observations: 5,
+            unanswered: BTreeMap::new(),
+        }
+    }
+
+    #[test]
+    fn summary_table() {
+        let modes = vec![row(&["debris_far", "town_town02"], 5, 5), row(&["obstruction_near", "light_green"], 3, 4)];
+        let s = Summary {
+            domain: "driving".into(),
+            model: "sim:driving-paper@3daf41a26cd5".into(),
+            algo: Algo::Gpts,
+            threshold: 0.6,
+            space: 115_144,
+            metrics: Metrics {
+                sets: 200,
+                inferences: 1000,
+                failures: 212,
+                failure_modes: 2,
+                pfm: 1.0,
+                mfr: 21.2,
+                div: Some(1.0),
+                unanswered: BTreeMap::from([(Outcome::Unparsed, 1)]),
+            },
+            failure_modes: modes.clone(),
+            sets: modes,
+        };
+        let mut out = Vec::new();
+        print_summary(&mut out, &s, 1, Path::new("runs/x"), std::time::Duration::from_millis(1500)).unwrap();
+        insta::assert_snapshot!(String::from_utf8(out).unwrap());
+    }
+}

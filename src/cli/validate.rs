@@ -121,3 +121,41 @@ pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<(
         100.0 * CONSISTENT_FR
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::search::runner::{SetRow, ValidatedSet};
+
+    fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
+        SetRow {
+            concepts: concepts.iter().map(|c| c.to_string()).collect(),
+            fr: Some(f64::from(wrong) / f64::from(answered)),
+            wrong,
+            answered,
+            observations: answered,
+            unanswered: Default::default(),
+        }
+    }
+
+    #[test]
+    fn validation_report() {
+        let v = Validation {
+            top: 2,
+            samples: 20,
+            sets: vec![
+                ValidatedSet {
+                    search: row(&["debris_far", "town_town02"], 5, 5),
+                    validation: row(&["debris_far", "town_town02"], 18, 20),
+                },
+                ValidatedSet { search: row(&["cone", "far"], 3, 5), validation: row(&["cone", "far"], 7, 20) },
+            ],
+            mean_fr: 0.625,
+            sd_fr: 0.3889,
+            consistent: 1,
+        };
+        let mut out = Vec::new();
+        print_validation(&mut out, &v).unwrap();
+        insta::assert_snapshot!(String::from_utf8(out).unwrap());
+    }
+}

@@ -126,6 +126,10 @@ impl Evaluator {
     pub fn new(c: EvaluatorConfig) -> Result<Evaluator, String> {
         let mut replay = HashMap::new();
         for r in &c.journal.records {
+            // A failed call is not a paid answer: a resumed run asks again (the newer line wins).
+            if r.outcome == Outcome::ApiError {
+                continue;
+            }
             let set = c.domain.parse_set(&r.set).map_err(|e| format!("cannot resume from the journal: {e}"))?;
             replay.insert((r.phase, set, r.obs), r.outcome);
         }
@@ -178,6 +182,9 @@ impl Evaluate for Evaluator {
                     observe(&shared, phase, set, obs, &task, &prompt).await.map(|o| (i, o))
                 });
             }
+            if stats[i].observations() == self.samples {
+                self.set_done(&stats[i]);
+            }
         }
         let mut first_error = None;
         while let Some(joined) = tasks.join_next().await {
@@ -185,6 +192,9 @@ impl Evaluate for Evaluator {
                 Ok(Ok((i, outcome))) => {
                     stats[i].add(outcome);
                     self.progress.inc(1);
+                    if stats[i].observations() == self.samples {
+                        self.set_done(&stats[i]);
+                    }
                 }
                 Ok(Err(e)) => {
                     first_error.get_or_insert(e);
@@ -200,9 +210,6 @@ impl Evaluate for Evaluator {
         self.shared.journal.sync()?;
         if let Some(e) = first_error {
             return Err(e);
-        }
-        for s in &stats {
-            self.set_done(s);
         }
         Ok(stats)
     }

@@ -51,8 +51,9 @@ impl Algo {
 /// Default diversity weight λ of the beam value FR − λ·max Jaccard. With m = 5 a failure-rate
 /// step is 0.2; two sets of size t that share t−1 concepts have Jaccard (t−1)/(t+1), so at
 /// λ = 0.5 a near-duplicate sibling costs 0.17 at level 2 and 0.25 at level 3: diversity breaks
-/// ties and outweighs one observation from level 3 on, but never beats a clearly stronger set
-/// (two observations, 0.4). See `docs/search.md`.
+/// ties and outweighs one observation from level 3 on, but never a clearly stronger set (two
+/// observations, 0.4). Benchmarks in `docs/search.md` show PFM is flat in λ at the paper's
+/// budget.
 pub const DEFAULT_LAMBDA: f64 = 0.5;
 
 /// Search parameters (the paper's defaults in [`Params::default`]).

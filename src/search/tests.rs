@@ -275,4 +275,46 @@ mod e2e {
         assert_eq!(again, v);
         assert_eq!(journal_lines(dir.path()).len(), lines.len());
     }
+
+    /// The sim model, failing every call while `down` is set.
+    struct Outage {
+        sim: SimModel,
+        down: std::sync::atomic::AtomicBool,
+    }
+
+    impl crate::vlm::Model for Outage {
+        fn id(&self) -> String {
+            self.sim.id()
+        }
+        fn ask<'a>(&'a self, q: &'a crate::vlm::Query) -> crate::vlm::BoxFuture<'a, crate::vlm::Reply> {
+            Box::pin(async move {
+                let mut r = self.sim.answer(q);
+                if self.down.load(std::sync::atomic::Ordering::SeqCst) {
+                    r.answer = crate::vlm::Answer::ApiError;
+                    r.raw = "503 service unavailable".into();
+                }
+                r
+            })
+        }
+    }
+
+    #[test]
+    fn api_errors_are_asked_again_on_resume() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, space) = setup(dir.path(), 4);
+        let sim = || SimModel { profile: Profile::parse(PROFILE, "t.toml", &s.domain).unwrap() };
+        let outage = Arc::new(Outage { sim: sim(), down: true.into() });
+        s.model = outage.clone();
+        let cfg = config(&s, Algo::Random);
+        let down = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        assert_eq!(down.summary.metrics.unanswered.get(&Outcome::ApiError), Some(&200));
+        assert_eq!(down.summary.metrics.failure_modes, 0);
+        outage.down.store(false, std::sync::atomic::Ordering::SeqCst);
+        let up = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        assert_eq!(up.replayed, 0);
+        assert_eq!(up.summary.metrics.unanswered.get(&Outcome::ApiError), None);
+        let fresh = tempfile::tempdir().unwrap();
+        let (s2, _) = setup(fresh.path(), 4);
+        assert_eq!(up.summary, block_on(runner::search(&s2, &config(&s2, Algo::Random), &space)).unwrap().summary);
+    }
 }
