@@ -4,7 +4,7 @@
 
 use image::RgbaImage;
 use revelio::cli::render::concept_sheet;
-use revelio::ir::{ConceptSet, Domain, Effect};
+use revelio::ir::{Domain, Effect};
 use revelio::render::{BuiltinRenderer, project};
 use revelio::scene::{Scene, SceneEntity};
 
@@ -89,7 +89,7 @@ fn every_concept_is_visible(path: &str) {
             // Against the same set without the concept (a modifier moves its target; a world
             // concept changes the scenery or the light).
             let base = revelio::sample::sample(&d, set.without(concept.id), 0)
-                .or_else(|_| revelio::sample::sample(&d, ConceptSet::EMPTY, 0))
+                .or_else(|_| revelio::sample::Sampler::new(&d).backdrop(0))
                 .unwrap();
             let n = changed(&img, &r.render_rgba(&base).unwrap(), (0, 0, w - 1, h - 1));
             if n * 100 < (w * h) as usize {

@@ -95,7 +95,7 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
             _ => {}
         }
     }
-    c.lower_camera(items);
+    c.lower_camera(entry, items);
     c.lower_looks(items);
     c.lower_stage(items);
     c.lower_concepts(items);
@@ -865,10 +865,16 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn lower_camera(&mut self, items: &[(u32, &Item)]) {
+    /// The camera. One in the domain file itself overrides those of the modules it uses (the
+    /// stdlib looks give each domain family a default camera); otherwise only one may be given.
+    fn lower_camera(&mut self, entry: u32, items: &[(u32, &Item)]) {
         let mut first: Option<Span> = None;
-        for (_, item) in items {
+        let entry_has_camera = items.iter().any(|(f, i)| *f == entry && matches!(i.kind, ItemKind::Camera { .. }));
+        for (file, item) in items {
             let ItemKind::Camera { stmts } = &item.kind else { continue };
+            if entry_has_camera && *file != entry {
+                continue;
+            }
             if let Some(f) = first {
                 self.error(duplicate_statement("camera", item.span, f));
                 continue;

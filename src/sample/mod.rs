@@ -106,6 +106,18 @@ impl<'d> Sampler<'d> {
                 set.iter().filter_map(|c| d.concepts.get(c.index())).map(|c| c.name.as_str()).collect();
             return Err(SampleError(format!("invalid concept set {{{}}}: {}", names.join(", "), v.resolve(d))));
         }
+        self.draw_scene(set, seed)
+    }
+
+    /// The backdrop: a scene of no concept (the world's defaults, the stage and the seeded
+    /// extras). It is outside the lattice, so it has no ground truth; renderers and their tests
+    /// use it as the baseline a concept is seen against.
+    pub fn backdrop(&self, seed: u64) -> Result<Scene, SampleError> {
+        self.draw_scene(ConceptSet::EMPTY, seed)
+    }
+
+    fn draw_scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, SampleError> {
+        let d = self.domain;
         let anchor = anchor::build(d, set).map_err(|e| SampleError(format!("the concept set has no scene: {e}")))?;
         let mut rng = rng::scene_rng(&self.digest, set, seed);
         let mut concrete = anchor.clone();
