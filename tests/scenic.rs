@@ -2,7 +2,8 @@
 //! sample in Scenic 3.1.1 (2D mode, the CARLA Town01/Town02 maps, Scenic's default iteration
 //! limit). Needs Python 3 with `venv`; the first run installs Scenic into
 //! `$CARGO_TARGET_DIR/scenic-venv` (or `target/scenic-venv`), later runs reuse it. The maps are
-//! read from `$REVELIO_CARLA_MAPS`, else `../shared/maps/carla` next to the repository.
+//! read from `$REVELIO_CARLA_MAPS`, else from the copies of CARLA's (MIT-licensed) OpenDRIVE
+//! files kept in `tests/scenic/maps`, so a clean checkout needs nothing else.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -24,7 +25,7 @@ fn maps_dir() -> PathBuf {
     let dir = std::env::var_os("REVELIO_CARLA_MAPS")
         .filter(|v| !v.is_empty())
         .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("..").join("shared").join("maps").join("carla"));
+        .unwrap_or_else(|| repo().join("tests").join("scenic").join("maps"));
     for town in ["Town01", "Town02"] {
         let map = dir.join(format!("{town}.xodr"));
         assert!(map.is_file(), "CARLA map `{}` is missing (set REVELIO_CARLA_MAPS to the maps folder)", map.display());

@@ -34,7 +34,7 @@ pub struct EmitArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Folder of the CARLA maps (`Town01.xodr`, …) for Scenic programs [default: $REVELIO_CARLA_MAPS,
-    /// else `../shared/maps/carla` next to the Revelio sources]
+    /// else the copies of CARLA's Town01/Town02 in the Revelio sources (`tests/scenic/maps`)]
     #[arg(long, value_name = "DIR")]
     pub map_dir: Option<PathBuf>,
 }
@@ -89,13 +89,13 @@ fn fail(msg: &str) -> ExitCode {
     ExitCode::from(1)
 }
 
-/// The maps folder: the flag, else the environment, else the checkout's `../shared/maps/carla`;
+/// The maps folder: the flag, else the environment, else the checkout's `tests/scenic/maps`;
 /// made absolute so the program compiles wherever it is saved.
 fn map_dir(flag: Option<&Path>, env: Option<PathBuf>) -> PathBuf {
     let dir = flag
         .map(Path::to_path_buf)
         .or(env.filter(|p| !p.as_os_str().is_empty()))
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("shared").join("maps").join("carla"));
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("scenic").join("maps"));
     std::path::absolute(&dir).unwrap_or(dir)
 }
 
@@ -114,7 +114,7 @@ mod tests {
         assert_eq!(flag, PathBuf::from("/a"));
         assert_eq!(map_dir(None, Some(PathBuf::from("/b"))), PathBuf::from("/b"));
         let default = map_dir(None, Some(PathBuf::new()));
-        assert!(default.is_absolute() && default.ends_with("shared/maps/carla"));
+        assert!(default.is_absolute() && default.ends_with("tests/scenic/maps"));
         assert!(map_dir(Some(Path::new("rel")), None).is_absolute());
     }
 
