@@ -709,3 +709,67 @@ fn the_example_config_builds_every_model_it_names() {
         assert!(m.id().starts_with(spec));
     }
 }
+
+/// The fault-injection run end to end: a 1000-inference GPTS search of the driving domain
+/// against a provider that fails 40% of requests. Every observation ends with exactly one
+/// recorded outcome, every one is answered in the end, and no successful call is paid twice.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fault_injection_search_loses_nothing() {
+    use revelio::lattice::Lattice;
+    use revelio::search::eval::{DomainWorld, World};
+    use revelio::search::runner::{self, RunConfig};
+    use revelio::search::{Algo, Params};
+
+    let server = MockServer::start().await;
+    let faulty = Arc::new(Faulty { n: AtomicU64::new(0), successes: Mutex::new(HashMap::new()) });
+    struct Shared(Arc<Faulty>);
+    impl Respond for Shared {
+        fn respond(&self, r: &Request) -> ResponseTemplate {
+            self.0.respond(r)
+        }
+    }
+    mount(&server, "/chat/completions", Shared(faulty.clone())).await;
+    let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 0.25", None, false);
+
+    let path = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
+    let d = revelio::check::compile_source(&path, &std::fs::read_to_string(&path).unwrap()).unwrap();
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&d));
+    let (space, _) = runner::search_space(Lattice::enumerate(&d, 5).sets, d.concepts.len(), world.as_ref());
+    let config = RunConfig {
+        domain_file: path.clone(),
+        domain: d.name.clone(),
+        domain_hash: revelio::journal::domain_hash(&d),
+        model_spec: "openai:vlm-test".into(),
+        model: s.model.id(),
+        renderer: "none".into(),
+        params: Params { algo: Algo::Gpts, budget: 1000, beam_budget: 500, ..Params::default() },
+    };
+    let out = s.dir.path().join("run");
+    let setup = runner::Setup {
+        domain: Arc::new(d.clone()),
+        world,
+        model: s.model.clone(),
+        renderer: None,
+        concurrency: 32,
+        out: out.clone(),
+        progress: false,
+    };
+    let report = runner::search(&setup, &config, &space).await.unwrap();
+
+    let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
+    let records: Vec<Value> = journal.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(records.len(), 1000, "one journal line per inference");
+    let keys: std::collections::HashSet<(String, u64)> =
+        records.iter().map(|r| (r["set"].to_string(), r["obs"].as_u64().unwrap())).collect();
+    assert_eq!(keys.len(), 1000, "no observation is recorded twice");
+    for r in &records {
+        let outcome = r["outcome"].as_str().unwrap();
+        assert!(outcome == "correct" || outcome == "wrong", "an observation was lost to a fault: {r}");
+    }
+    let m = &report.summary.metrics;
+    assert_eq!(m.inferences, 1000);
+    let served: u32 = faulty.successes.lock().unwrap().values().sum();
+    assert_eq!(served, 1000, "each observation was answered by exactly one successful request");
+    let spend = s.model.spend().unwrap();
+    assert_eq!((spend.calls, spend.errors), (1000, 0));
+}
