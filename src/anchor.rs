@@ -139,14 +139,18 @@ pub enum Tri {
     True,
 }
 
-impl Tri {
-    pub fn not(self) -> Tri {
+impl std::ops::Not for Tri {
+    type Output = Tri;
+    fn not(self) -> Tri {
         match self {
             Tri::True => Tri::False,
             Tri::False => Tri::True,
             Tri::Unknown => Tri::Unknown,
         }
     }
+}
+
+impl Tri {
     fn from_bool(b: bool) -> Tri {
         if b { Tri::True } else { Tri::False }
     }
@@ -157,7 +161,7 @@ impl Tri {
 pub fn eval(domain: &Domain, g: &AnchorGraph, expr: &Expr, bindings: &mut Vec<(String, usize)>) -> Tri {
     match expr {
         Expr::Bool(b) => Tri::from_bool(*b),
-        Expr::Not(e) => eval(domain, g, e, bindings).not(),
+        Expr::Not(e) => !eval(domain, g, e, bindings),
         Expr::And(es) => {
             let mut acc = Tri::True;
             for e in es {
