@@ -446,17 +446,23 @@ impl Respond for Faulty {
     }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn fault_injection_1000_calls() {
-    let server = MockServer::start().await;
-    let faulty = Arc::new(Faulty { n: AtomicU64::new(0), successes: Mutex::new(HashMap::new()) });
+/// A mock OpenAI-compatible server answering through one shared [`Faulty`].
+async fn faulty_server() -> (MockServer, Arc<Faulty>) {
     struct Shared(Arc<Faulty>);
     impl Respond for Shared {
         fn respond(&self, r: &Request) -> ResponseTemplate {
             self.0.respond(r)
         }
     }
+    let server = MockServer::start().await;
+    let faulty = Arc::new(Faulty { n: AtomicU64::new(0), successes: Mutex::new(HashMap::new()) });
     mount(&server, "/chat/completions", Shared(faulty.clone())).await;
+    (server, faulty)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fault_injection_1000_calls() {
+    let (server, faulty) = faulty_server().await;
     let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 0.25", None, false);
     let queries: Vec<Query> = (0..1000).map(|i| query(&format!("call-{i}"))).collect();
     let replies = futures_join_all(&s.model, &queries).await;
@@ -720,15 +726,7 @@ async fn fault_injection_search_loses_nothing() {
     use revelio::search::runner::{self, RunConfig};
     use revelio::search::{Algo, Params};
 
-    let server = MockServer::start().await;
-    let faulty = Arc::new(Faulty { n: AtomicU64::new(0), successes: Mutex::new(HashMap::new()) });
-    struct Shared(Arc<Faulty>);
-    impl Respond for Shared {
-        fn respond(&self, r: &Request) -> ResponseTemplate {
-            self.0.respond(r)
-        }
-    }
-    mount(&server, "/chat/completions", Shared(faulty.clone())).await;
+    let (server, faulty) = faulty_server().await;
     let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 0.25", None, false);
 
     let path = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));

@@ -13,7 +13,7 @@ use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
 use crate::render::RendererOptions;
-use crate::vlm::registry::{ModelOptions, build_model};
+use crate::vlm::registry::build_model;
 use crate::vlm::{Answer, Outcome, Query, Reply, Truth, prompt};
 
 #[derive(clap::Args, Debug)]
@@ -32,21 +32,11 @@ pub struct AskArgs {
     /// `builtin`, `none`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`.
     #[arg(long, default_value = "builtin")]
     pub renderer: String,
-    /// Endpoint override for the model's (and image generator's) provider.
-    #[arg(long)]
-    pub base_url: Option<String>,
-    /// Per-model settings TOML (see `examples/models/`).
-    #[arg(long)]
-    pub model_config: Option<PathBuf>,
-    /// Thinking level: `minimal`, `low`, `medium`, `high` (provider-dependent).
-    #[arg(long)]
-    pub thinking: Option<String>,
+    #[command(flatten)]
+    pub model_opts: super::search::ModelFlags,
     /// Response and image cache folder; without it nothing is cached.
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,
-    /// Ask even when the cache has the reply.
-    #[arg(long)]
-    pub no_cache: bool,
 }
 
 pub fn run(args: AskArgs) -> ExitCode {
@@ -123,7 +113,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let render_opts = RendererOptions {
         size: None,
         cache_dir: args.cache_dir.as_ref().map(|d| d.join("images")),
-        base_url: args.base_url.clone(),
+        base_url: args.model_opts.base_url.clone(),
     };
     let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
         None => None,
@@ -136,13 +126,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         Some(png) => hex::encode(Sha256::digest(png)),
         None => hex::encode(Sha256::digest(serde_json::to_vec(&scene).map_err(|e| e.to_string())?)),
     };
-    let model_opts = ModelOptions {
-        base_url: args.base_url.clone(),
-        config: args.model_config.clone(),
-        thinking: args.thinking.clone(),
-        no_cache: args.no_cache,
-        cache_dir: args.cache_dir.as_ref().map(|d| d.join("replies")),
-    };
+    let model_opts = args.model_opts.options(args.cache_dir.as_ref().map(|d| d.join("replies")));
     let model = build_model(&args.model, domain, &model_opts)?;
     let concepts: Vec<String> =
         set.iter().filter_map(|id| domain.concepts.get(id.index())).map(|c| c.name.clone()).collect();
@@ -253,11 +237,8 @@ mod tests {
             model: "openai:glm-4.6v-flash".into(),
             seed: 3,
             renderer: "none".into(),
-            base_url: Some(base),
-            model_config: None,
-            thinking: None,
+            model_opts: super::super::search::ModelFlags { base_url: Some(base), ..Default::default() },
             cache_dir: Some(cache.to_path_buf()),
-            no_cache: false,
         }
     }
 
@@ -276,7 +257,7 @@ mod tests {
             wiremock::Mock::given(wiremock::matchers::method("POST")).respond_with(Echo(status)).mount(&server).await;
             let mut a = args(server.uri(), dir.path());
             // The 200 reply was cached; the error case must reach the server.
-            a.no_cache = status == 401;
+            a.model_opts.no_cache = status == 401;
             let result = ask(&domain, set, &a).await;
             let sent = &server.received_requests().await.unwrap()[0];
             assert_eq!(sent.headers.get("authorization").unwrap(), &format!("Bearer {KEY}"));

@@ -88,13 +88,14 @@ pub struct ModelFlags {
 }
 
 impl ModelFlags {
-    pub fn options(&self, out: &Path) -> ModelOptions {
+    /// The registry's options, with replies cached under `cache_dir` (none: no cache).
+    pub fn options(&self, cache_dir: Option<PathBuf>) -> ModelOptions {
         ModelOptions {
             base_url: self.base_url.clone(),
             config: self.model_config.clone(),
             thinking: self.thinking.clone(),
             no_cache: self.no_cache,
-            cache_dir: Some(out.join("cache")),
+            cache_dir,
         }
     }
 }
@@ -203,7 +204,7 @@ pub(crate) fn build_parts(
     flags: &ModelFlags,
     out: &Path,
 ) -> Result<Parts, String> {
-    let model = build_model(model, domain, &flags.options(out))?;
+    let model = build_model(model, domain, &flags.options(Some(out.join("cache"))))?;
     let renderer = build_renderer(
         renderer,
         &RendererOptions { size: None, cache_dir: Some(out.join("image-cache")), base_url: flags.base_url.clone() },
