@@ -771,3 +771,68 @@ async fn fault_injection_search_loses_nothing() {
     let spend = s.model.spend().unwrap();
     assert_eq!((spend.calls, spend.errors), (1000, 0));
 }
+
+/// `revelio search` and `revelio validate` end to end against a server that echoes every
+/// request header into its replies: the credentials reach the server, and appear nowhere in
+/// what a run leaves behind — stdout, stderr, config, journal, summary, validation, cache.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn keys_never_reach_any_output_of_a_run() {
+    init_env();
+    let domain = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
+    for spec in ["openai:m", "anthropic:m", "gemini:m", "bedrock:m"] {
+        let server = MockServer::start().await;
+        Mock::given(method("POST")).respond_with(Echo).mount(&server).await;
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let (out_s, uri, domain) = (out.to_string_lossy().into_owned(), server.uri(), domain.clone());
+        let outputs = tokio::task::spawn_blocking(move || {
+            let run = |args: &[&str]| {
+                let o = std::process::Command::new(env!("CARGO_BIN_EXE_revelio")).args(args).output().unwrap();
+                assert!(o.status.success(), "{spec}: {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+                [String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned()]
+            };
+            let mut outputs = Vec::new();
+            outputs.extend(run(&[
+                "search",
+                &domain,
+                "--model",
+                spec,
+                "--base-url",
+                &uri,
+                "--renderer",
+                "none",
+                "--algo",
+                "random",
+                "--budget",
+                "12",
+                "--samples",
+                "2",
+                "--concurrency",
+                "4",
+                "--out",
+                &out_s,
+            ]));
+            outputs.extend(run(&["validate", &out_s, "--top", "2", "--samples", "2", "--base-url", &uri]));
+            outputs
+        })
+        .await
+        .unwrap();
+        let sent: String =
+            server.received_requests().await.unwrap().iter().map(|r| format!("{:?}", r.headers)).collect();
+        assert!(sent.contains(KEY) || sent.contains(AWS_TOKEN), "{spec}: no credentials were sent");
+        let mut outputs = outputs;
+        let files = walk(&out);
+        assert!(
+            files.iter().any(|f| f.ends_with("journal.jsonl")) && files.iter().any(|f| f.ends_with("validation.json"))
+        );
+        for f in files {
+            outputs.push(String::from_utf8_lossy(&std::fs::read(&f).unwrap()).into_owned());
+        }
+        for o in &outputs {
+            for secret in [KEY, AWS_SECRET, AWS_TOKEN] {
+                assert!(!o.contains(secret), "{spec} leaked a credential into a run's output: {o}");
+            }
+        }
+        assert!(outputs.iter().any(|o| o.contains("[redacted]")), "{spec}: the echoed headers were not journaled");
+    }
+}

@@ -254,6 +254,7 @@ pub fn print_summary(
         let parts: Vec<String> = m.unanswered.iter().map(|(o, n)| format!("{n} {}", outcome_name(*o))).collect();
         writeln!(w, "not answered (excluded from FR): {}", parts.join(", "))?;
     }
+    writeln!(w, "spend: {}", s.spend.line())?;
     if s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
     } else {
@@ -320,6 +321,14 @@ mod tests {
             },
             failure_modes: modes.clone(),
             sets: modes,
+            spend: crate::search::eval::Spend {
+                calls: 1000,
+                cached: 12,
+                input_tokens: 1_290_000,
+                output_tokens: 262_000,
+                thinking_tokens: 250_000,
+                cost_usd: 1.43,
+            },
         };
         let mut out = Vec::new();
         print_summary(&mut out, &s, 1, Path::new("runs/x"), std::time::Duration::from_millis(1500)).unwrap();

@@ -119,7 +119,8 @@ pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<(
         v.consistent,
         v.sets.len(),
         100.0 * CONSISTENT_FR
-    )
+    )?;
+    writeln!(w, "spend: {}", v.spend.line())
 }
 
 #[cfg(test)]
@@ -153,6 +154,13 @@ mod tests {
             mean_fr: 0.625,
             sd_fr: 0.3889,
             consistent: 1,
+            spend: crate::search::eval::Spend {
+                calls: 40,
+                input_tokens: 51_600,
+                output_tokens: 1_280,
+                cost_usd: 0.0542,
+                ..Default::default()
+            },
         };
         let mut out = Vec::new();
         print_validation(&mut out, &v).unwrap();

@@ -11,7 +11,9 @@ use crate::ir::{ConceptSet, Domain};
 use crate::journal::{Journal, Phase, Record, sha256};
 use crate::render::Renderer;
 use crate::scene::Scene;
-use crate::vlm::{Answer, Model, Outcome, Query, Truth};
+use serde::{Deserialize, Serialize};
+
+use crate::vlm::{Answer, Model, Outcome, Query, Truth, Usage};
 
 use super::{Evaluate, SetStats};
 
@@ -98,7 +100,7 @@ struct Shared {
 pub struct Evaluator {
     shared: Arc<Shared>,
     semaphore: Arc<Semaphore>,
-    replay: HashMap<Key, Outcome>,
+    replay: HashMap<Key, (Outcome, Usage, bool)>,
     pub phase: Phase,
     pub samples: u32,
     pub threshold: f64,
@@ -107,6 +109,43 @@ pub struct Evaluator {
     failure_modes: usize,
     /// Observations served from the journal instead of the model.
     pub replayed: u64,
+    /// Tokens and money of every observation evaluated (replayed ones as journaled).
+    pub spend: Spend,
+}
+
+/// Tokens and money of a run's observations: the model's usage summed over the journal, so a
+/// resumed run reports what the uninterrupted one would.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Spend {
+    /// Observations answered by a model call (cache hits included).
+    pub calls: u64,
+    /// Of the calls, how many the reply cache served (free).
+    pub cached: u64,
+    pub input_tokens: u64,
+    /// Output tokens, thinking included.
+    pub output_tokens: u64,
+    pub thinking_tokens: u64,
+    pub cost_usd: f64,
+}
+
+impl Spend {
+    pub fn add(&mut self, u: &Usage, cached: bool) {
+        self.calls += 1;
+        self.cached += u64::from(cached);
+        self.input_tokens += u.input_tokens;
+        self.output_tokens += u.output_tokens;
+        self.thinking_tokens += u.thinking_tokens;
+        self.cost_usd += u.cost_usd;
+    }
+
+    /// `1 234 input / 567 output tokens, $0.0123` (and the cache hits, if any).
+    pub fn line(&self) -> String {
+        let cached = if self.cached > 0 { format!(" ({} cached)", self.cached) } else { String::new() };
+        format!(
+            "{} calls{cached}, {} input / {} output tokens ({} thinking), ${:.4}",
+            self.calls, self.input_tokens, self.output_tokens, self.thinking_tokens, self.cost_usd
+        )
+    }
 }
 
 pub struct EvaluatorConfig {
@@ -131,7 +170,7 @@ impl Evaluator {
                 continue;
             }
             let set = c.domain.parse_set(&r.set).map_err(|e| format!("cannot resume from the journal: {e}"))?;
-            replay.insert((r.phase, set, r.obs), r.outcome);
+            replay.insert((r.phase, set, r.obs), (r.outcome, r.usage.clone(), r.cached));
         }
         Ok(Evaluator {
             shared: Arc::new(Shared {
@@ -150,14 +189,33 @@ impl Evaluator {
             progress: indicatif::ProgressBar::hidden(),
             failure_modes: 0,
             replayed: 0,
+            spend: Spend::default(),
         })
     }
 
     fn set_done(&mut self, stats: &SetStats) {
         if stats.is_failure_mode(self.threshold) {
             self.failure_modes += 1;
-            self.progress.set_message(format!("{} failure modes", self.failure_modes));
+            self.show_progress();
         }
+    }
+
+    fn spent(&mut self, usage: &Usage, cached: bool) {
+        self.spend.add(usage, cached);
+        self.progress.inc(1);
+        if usage.cost_usd > 0.0 || usage.input_tokens > 0 {
+            self.show_progress();
+        }
+    }
+
+    fn show_progress(&self) {
+        let s = &self.spend;
+        self.progress.set_message(format!(
+            "{} failure modes · {} tokens · ${:.4}",
+            self.failure_modes,
+            s.input_tokens + s.output_tokens,
+            s.cost_usd
+        ));
     }
 }
 
@@ -169,10 +227,10 @@ impl Evaluate for Evaluator {
             let task = Arc::new(self.shared.world.task(set)?);
             let prompt = Arc::new(crate::vlm::prompt::build(&task.question, &task.options));
             for obs in 0..self.samples {
-                if let Some(&o) = self.replay.get(&(self.phase, set, obs)) {
+                if let Some((o, usage, cached)) = self.replay.get(&(self.phase, set, obs)).cloned() {
                     stats[i].add(o);
                     self.replayed += 1;
-                    self.progress.inc(1);
+                    self.spent(&usage, cached);
                     continue;
                 }
                 let (shared, sem, phase) = (self.shared.clone(), self.semaphore.clone(), self.phase);
@@ -189,9 +247,9 @@ impl Evaluate for Evaluator {
         let mut first_error = None;
         while let Some(joined) = tasks.join_next().await {
             match joined {
-                Ok(Ok((i, outcome))) => {
+                Ok(Ok((i, (outcome, usage, cached)))) => {
                     stats[i].add(outcome);
-                    self.progress.inc(1);
+                    self.spent(&usage, cached);
                     if stats[i].observations() == self.samples {
                         self.set_done(&stats[i]);
                     }
@@ -223,7 +281,7 @@ async fn observe(
     obs: u32,
     task: &Task,
     prompt: &str,
-) -> Result<Outcome, String> {
+) -> Result<(Outcome, Usage, bool), String> {
     let names = || shared.domain.set_names(set).join(", ");
     let seed = observation_seed(shared.seed, phase, set, obs);
     let scene = shared.world.scene(set, seed).map_err(|e| format!("cannot sample a scene for {{{}}}: {e}", names()))?;
@@ -266,11 +324,11 @@ async fn observe(
         answer: reply.answer,
         expected: task.expected,
         outcome,
-        usage: reply.usage,
+        usage: reply.usage.clone(),
         latency_ms: reply.latency_ms,
         cached: reply.cached,
     })?;
-    Ok(outcome)
+    Ok((outcome, reply.usage, reply.cached))
 }
 
 /// The image-generation prompt of a set: its concepts' prompt snippets in index order (the

@@ -13,7 +13,7 @@ use crate::journal::{Journal, Phase};
 use crate::render::Renderer;
 use crate::vlm::{Model, Outcome};
 
-use super::eval::{Evaluator, EvaluatorConfig, World, observation_seed};
+use super::eval::{Evaluator, EvaluatorConfig, Spend, World, observation_seed};
 use super::metrics::{Metrics, mean_sd, metrics, ranked};
 use super::{Params, SetStats, Space};
 
@@ -85,6 +85,9 @@ pub struct Summary {
     pub failure_modes: Vec<SetRow>,
     /// Every evaluated set, in evaluation order.
     pub sets: Vec<SetRow>,
+    /// Tokens and money of the run's observations (its model's usage and configured prices).
+    #[serde(default)]
+    pub spend: Spend,
 }
 
 /// What a finished run did in this process.
@@ -114,7 +117,7 @@ fn progress_bar(enabled: bool, len: u64) -> indicatif::ProgressBar {
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} inferences · {msg} · ETA {eta}")
             .expect("the template is valid"),
     );
-    bar.set_message("0 failure modes");
+    bar.set_message("0 failure modes · 0 tokens · $0.0000");
     bar
 }
 
@@ -140,12 +143,12 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     let history = super::run(params, space, &mut eval).await;
     eval.progress.finish_and_clear();
     let history = history?;
-    let summary = summarize(&setup.domain, config, space.sets.len(), &history);
+    let summary = summarize(&setup.domain, config, space.sets.len(), &history, eval.spend.clone());
     journal.write_json("summary.json", &summary)?;
     Ok(RunReport { summary, history, replayed: eval.replayed, dropped_torn_line })
 }
 
-pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[SetStats]) -> Summary {
+pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[SetStats], spend: Spend) -> Summary {
     let p = &config.params;
     Summary {
         domain: config.domain.clone(),
@@ -160,6 +163,7 @@ pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[S
             .map(|s| SetRow::new(domain, s))
             .collect(),
         sets: history.iter().map(|s| SetRow::new(domain, s)).collect(),
+        spend,
     }
 }
 
@@ -174,6 +178,9 @@ pub struct Validation {
     pub sd_fr: f64,
     /// How many validated sets reach FR ≥ 0.8.
     pub consistent: usize,
+    /// Tokens and money of the validation's observations.
+    #[serde(default)]
+    pub spend: Spend,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -274,6 +281,7 @@ pub async fn validate(
             .collect(),
         mean_fr,
         sd_fr,
+        spend: eval.spend.clone(),
     };
     journal.write_json("validation.json", &v)?;
     Ok(v)
