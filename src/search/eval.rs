@@ -170,7 +170,7 @@ impl Evaluator {
                 continue;
             }
             let set = c.domain.parse_set(&r.set).map_err(|e| format!("cannot resume from the journal: {e}"))?;
-            replay.insert((r.phase, set, r.obs), (r.outcome, r.usage.clone(), r.cached));
+            replay.insert((r.phase, set, r.obs), (r.outcome, r.usage, r.cached));
         }
         Ok(Evaluator {
             shared: Arc::new(Shared {
@@ -324,7 +324,7 @@ async fn observe(
         answer: reply.answer,
         expected: task.expected,
         outcome,
-        usage: reply.usage.clone(),
+        usage: reply.usage,
         latency_ms: reply.latency_ms,
         cached: reply.cached,
     })?;
