@@ -40,6 +40,10 @@ fn bench(c: &mut Criterion) {
     let mut clear = scene("driving");
     clear.environment.clear();
     g.bench_function("driving_640x360_clear_rgba", |b| b.iter(|| black_box(r.render_rgba(&clear).unwrap())));
+    // A quarter of the pixels: how much of the frame is per-pixel work.
+    let small = BuiltinRenderer::new(Some((320, 180))).unwrap_or_else(|e| panic!("{e}"));
+    let driving = scene("driving");
+    g.bench_function("driving_320x180_rgba", |b| b.iter(|| black_box(small.render_rgba(&driving).unwrap())));
     // The fixed cost of a frame: sky only, no geometry.
     let mut empty = scene("driving");
     (empty.stage, empty.entities, empty.extras) = (Vec::new(), Vec::new(), Vec::new());

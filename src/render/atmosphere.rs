@@ -119,8 +119,19 @@ pub fn frame(camera: &Camera, env: &BTreeMap<String, f64>, width: u32, height: u
         sky_horizon: v4(horizon, day * (1.0 - overcast)),
         fog: v4(fog_color, extinction),
         wet: [w.wetness.max(w.precipitation * 0.6), w.deposits, w.precipitation, (seed % 1000) as f32 / 1000.0],
-        viewport: [width as f32, height as f32, w.fog_distance, 0.0],
+        viewport: [width as f32, height as f32, w.fog_distance, rain_streaks(w.precipitation, width, height).0 as f32],
     }
+}
+
+/// Rain streaks for a frame: `(near, total)`. Near streaks (long, bright) are about one per
+/// 8×72-pixel cell at full rain, far ones (short, faint) three times as many, both in proportion
+/// to precipitation and to the image width (per image height).
+pub fn rain_streaks(precipitation: f32, width: u32, height: u32) -> (u32, u32) {
+    let (w, h) = (width as f32, height as f32);
+    let columns = (w + 0.18 * h) / h;
+    let near = (precipitation.clamp(0.0, 1.0) * 200.0 * columns / 1.78).round() as u32;
+    let far = (precipitation.clamp(0.0, 1.0) * 560.0 * columns / 1.78).round() as u32;
+    (near, near + far)
 }
 
 /// View-projection and its inverse, column-major, wgpu clip space (reversed z: 1 at the near

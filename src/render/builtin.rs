@@ -68,8 +68,8 @@ impl BuiltinRenderer {
         check_size(w, h)?;
         let mesh = mesh::build(scene, scene.camera.at);
         let frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
-        let rain = frame.wet[2] > 0.0;
-        let pixels = self.gpu.draw(&mesh, &frame, rain).map_err(RenderError)?;
+        let (_, streaks) = atmosphere::rain_streaks(frame.wet[2], w, h);
+        let pixels = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError)?;
         RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RenderError("the rendered image has the wrong size".into()))
     }
 

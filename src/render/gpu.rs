@@ -13,7 +13,9 @@ use super::mesh::{Mesh, Vertex};
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// Multisampling for clean edges; falls back to 1 where the adapter cannot.
+/// Multisampling for clean edges on GPUs; falls back to 1 where the adapter cannot. CPU drivers
+/// get 1: there 4× multisampling costs about 2.5× the frame time (measured with llvmpipe and
+/// lavapipe), and the speed target is set for them. `REVELIO_MSAA=1|4` overrides the choice.
 const MSAA: u32 = 4;
 /// Packages that provide the Mesa CPU drivers on Debian/Ubuntu, named in the error.
 pub const DRIVER_PACKAGES: &str =
@@ -138,7 +140,12 @@ impl Gpu {
         }))
         .map_err(|e| format!("cannot open the graphics device `{}`: {e}", summary.name))?;
         let flags = adapter.get_texture_format_features(COLOR_FORMAT).flags;
-        let samples = if flags.sample_count_supported(MSAA) { MSAA } else { 1 };
+        let wanted = match std::env::var("REVELIO_MSAA").ok().and_then(|v| v.trim().parse::<u32>().ok()) {
+            Some(n) => n,
+            None if info.device_type == wgpu::DeviceType::Cpu => 1,
+            None => MSAA,
+        };
+        let samples = if wanted > 1 && flags.sample_count_supported(wanted) { wanted } else { 1 };
         Ok(Gpu::with_device(device, queue, summary, samples))
     }
 
@@ -175,53 +182,55 @@ impl Gpu {
             step_mode: wgpu::VertexStepMode::Vertex,
             attributes: &attrs,
         })];
-        let pipeline =
-            |vs: &str, fs: &str, buffers: &[Option<wgpu::VertexBufferLayout>], depth_write: bool, blend: bool| {
-                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(fs),
-                    layout: Some(&pl),
-                    vertex: wgpu::VertexState {
-                        module: &shader,
-                        entry_point: Some(vs),
-                        compilation_options: Default::default(),
-                        buffers,
-                    },
-                    primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(depth_write),
-                        depth_compare: Some(if buffers.is_empty() {
-                            wgpu::CompareFunction::Always
-                        } else {
-                            wgpu::CompareFunction::GreaterEqual
-                        }),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-                    fragment: Some(wgpu::FragmentState {
-                        module: &shader,
-                        entry_point: Some(fs),
-                        compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format: COLOR_FORMAT,
-                            blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
-            };
-        let sky = pipeline("vs_fullscreen", "fs_sky", &[], false, false);
-        let opaque = pipeline("vs_main", "fs_main", &vbuf, true, false);
-        let blended = pipeline("vs_main", "fs_main", &vbuf, false, true);
-        let rain = pipeline("vs_fullscreen", "fs_rain", &[], false, true);
+        // `vertex_buffers`: whether the pipeline draws the mesh (else its vertices come from
+        // the vertex index); `depth`: compare and write. Nothing is culled: closed parts lose
+        // their back faces in `mesh`, and planes are seen from both sides.
+        let pipeline = |vs: &str, fs: &str, vertex_buffers: bool, depth: (wgpu::CompareFunction, bool), blend: bool| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(fs),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers: if vertex_buffers { &vbuf } else { &[] },
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(depth.1),
+                    depth_compare: Some(depth.0),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: COLOR_FORMAT,
+                        blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        use wgpu::CompareFunction::{Always, GreaterEqual};
+        let opaque = pipeline("vs_main", "fs_main", true, (GreaterEqual, true), false);
+        // The sky lies at depth 0 (infinitely far, the cleared value), drawn after the solids:
+        // the depth test then shades only the pixels no solid covers.
+        let sky = pipeline("vs_fullscreen", "fs_sky", false, (GreaterEqual, false), false);
+        let blended = pipeline("vs_main", "fs_main", true, (GreaterEqual, false), true);
+        let rain = pipeline("vs_rain", "fs_rain", false, (Always, false), true);
         Gpu { device, queue, summary, samples, layout, sky, opaque, blended, rain, state: Mutex::new(State::default()) }
     }
 
-    /// Render one frame and read it back as tightly packed sRGB RGBA8 rows.
-    pub fn draw(&self, mesh: &Mesh, frame: &Frame, rain: bool) -> Result<Vec<u8>, String> {
+    /// Render one frame with `rain_streaks` rain streaks and read it back as tightly packed
+    /// sRGB RGBA8 rows.
+    pub fn draw(&self, mesh: &Mesh, frame: &Frame, rain_streaks: u32) -> Result<Vec<u8>, String> {
         let (w, h) = (frame.viewport[0] as u32, frame.viewport[1] as u32);
         // A poisoned lock only means another frame panicked mid-way; the state is rebuilt below.
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
@@ -268,20 +277,23 @@ impl Gpu {
                 multiview_mask: None,
             });
             pass.set_bind_group(0, &t.bind_group, &[]);
-            pass.set_pipeline(&self.sky);
-            pass.draw(0..3, 0..1);
             let n = mesh.indices.len() as u32;
             if n > 0 {
                 pass.set_vertex_buffer(0, vbuf.slice(..));
                 pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
                 pass.set_pipeline(&self.opaque);
                 pass.draw_indexed(0..mesh.opaque_len, 0, 0..1);
+            }
+            pass.set_pipeline(&self.sky);
+            pass.draw(0..3, 0..1);
+            if mesh.opaque_len < n {
                 pass.set_pipeline(&self.blended);
                 pass.draw_indexed(mesh.opaque_len..n, 0, 0..1);
             }
-            if rain {
+            if rain_streaks > 0 {
+                // Six vertices (two triangles) per streak, placed by the vertex shader.
                 pass.set_pipeline(&self.rain);
-                pass.draw(0..3, 0..1);
+                pass.draw(0..rain_streaks * 6, 0..1);
             }
         }
         enc.copy_texture_to_buffer(
@@ -316,8 +328,12 @@ impl Gpu {
         let mut out = Vec::with_capacity((w * h * 4) as usize);
         {
             let data = slice.get_mapped_range().map_err(|e| format!("cannot read the rendered image back: {e}"))?;
-            for row in data.chunks(t.padded_row as usize).take(h as usize) {
-                out.extend_from_slice(&row[..(w * 4) as usize]);
+            if t.padded_row == w * 4 {
+                out.extend_from_slice(&data[..(w * h * 4) as usize]);
+            } else {
+                for row in data.chunks(t.padded_row as usize).take(h as usize) {
+                    out.extend_from_slice(&row[..(w * 4) as usize]);
+                }
             }
         }
         t.readback.unmap();

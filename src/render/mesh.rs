@@ -69,6 +69,10 @@ pub struct Vertex {
 /// that hidden pixels are rejected by the depth test before shading), then translucent ones
 /// back to front. Indexing matters on CPU rasterisers, whose vertex stage is single-threaded:
 /// a smooth sphere shares each vertex between six triangles.
+///
+/// Every triangle is wound counter-clockwise seen from the side its normal points to, so the
+/// back faces of closed opaque parts (boxes, cylinders, cones, spheres, capsules seen from
+/// outside) can be culled: on a CPU rasteriser that halves the triangles set up and rejected.
 #[derive(Debug, Default)]
 pub struct Mesh {
     pub vertices: Vec<Vertex>,
@@ -102,6 +106,8 @@ impl std::hash::Hasher for FxHasher {
 struct PartWriter<'a> {
     mesh: &'a mut Mesh,
     xf: &'a Xf,
+    /// The camera in the part's frame, for a closed part whose back faces are dropped.
+    cull_from: Option<[f64; 3]>,
     color: [f32; 4],
     material: Material,
     seen: std::collections::HashMap<[u64; 6], u32, std::hash::BuildHasherDefault<FxHasher>>,
@@ -118,7 +124,23 @@ impl PartWriter<'_> {
         self.seen.insert(key, i);
         i
     }
+    /// One triangle, wound counter-clockwise around the mean of its vertex normals (outwards),
+    /// whatever order the tessellator produced; dropped when it faces away from `cull_from`.
     fn tri(&mut self, a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3]), c: ([f64; 3], [f64; 3])) {
+        let (u, v) = (sub(b.0, a.0), sub(c.0, a.0));
+        let mut face = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let n = [a.1[0] + b.1[0] + c.1[0], a.1[1] + b.1[1] + c.1[1], a.1[2] + b.1[2] + c.1[2]];
+        let (b, c) = if dot(face, n) < 0.0 {
+            face = face.map(|x| -x);
+            (c, b)
+        } else {
+            (b, c)
+        };
+        if let Some(eye) = self.cull_from
+            && dot(face, sub(eye, a.0)) <= 0.0
+        {
+            return;
+        }
         let ids = [self.index(a.0, a.1), self.index(b.0, b.1), self.index(c.0, c.1)];
         self.mesh.indices.extend(ids);
     }
@@ -208,8 +230,11 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
     });
     translucent.sort_by(|a, b| dist2(b.xf.t, eye).total_cmp(&dist2(a.xf.t, eye)));
 
+    // Closed parts before open ones (planes: floors, roads, markings, which solids stand on
+    // and cover), so that covered plane pixels fail the depth test instead of being shaded.
+    let (closed, open): (Vec<_>, Vec<_>) = opaque.into_iter().partition(|p| is_closed(p, eye));
     let mut mesh = Mesh::default();
-    for p in &opaque {
+    for p in closed.iter().chain(&open) {
         emit_part(&mut mesh, p, eye);
     }
     mesh.opaque_len = mesh.indices.len() as u32;
@@ -221,6 +246,27 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
         emit_part(&mut mesh, p, eye);
     }
     mesh
+}
+
+/// A part whose back faces can never be seen: a closed primitive with the camera outside it
+/// (checked against its bounding sphere, so a room built as a box around the camera stays
+/// two-sided).
+fn is_closed(p: &Placed, eye: [f64; 3]) -> bool {
+    if p.part.prim == Primitive::Plane {
+        return false;
+    }
+    let [sx, sy, sz] = p.part.size;
+    let sy = if sy > 0.0 { sy } else { sx };
+    let radius = (sx * sx + sy * sy + sz * sz).sqrt() / 2.0;
+    dist2(p.xf.t, eye) > radius * radius
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -319,7 +365,13 @@ fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3]) {
     let [sx, sy, sz] = part.size;
     // A round primitive written with y = 0 is round: x is its diameter.
     let sy_round = if sy > 0.0 { sy } else { sx };
-    let mut w = PartWriter { mesh, xf: &p.xf, color, material: m, seen: Default::default() };
+    // The camera in the part frame: the inverse of a rotation is its transpose.
+    let cull_from = is_closed(p, eye).then(|| {
+        let d = sub(eye, p.xf.t);
+        let r = &p.xf.r;
+        [0, 1, 2].map(|j| r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2])
+    });
+    let mut w = PartWriter { mesh, xf: &p.xf, cull_from, color, material: m, seen: Default::default() };
     let mut tri = |a, b, c| w.tri(a, b, c);
     match part.prim {
         Primitive::Box => unit_box(&mut tri, [sx, sy, sz]),

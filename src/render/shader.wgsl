@@ -1,4 +1,5 @@
-// Revelio builtin renderer: one uniform block, three pipelines (sky, geometry, rain).
+// Revelio builtin renderer: one uniform block; pipelines for geometry (closed, open, blended),
+// the sky and rain.
 // Everything is in linear light; the target is sRGB, so the hardware encodes on write.
 
 struct Frame {
@@ -17,7 +18,7 @@ struct Frame {
     fog: vec4<f32>,
     // x: wetness, y: puddles (precipitation deposits), z: rain, w: seed in 0..1.
     wet: vec4<f32>,
-    // x: width, y: height, z: fog start distance.
+    // x: width, y: height, z: fog start distance, w: number of near rain streaks.
     viewport: vec4<f32>,
 };
 
@@ -68,56 +69,77 @@ fn value_noise(p: vec2<f32>) -> f32 {
 
 struct SkyOut {
     @builtin(position) clip: vec4<f32>,
-    @location(0) ndc: vec2<f32>,
+    // Unnormalised view ray: the near-plane point minus the eye, linear across the screen, so
+    // it is computed at the three vertices and interpolated.
+    @location(0) ray: vec3<f32>,
 };
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> SkyOut {
     let xy = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
     var o: SkyOut;
+    // Depth 0: infinitely far (reversed z), where nothing else is drawn.
     o.clip = vec4<f32>(xy, 0.0, 1.0);
-    o.ndc = xy;
+    let near = frame.inv_view_proj * vec4<f32>(xy, 1.0, 1.0);
+    o.ray = near.xyz / near.w - frame.eye.xyz;
     return o;
 }
 
 @fragment
 fn fs_sky(in: SkyOut) -> @location(0) vec4<f32> {
-    // Reversed z: 1 is the near plane; 0 would be infinitely far, so take a point between.
-    let far = frame.inv_view_proj * vec4<f32>(in.ndc, 0.5, 1.0);
-    let near = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
-    let dir = normalize(far.xyz / far.w - near.xyz / near.w);
+    let dir = normalize(in.ray);
     // Fog thick enough to hide things at 200 m hides the sky too.
     let c = mix(sky(dir), frame.fog.rgb, fog_amount(200.0));
     return vec4<f32>(c, 1.0);
 }
 
 // ---- rain: screen-space streaks, a fixed pattern from the scene seed ----
+// Each streak is a thin quad (six vertices) placed here from its index and the scene seed, so
+// only the streaks' own pixels are shaded. Streaks below `viewport.w` are long and bright (near
+// drops), the rest short and faint (far drops).
 
-fn streak_layer(px: vec2<f32>, cell: vec2<f32>, density: f32, salt: f32) -> f32 {
-    let p = vec2<f32>(px.x + px.y * 0.18, px.y);
-    let id = floor(p / cell);
-    let local = p / cell - id;
-    let h = hash2(id + vec2<f32>(frame.wet.w * 613.0 + salt, salt));
-    if h > density {
-        return 0.0;
-    }
-    let x0 = 0.2 + 0.6 * hash2(id + vec2<f32>(7.0 + salt, 3.0));
-    let y0 = 0.5 * hash2(id + vec2<f32>(1.0, 11.0 + salt));
-    let width = 0.75 / cell.x;
-    let along = (local.y - y0) / 0.5;
-    let on = step(abs(local.x - x0), width) * step(0.0, along) * step(along, 1.0);
-    return on * (0.4 + 0.6 * along);
+struct RainOut {
+    @builtin(position) clip: vec4<f32>,
+    // 0 at the top of the streak, 1 at the bottom.
+    @location(0) along: f32,
+    @location(1) strength: f32,
+};
+
+@vertex
+fn vs_rain(@builtin(vertex_index) vi: u32) -> RainOut {
+    let i = f32(vi / 6u);
+    let corner = vi % 6u;
+    let w = frame.viewport.x;
+    let h = frame.viewport.y;
+    let near = i < frame.viewport.w;
+    let len = select(h / 18.0, h / 10.0, near);
+    let salt = select(17.0, 0.0, near);
+    let seed = frame.wet.w * 613.0;
+    // The top end: anywhere from which the slanted streak still reaches the screen.
+    let top = vec2<f32>(
+        hash2(vec2<f32>(i + seed, 1.0 + salt)) * (w + 0.18 * h + len * 0.18),
+        hash2(vec2<f32>(i * 1.7 + 5.0, seed + salt)) * (h + len) - len,
+    );
+    // Corners of the quad as (side, along): two triangles.
+    var c = array<vec2<f32>, 6>(
+        vec2<f32>(0.0, 0.0), vec2<f32>(1.0, 1.0), vec2<f32>(1.0, 0.0),
+        vec2<f32>(0.0, 0.0), vec2<f32>(0.0, 1.0), vec2<f32>(1.0, 1.0),
+    );
+    let k = c[corner];
+    // One pixel wide, slanting left as it falls.
+    let px = vec2<f32>(top.x - 0.18 * k.y * len + k.x - 0.5, top.y + k.y * len);
+    var o: RainOut;
+    o.clip = vec4<f32>(px.x / w * 2.0 - 1.0, 1.0 - px.y / h * 2.0, 0.0, 1.0);
+    o.along = k.y;
+    o.strength = select(0.6, 1.0, near);
+    return o;
 }
 
 @fragment
-fn fs_rain(in: SkyOut) -> @location(0) vec4<f32> {
-    let px = (in.ndc * vec2<f32>(0.5, -0.5) + 0.5) * frame.viewport.xy;
-    let h = frame.viewport.y;
-    let d = frame.wet.z;
-    let a = max(streak_layer(px, vec2<f32>(h / 45.0, h / 5.0), d * 0.45, 0.0),
-                streak_layer(px, vec2<f32>(h / 90.0, h / 9.0), d * 0.35, 17.0) * 0.6);
+fn fs_rain(in: RainOut) -> @location(0) vec4<f32> {
     // Lighter than the sky behind, whatever the light: streaks must read as rain.
-    return vec4<f32>(frame.sky_horizon.rgb * 1.6 + vec3<f32>(0.08, 0.085, 0.09), a * 0.5);
+    let a = (0.4 + 0.6 * in.along) * in.strength * 0.5;
+    return vec4<f32>(frame.sky_horizon.rgb * 1.6 + vec3<f32>(0.08, 0.085, 0.09), a);
 }
 
 // ---- geometry ----
@@ -134,7 +156,8 @@ struct VsOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
-    @location(3) material: f32,
+    // Constant over a part: not interpolated.
+    @location(3) @interpolate(flat) material: i32,
 };
 
 @vertex
@@ -144,13 +167,13 @@ fn vs_main(v: VsIn) -> VsOut {
     o.world = v.pos;
     o.normal = v.normal;
     o.color = v.color;
-    o.material = v.material;
+    o.material = i32(round(v.material));
     return o;
 }
 
 @fragment
 fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
-    let m = i32(round(in.material));
+    let m = in.material;
     let to_eye = frame.eye.xyz - in.world;
     let dist = length(to_eye);
     let v = to_eye / max(dist, 1e-4);
