@@ -1,7 +1,7 @@
 //! Builtin renderer throughput: images per second for a busy driving scene (640×360, hard
 //! rain, junction, two agents) and a kitchen scene (640×480, fire), as pixels (render +
-//! readback) and as PNG (render + readback + encoding). The adapter is printed first; pick
-//! the backend with `WGPU_BACKEND=vulkan` (lavapipe) or `WGPU_BACKEND=gl` (llvmpipe).
+//! readback) and as PNG (render + readback + encoding), from one caller and from four at once.
+//! The adapter is printed first; pick the backend with `WGPU_BACKEND=vulkan` (lavapipe) or `WGPU_BACKEND=gl` (llvmpipe).
 //!
 //! The scenes are `revelio emit scene` outputs of the stdlib domains, stored as JSON so the
 //! benchmark measures the renderer alone.
@@ -44,6 +44,25 @@ fn bench(c: &mut Criterion) {
     let small = BuiltinRenderer::new(Some((320, 180))).unwrap_or_else(|e| panic!("{e}"));
     let driving = scene("driving");
     g.bench_function("driving_320x180_rgba", |b| b.iter(|| black_box(small.render_rgba(&driving).unwrap())));
+    // Four callers at once, as a search's concurrent observations render: one frame's
+    // tessellation and PNG encoding overlap another's rasterisation (a frame holds the device
+    // from upload to readback).
+    g.bench_function("driving_640x360_png_4_callers", |b| {
+        b.iter_custom(|iters| {
+            let start = std::time::Instant::now();
+            std::thread::scope(|s| {
+                for k in 0..4 {
+                    let (r, d) = (&r, &driving);
+                    s.spawn(move || {
+                        for _ in (k..iters).step_by(4) {
+                            black_box(r.render_png(d).unwrap());
+                        }
+                    });
+                }
+            });
+            start.elapsed()
+        })
+    });
     // The fixed cost of a frame: sky only, no geometry.
     let mut empty = scene("driving");
     (empty.stage, empty.entities, empty.extras) = (Vec::new(), Vec::new(), Vec::new());
