@@ -1,7 +1,8 @@
 //! Builtin renderer throughput: images per second for a busy driving scene (640×360, hard
 //! rain, junction, two agents) and a kitchen scene (640×480, fire), as pixels (render +
 //! readback) and as PNG (render + readback + encoding), from one caller and from four at once.
-//! The adapter is printed first; pick the backend with `WGPU_BACKEND=vulkan` (lavapipe) or `WGPU_BACKEND=gl` (llvmpipe).
+//! The adapter is printed first; pick the backend with `WGPU_BACKEND=vulkan` (lavapipe) or
+//! `WGPU_BACKEND=gl` (llvmpipe).
 //!
 //! The scenes are `revelio emit scene` outputs of the stdlib domains, stored as JSON so the
 //! benchmark measures the renderer alone.
