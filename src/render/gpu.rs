@@ -140,10 +140,14 @@ impl Gpu {
         }))
         .map_err(|e| format!("cannot open the graphics device `{}`: {e}", summary.name))?;
         let flags = adapter.get_texture_format_features(COLOR_FORMAT).flags;
-        let wanted = match std::env::var("REVELIO_MSAA").ok().and_then(|v| v.trim().parse::<u32>().ok()) {
-            Some(n) => n,
-            None if info.device_type == wgpu::DeviceType::Cpu => 1,
-            None => MSAA,
+        let wanted = match std::env::var("REVELIO_MSAA") {
+            Ok(v) => match v.trim() {
+                "1" => 1,
+                "4" => 4,
+                other => return Err(format!("REVELIO_MSAA must be 1 or 4, not `{other}`")),
+            },
+            Err(_) if info.device_type == wgpu::DeviceType::Cpu => 1,
+            Err(_) => MSAA,
         };
         let samples = if wanted > 1 && flags.sample_count_supported(wanted) { wanted } else { 1 };
         Ok(Gpu::with_device(device, queue, summary, samples))
