@@ -28,6 +28,8 @@ pub struct AdapterSummary {
     pub backend: String,
     pub device_type: String,
     pub driver: String,
+    /// Multisampling used for every frame (1: none).
+    pub samples: u32,
 }
 
 impl std::fmt::Display for AdapterSummary {
@@ -36,7 +38,7 @@ impl std::fmt::Display for AdapterSummary {
         if !self.driver.is_empty() {
             write!(f, ", driver {}", self.driver)?;
         }
-        Ok(())
+        write!(f, ", {}× MSAA", self.samples)
     }
 }
 
@@ -132,6 +134,7 @@ impl Gpu {
                 .copied()
                 .collect::<Vec<_>>()
                 .join(" "),
+            samples: 1,
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("revelio"),
@@ -150,7 +153,7 @@ impl Gpu {
             Err(_) => MSAA,
         };
         let samples = if wanted > 1 && flags.sample_count_supported(wanted) { wanted } else { 1 };
-        Ok(Gpu::with_device(device, queue, summary, samples))
+        Ok(Gpu::with_device(device, queue, AdapterSummary { samples, ..summary }, samples))
     }
 
     pub fn summary(&self) -> &AdapterSummary {
