@@ -92,7 +92,8 @@ struct Targets {
     bind_group: wgpu::BindGroup,
 }
 
-/// Rank adapters: a real GPU first, then Vulkan over GL (lavapipe is faster than llvmpipe).
+/// Rank adapters: a real GPU first (Vulkan over GL); among CPU drivers llvmpipe (GL) over
+/// lavapipe (Vulkan), which drew this renderer's frames about 10 % slower (docs/render.md).
 fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     let kind = match info.device_type {
         wgpu::DeviceType::DiscreteGpu => 0,
@@ -101,9 +102,10 @@ fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
         wgpu::DeviceType::Cpu => 3,
         wgpu::DeviceType::Other => 4,
     };
+    let cpu = info.device_type == wgpu::DeviceType::Cpu;
     let backend = match info.backend {
-        wgpu::Backend::Vulkan => 0,
-        wgpu::Backend::Gl => 1,
+        wgpu::Backend::Vulkan => u8::from(cpu),
+        wgpu::Backend::Gl => u8::from(!cpu),
         _ => 2,
     };
     (kind, backend)
