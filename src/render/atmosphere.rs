@@ -129,9 +129,9 @@ pub fn frame(camera: &Camera, env: &BTreeMap<String, f64>, width: u32, height: u
 /// 220 + 616.
 pub fn rain_streaks(precipitation: f32, width: u32, height: u32) -> (u32, u32) {
     let (w, h) = (width as f32, height as f32);
-    let columns = (w + 0.18 * h) / h;
-    let near = (precipitation.clamp(0.0, 1.0) * 200.0 * columns / 1.78).round() as u32;
-    let far = (precipitation.clamp(0.0, 1.0) * 560.0 * columns / 1.78).round() as u32;
+    let per_unit = precipitation.clamp(0.0, 1.0) * (w + 0.18 * h) / h / 1.78;
+    let near = (200.0 * per_unit).round() as u32;
+    let far = (560.0 * per_unit).round() as u32;
     (near, near + far)
 }
 

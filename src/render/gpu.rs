@@ -46,7 +46,6 @@ pub struct Gpu {
     device: wgpu::Device,
     queue: wgpu::Queue,
     summary: AdapterSummary,
-    samples: u32,
     layout: wgpu::BindGroupLayout,
     sky: wgpu::RenderPipeline,
     opaque: wgpu::RenderPipeline,
@@ -126,24 +125,6 @@ impl Gpu {
             )
         })?;
         let info = adapter.get_info();
-        let summary = AdapterSummary {
-            name: info.name.clone(),
-            backend: format!("{:?}", info.backend).to_lowercase(),
-            device_type: format!("{:?}", info.device_type),
-            driver: [info.driver.as_str(), info.driver_info.as_str()]
-                .iter()
-                .filter(|s| !s.is_empty())
-                .copied()
-                .collect::<Vec<_>>()
-                .join(" "),
-            samples: 1,
-        };
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("revelio"),
-            required_limits: wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("cannot open the graphics device `{}`: {e}", summary.name))?;
         let flags = adapter.get_texture_format_features(COLOR_FORMAT).flags;
         let wanted = match std::env::var("REVELIO_MSAA") {
             Ok(v) => match v.trim() {
@@ -155,14 +136,33 @@ impl Gpu {
             Err(_) => MSAA,
         };
         let samples = if wanted > 1 && flags.sample_count_supported(wanted) { wanted } else { 1 };
-        Ok(Gpu::with_device(device, queue, AdapterSummary { samples, ..summary }, samples))
+        let summary = AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            device_type: format!("{:?}", info.device_type),
+            driver: [info.driver.as_str(), info.driver_info.as_str()]
+                .iter()
+                .filter(|s| !s.is_empty())
+                .copied()
+                .collect::<Vec<_>>()
+                .join(" "),
+            samples,
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("revelio"),
+            required_limits: wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("cannot open the graphics device `{}`: {e}", summary.name))?;
+        Ok(Gpu::with_device(device, queue, summary))
     }
 
     pub fn summary(&self) -> &AdapterSummary {
         &self.summary
     }
 
-    fn with_device(device: wgpu::Device, queue: wgpu::Queue, summary: AdapterSummary, samples: u32) -> Gpu {
+    fn with_device(device: wgpu::Device, queue: wgpu::Queue, summary: AdapterSummary) -> Gpu {
+        let samples = summary.samples;
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("revelio"),
             source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
@@ -234,7 +234,7 @@ impl Gpu {
         let sky = pipeline("vs_fullscreen", "fs_sky", false, (GreaterEqual, false), false);
         let blended = pipeline("vs_main", "fs_main", true, (GreaterEqual, false), true);
         let rain = pipeline("vs_rain", "fs_rain", false, (Always, false), true);
-        Gpu { device, queue, summary, samples, layout, sky, opaque, blended, rain, state: Mutex::new(State::default()) }
+        Gpu { device, queue, summary, layout, sky, opaque, blended, rain, state: Mutex::new(State::default()) }
     }
 
     /// Render one frame with `rain_streaks` rain streaks and read it back as tightly packed
@@ -364,10 +364,10 @@ impl Gpu {
             })
         };
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let msaa = (self.samples > 1)
-            .then(|| tex("msaa", COLOR_FORMAT, self.samples, attach).create_view(&Default::default()));
+        let samples = self.summary.samples;
+        let msaa = (samples > 1).then(|| tex("msaa", COLOR_FORMAT, samples, attach).create_view(&Default::default()));
         let resolve = tex("resolve", COLOR_FORMAT, 1, attach | wgpu::TextureUsages::COPY_SRC);
-        let depth = tex("depth", DEPTH_FORMAT, self.samples, attach).create_view(&Default::default());
+        let depth = tex("depth", DEPTH_FORMAT, samples, attach).create_view(&Default::default());
         let padded_row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),

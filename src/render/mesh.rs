@@ -71,8 +71,10 @@ pub struct Vertex {
 /// a smooth sphere shares each vertex between six triangles.
 ///
 /// Every triangle is wound counter-clockwise seen from the side its normal points to, so the
-/// back faces of closed opaque parts (boxes, cylinders, cones, spheres, capsules seen from
-/// outside) can be culled: on a CPU rasteriser that halves the triangles set up and rejected.
+/// back faces of closed parts (boxes, cylinders, cones, spheres, capsules seen from outside) can
+/// be dropped: on a CPU rasteriser that halves the triangles set up and rejected. Translucent
+/// closed parts drop theirs too, so a glass or smoke volume is not blended twice in an
+/// unsorted order.
 #[derive(Debug, Default)]
 pub struct Mesh {
     pub vertices: Vec<Vertex>,
@@ -234,8 +236,8 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
     // and cover), so that covered plane pixels fail the depth test instead of being shaded.
     let (closed, open): (Vec<_>, Vec<_>) = opaque.into_iter().partition(|p| is_closed(p, eye));
     let mut mesh = Mesh::default();
-    for p in closed.iter().chain(&open) {
-        emit_part(&mut mesh, p, eye);
+    for (p, closed) in closed.iter().map(|p| (p, true)).chain(open.iter().map(|p| (p, false))) {
+        emit_part(&mut mesh, p, eye, closed);
     }
     mesh.opaque_len = mesh.indices.len() as u32;
     // Shadows lie on the ground under everything translucent, so they go first.
@@ -243,7 +245,7 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
         emit_shadow(&mut mesh, s);
     }
     for p in &translucent {
-        emit_part(&mut mesh, p, eye);
+        emit_part(&mut mesh, p, eye, is_closed(p, eye));
     }
     mesh
 }
@@ -356,7 +358,8 @@ fn detail(p: &Placed, eye: [f64; 3]) -> (usize, usize) {
     (segments, (segments / 2).clamp(3, SPHERE_BANDS))
 }
 
-fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3]) {
+/// `closed`: [`is_closed`] holds, so back faces are dropped.
+fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3], closed: bool) {
     let (segs, bands) = detail(p, eye);
     let part = p.part;
     let m = Material::from_hint(&part.material);
@@ -366,7 +369,7 @@ fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3]) {
     // A round primitive written with y = 0 is round: x is its diameter.
     let sy_round = if sy > 0.0 { sy } else { sx };
     // The camera in the part frame: the inverse of a rotation is its transpose.
-    let cull_from = is_closed(p, eye).then(|| {
+    let cull_from = closed.then(|| {
         let d = sub(eye, p.xf.t);
         let r = &p.xf.r;
         [0, 1, 2].map(|j| r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2])
