@@ -22,6 +22,10 @@ pub struct ValidateArgs {
     /// Fresh observations per set
     #[arg(long, default_value_t = 20)]
     pub samples: u32,
+    /// Sequential validation: a set whose 95 % interval still straddles the run's τ gets more
+    /// observations, up to M [default: --samples]
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
     #[command(flatten)]
@@ -77,13 +81,15 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         out: args.run_dir.clone(),
         progress: !args.json,
     };
-    let v = match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples)) {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(1);
-        }
-    };
+    let v =
+        match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples, args.max_samples))
+        {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        };
     let mut out = std::io::stdout().lock();
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
@@ -132,10 +138,12 @@ mod tests {
         SetRow {
             concepts: concepts.iter().map(|c| c.to_string()).collect(),
             fr: Some(f64::from(wrong) / f64::from(answered)),
+            ci95: crate::search::interval::wilson(wrong, answered),
             wrong,
             answered,
             observations: answered,
             unanswered: Default::default(),
+            core: None,
         }
     }
 
@@ -144,6 +152,7 @@ mod tests {
         let v = Validation {
             top: 2,
             samples: 20,
+            max_samples: None,
             sets: vec![
                 ValidatedSet {
                     search: row(&["debris_far", "town_town02"], 5, 5),
