@@ -92,9 +92,11 @@ pub struct Stat {
 }
 
 impl Stat {
-    fn of(xs: &[f64]) -> Stat {
+    /// The t interval, clipped to the metric's range `[lo, hi]` (a share cannot exceed 100 %
+    /// however few the seeds).
+    fn of(xs: &[f64], [lo, hi]: [f64; 2]) -> Stat {
         let (mean, sd) = mean_sd(xs);
-        let ci95 = mean_ci95(xs).map_or([0.0, 0.0], |(_, ci)| ci);
+        let ci95 = mean_ci95(xs).map_or([0.0, 0.0], |(_, ci)| [ci[0].max(lo), ci[1].min(hi)]);
         Stat { mean, sd, ci95, n: xs.len() }
     }
 }
@@ -200,20 +202,23 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                     }
                 }
             }
-            let col = |f: &dyn Fn(&RunFigures) -> Option<f64>| Stat::of(&rows.iter().filter_map(f).collect::<Vec<_>>());
+            let col = |f: &dyn Fn(&RunFigures) -> Option<f64>, range: [f64; 2]| {
+                Stat::of(&rows.iter().filter_map(f).collect::<Vec<_>>(), range)
+            };
+            let (percent, share, count) = ([0.0, 100.0], [0.0, 1.0], [0.0, f64::INFINITY]);
             results.push(AlgoResult {
                 algo,
                 max_samples: mode.rule().max_samples,
-                pfm: col(&|r| Some(r.pfm)),
-                mfr: col(&|r| Some(r.mfr)),
-                div: col(&|r| r.div),
-                failure_modes: col(&|r| Some(r.failure_modes)),
-                false_modes: col(&|r| Some(r.false_modes)),
-                precision: col(&|r| r.precision),
-                recovered: col(&|r| r.recovered),
-                cores: (args.shrink > 0).then(|| col(&|r| Some(r.cores))),
-                core_precision: (args.shrink > 0).then(|| col(&|r| r.core_precision)),
-                us_per_inference: col(&|r| Some(r.us)),
+                pfm: col(&|r| Some(r.pfm), percent),
+                mfr: col(&|r| Some(r.mfr), percent),
+                div: col(&|r| r.div, share),
+                failure_modes: col(&|r| Some(r.failure_modes), count),
+                false_modes: col(&|r| Some(r.false_modes), count),
+                precision: col(&|r| r.precision, share),
+                recovered: col(&|r| r.recovered, share),
+                cores: (args.shrink > 0).then(|| col(&|r| Some(r.cores), count)),
+                core_precision: (args.shrink > 0).then(|| col(&|r| r.core_precision, share)),
+                us_per_inference: col(&|r| Some(r.us), count),
             });
         }
     }

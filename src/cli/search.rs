@@ -280,7 +280,7 @@ pub fn print_summary(
     if let Some(sh) = &s.shrink {
         let refuted = match sh.refuted.len() {
             0 => String::new(),
-            n => format!("; {n} failure mode{} refuted on re-test", if n == 1 { "" } else { "s" }),
+            n => format!("; {n} failure mode{} refuted when re-tested", if n == 1 { "" } else { "s" }),
         };
         writeln!(
             w,
@@ -292,7 +292,9 @@ pub fn print_summary(
         )?;
     }
     writeln!(w, "spend: {}", s.spend.line())?;
-    let rest: Vec<&crate::run::runner::SetRow> = s.failure_modes.iter().filter(|r| r.core.is_none()).collect();
+    let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
+    let rest: Vec<&crate::run::runner::SetRow> =
+        s.failure_modes.iter().filter(|r| r.core.is_none() && !refuted.contains(&&r.concepts)).collect();
     if s.cores.is_empty() && s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
     }
@@ -336,6 +338,14 @@ pub fn print_summary(
         if rest.len() > top {
             writeln!(w, "      … {} more in summary.json", rest.len() - top)?;
         }
+    }
+    if !refuted.is_empty() {
+        writeln!(
+            w,
+            "      ({} failure mode{} of the search failed less than τ when re-tested: `shrink.refuted` in summary.json)",
+            refuted.len(),
+            if refuted.len() == 1 { "" } else { "s" }
+        )?;
     }
     writeln!(w)?;
     writeln!(
@@ -439,7 +449,7 @@ mod tests {
             inferences: 243,
             max_samples: 20,
             new_sets: 9,
-            refuted: vec![row(&["cone", "far"], 4, 20)],
+            refuted: vec![row(&["cone", "weather_foggy"], 4, 20)],
         };
         let mut out = Vec::new();
         let s = summary(modes, cores, Some(shrink));

@@ -10,7 +10,7 @@ use crate::journal::domain_hash;
 use crate::run::eval::{DomainWorld, World};
 use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
 
-use super::search::{ModelFlags, build_parts, runtime};
+use super::search::{ModelFlags, build_parts, fr_ci_text, runtime};
 
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
@@ -110,18 +110,28 @@ fn pct(f: Option<f64>) -> String {
 }
 
 pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<()> {
-    writeln!(w, "{:>4}  {:>9}  {:>9}  concepts", "#", "search FR", "valid. FR")?;
+    writeln!(w, "{:>4}  {:>9}  {:<18}  {:>4}  concepts", "#", "search FR", "valid. FR [95% CI]", "n")?;
     for (i, s) in v.sets.iter().enumerate() {
-        let fr = format!("{} /{}", pct(s.validation.fr), s.validation.answered);
-        writeln!(w, "{:>4}  {:>9}  {:>9}  {}", i + 1, pct(s.search.fr), fr, s.search.concepts.join(" + "))?;
+        writeln!(
+            w,
+            "{:>4}  {:>9}  {:<18}  {:>4}  {}",
+            i + 1,
+            pct(s.search.fr),
+            fr_ci_text(s.validation.fr, s.validation.ci95),
+            s.validation.answered,
+            s.search.concepts.join(" + ")
+        )?;
     }
+    let samples = match v.max_samples {
+        Some(max) => format!("{}–{max} samples (sequential)", v.samples),
+        None => format!("{} samples", v.samples),
+    };
     writeln!(
         w,
-        "validated FR {:.1}% ± {:.1}% over {} sets × {} samples; {} of {} reach FR ≥ {:.0}%",
+        "validated FR {:.1}% ± {:.1}% over {} sets × {samples}; {} of {} reach FR ≥ {:.0}%",
         100.0 * v.mean_fr,
         100.0 * v.sd_fr,
         v.sets.len(),
-        v.samples,
         v.consistent,
         v.sets.len(),
         100.0 * CONSISTENT_FR

@@ -197,8 +197,12 @@ impl Evaluator {
         })
     }
 
-    /// Count a set's new observations toward the progress bar's failure modes.
+    /// Count a set's new observations toward the progress bar's failure modes (the shrink phase
+    /// re-tests known ones: not counted).
     fn set_done(&mut self, stats: &SetStats) {
+        if self.phase == Phase::Shrink {
+            return;
+        }
         let total = self.totals.entry((self.phase, stats.set)).or_insert_with(|| SetStats::new(stats.set));
         let before = total.is_failure_mode(self.threshold);
         total.merge(stats);
