@@ -11,6 +11,7 @@ pub mod cli;
 #[cfg(test)]
 mod editor_sync;
 pub mod emit;
+pub mod fmt;
 pub mod ir;
 pub mod journal;
 pub mod lattice;
