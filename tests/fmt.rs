@@ -263,3 +263,57 @@ fn comments_stay_where_they_were() {
     assert_eq!(layout("kind K { // nothing yet\n}"), "kind K { // nothing yet\n}\n");
     assert_eq!(layout("kind K {\n// nothing yet\n}"), "kind K {\n  // nothing yet\n}\n");
 }
+
+/// Run the `revelio` binary with `stdin`; (exit code, stdout, stderr).
+fn revelio(args: &[&str], stdin: &str) -> (i32, String, String) {
+    use std::io::Write as _;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
+    (out.status.code().unwrap(), text(out.stdout), text(out.stderr))
+}
+
+#[test]
+fn the_fmt_command_rewrites_checks_and_reads_stdin() {
+    let dir = tempfile::tempdir().unwrap();
+    let messy = dir.path().join("messy.rev");
+    let tidy = dir.path().join("tidy.rev");
+    std::fs::write(&messy, "kind K{a:bool=true}").unwrap();
+    std::fs::write(&tidy, "tag T\n").unwrap();
+    let d = dir.path().to_str().unwrap();
+    let (code, out, _) = revelio(&["fmt", "--check", d], "");
+    assert_eq!((code, out.trim()), (1, messy.to_str().unwrap()), "--check lists what it would change");
+    assert_eq!(read(&messy), "kind K{a:bool=true}", "--check writes nothing");
+    assert_eq!(revelio(&["fmt", d], "").0, 0);
+    assert_eq!(read(&messy), "kind K {\n  a: bool = true\n}\n");
+    assert_eq!(revelio(&["fmt", "--check", d], "").0, 0);
+    assert_eq!(revelio(&["fmt", "-"], "tag  T"), (0, "tag T\n".to_string(), String::new()));
+    assert_eq!(revelio(&["fmt", "--check", "-"], "tag  T").0, 1);
+    let (code, out, err) = revelio(&["fmt", "-"], "kind K { a: bool = }");
+    assert_eq!((code, out.as_str()), (1, ""), "a file with syntax errors is left alone");
+    assert!(err.contains("expected a value") && err.contains("R0001"), "{err}");
+}
+
+#[test]
+fn check_reads_an_unsaved_buffer_from_stdin() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("lib.rev"), "tag Shiny\n").unwrap();
+    let name = dir.path().join("buffer.rev");
+    let name = name.to_str().unwrap();
+    let buffer = "use \"lib.rev\"\nkind K: Shinny {}\n";
+    let (code, out, _) = revelio(&["check", "-", "--stdin-filename", name, "--format", "plain"], buffer);
+    assert_eq!(code, 1);
+    assert_eq!(out.lines().next().unwrap(), format!("{name}:2:9: error[R0020]: unknown kind or tag `Shinny`"));
+    assert!(out.contains("did you mean `Shiny`?"), "the used file was read relative to the name: {out}");
+    let (code, out, _) = revelio(&["check", "-", "--format", "json"], "tag A\ntag A\n");
+    assert_eq!(code, 1);
+    assert!(out.contains("\"file\":\"<stdin>\""), "{out}");
+    assert_eq!(revelio(&["check", "--stdin-filename", name, name], "").0, 2, "a name needs `-`");
+}

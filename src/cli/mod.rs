@@ -10,6 +10,7 @@ pub mod bench;
 pub mod check;
 pub mod describe;
 pub mod emit;
+pub mod fmt;
 pub mod lattice;
 pub mod oracle;
 pub mod render;
@@ -27,6 +28,8 @@ pub struct Cli {
 pub enum Command {
     /// Type-check `.rev` files and report every problem
     Check(check::CheckArgs),
+    /// Rewrite `.rev` files in the canonical layout (`--check` only reports)
+    Fmt(fmt::FmtArgs),
     /// Show what a domain file compiles to (concepts, constraints, questions, rules)
     Describe(describe::DescribeArgs),
     /// Count or list the valid concept sets of a domain
@@ -58,6 +61,7 @@ pub fn main() -> ExitCode {
     };
     match cli.command {
         Command::Check(a) => check::run(a),
+        Command::Fmt(a) => fmt::run(a),
         Command::Describe(a) => describe::run(a),
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
