@@ -7,7 +7,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use revelio::ir::Domain;
-use revelio::lattice::{Lattice, lints};
+use revelio::lattice::Lattice;
+use revelio::lint as lints;
 use revelio::oracle::Oracle;
 
 fn domain(name: &str) -> Domain {

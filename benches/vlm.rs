@@ -13,8 +13,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
+use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
-use revelio::vlm::{Answer, Query, parse, prompt};
+use revelio::vlm::{Query, parse, prompt};
 use serde_json::json;
 use wiremock::matchers::method;
 use wiremock::{Mock, MockServer, ResponseTemplate};

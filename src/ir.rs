@@ -10,16 +10,13 @@
 
 use serde::{Deserialize, Serialize};
 
+#[cfg(test)]
+pub(crate) mod testkit;
+
 /// Maximum number of concepts a domain may declare (the width of a [`ConceptSet`]).
 pub const MAX_CONCEPTS: usize = 128;
 
-/// A byte range in one source file. `file` indexes [`Domain::files`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
-pub struct Span {
-    pub file: u32,
-    pub start: u32,
-    pub end: u32,
-}
+pub use crate::diag::Span;
 
 macro_rules! id_type {
     ($($(#[$m:meta])* $name:ident;)*) => {$(
@@ -570,14 +567,22 @@ impl Domain {
     pub fn world_attr(&self, name: &str) -> Option<&AttrDef> {
         self.world.iter().find(|a| a.name == name)
     }
-    /// Parse a list of concept names into a set; the error names the first unknown one.
-    pub fn parse_set<S: AsRef<str>>(&self, names: &[S]) -> Result<ConceptSet, String> {
+    /// Parse a list of concept names into a set; the error names the first unknown one, with a
+    /// "did you mean" when a declared concept is close.
+    pub fn parse_set<S: AsRef<str>>(&self, names: &[S]) -> Result<ConceptSet, UnknownConcept> {
         let mut set = ConceptSet::EMPTY;
         for n in names {
             let n = n.as_ref();
             match self.concept_by_name(n) {
                 Some(c) => set = set.with(c.id),
-                None => return Err(format!("unknown concept `{n}`")),
+                None => {
+                    let suggestion = crate::diag::suggest::suggest(n, self.concepts.iter().map(|c| c.name.as_str()));
+                    return Err(UnknownConcept {
+                        name: n.to_string(),
+                        domain: self.name.clone(),
+                        suggestion: suggestion.map(String::from),
+                    });
+                }
             }
         }
         Ok(set)
@@ -594,6 +599,19 @@ impl Domain {
     pub fn variant_name(&self, e: EnumId, v: u32) -> &str {
         &self.enums[e.index()].variants[v as usize]
     }
+}
+
+/// A concept name that the domain does not declare (from [`Domain::parse_set`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown concept `{name}` in domain `{domain}`{}", did_you_mean(suggestion.as_deref()))]
+pub struct UnknownConcept {
+    pub name: String,
+    pub domain: String,
+    pub suggestion: Option<String>,
+}
+
+fn did_you_mean(s: Option<&str>) -> String {
+    s.map(|s| format!("; did you mean `{s}`?")).unwrap_or_default()
 }
 
 /// Whether an entity of `kind` matches a target filter.

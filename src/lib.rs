@@ -1,13 +1,16 @@
 //! Revelio: find interpretable failure modes of vision-language models.
 //!
-//! Pipeline (see README "Architecture"): `.rev` source → [`syntax`] (pest, with recovery) →
-//! [`check`] (resolution, types) → [`ir::Domain`] → [`lattice`] / [`oracle`] / [`sample`] /
-//! [`emit`] → [`render`] → [`vlm`] → [`search`] → [`journal`]. The core (syntax … search) does
-//! no I/O; files, network and GPU live in `cli`, `vlm`, `render` and `journal`.
+//! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
+//! [`diag`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
+//! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
+//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
+//! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
+//! and GPU live in `net`, `render`, `vlm`, `journal`, `run` and `cli`.
 
 pub mod anchor;
 pub mod check;
 pub mod cli;
+pub mod diag;
 #[cfg(test)]
 mod editor_sync;
 pub mod emit;
@@ -15,8 +18,12 @@ pub mod fmt;
 pub mod ir;
 pub mod journal;
 pub mod lattice;
+pub mod lint;
+pub mod net;
 pub mod oracle;
+pub mod outcome;
 pub mod render;
+pub mod run;
 pub mod sample;
 pub mod scene;
 pub mod search;

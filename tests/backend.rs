@@ -6,7 +6,8 @@ use std::path::Path;
 
 use revelio::check::compile_source;
 use revelio::ir::Domain;
-use revelio::lattice::{Lattice, lints};
+use revelio::lattice::Lattice;
+use revelio::lint as lints;
 use revelio::oracle::{self, OracleError};
 
 fn domain(name: &str) -> Domain {

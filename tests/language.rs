@@ -9,10 +9,10 @@
 
 use std::path::{Path, PathBuf};
 
-use revelio::check::codes::CODES;
-use revelio::check::diagnostic::{Diagnostic, Severity};
 use revelio::check::{self, Compiled};
 use revelio::cli::check::{Report, compile_path, line_col};
+use revelio::diag::codes::CODES;
+use revelio::diag::{Diagnostic, Severity};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -167,7 +167,7 @@ fn every_code_is_documented_once() {
         emitted.extend(compile_path(&f, false).diagnostics.iter().map(|d| d.code));
     }
     for code in &emitted {
-        assert!(revelio::check::codes::info(code).is_some(), "emitted code {code} is not in CODES");
+        assert!(revelio::diag::codes::info(code).is_some(), "emitted code {code} is not in CODES");
     }
     let unused: Vec<&str> = CODES.iter().map(|c| c.code).filter(|c| !emitted.contains(c)).collect();
     // R0003 and R0044 need inputs too large for the corpus; they have tests of their own.

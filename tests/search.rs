@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use revelio::ir::Domain;
 use revelio::lattice::Lattice;
-use revelio::search::eval::{DomainWorld, World};
-use revelio::search::runner::{self, RunConfig, Setup};
+use revelio::run::eval::{DomainWorld, World};
+use revelio::run::runner::{self, RunConfig, Setup};
 use revelio::search::{Algo, Params};
 use revelio::vlm::Model;
 use revelio::vlm::sim::{Profile, SimModel};

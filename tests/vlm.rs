@@ -10,8 +10,9 @@ use std::sync::{Arc, Mutex, Once};
 use std::time::Duration;
 
 use base64::Engine;
+use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
-use revelio::vlm::{Answer, Model, Query, prompt};
+use revelio::vlm::{Model, Query, prompt};
 use serde_json::{Value, json};
 use wiremock::matchers::{method, path};
 use wiremock::{Mock, MockServer, Request, Respond, ResponseTemplate};
@@ -402,7 +403,7 @@ async fn bedrock_converse_signed_requests() {
     let canonical_uri = req.url.path().split('/').map(uri_encode).collect::<Vec<_>>().join("/");
     let creds = Credentials {
         access_key_id: "AKIDCANARY".into(),
-        secret_access_key: revelio::vlm::api::Secret(AWS_SECRET.into()),
+        secret_access_key: revelio::net::secret::Secret(AWS_SECRET.into()),
         session_token: None,
     };
     let expected = authorization(
@@ -722,8 +723,8 @@ fn the_example_config_builds_every_model_it_names() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fault_injection_search_loses_nothing() {
     use revelio::lattice::Lattice;
-    use revelio::search::eval::{DomainWorld, World};
-    use revelio::search::runner::{self, RunConfig};
+    use revelio::run::eval::{DomainWorld, World};
+    use revelio::run::runner::{self, RunConfig};
     use revelio::search::{Algo, Params};
 
     let (server, faulty) = faulty_server().await;

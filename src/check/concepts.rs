@@ -1,10 +1,11 @@
 //! Concepts, modifiers and compatibility constraints.
 
-use super::codes;
-use super::diagnostic::Diagnostic;
 use super::expr::Scope;
 use super::lower::{Checker, TypeSym, duplicate_statement, push_unique};
-use super::names::{Namespace, suggest, unknown};
+use super::names::{Namespace, unknown};
+use crate::diag::Diagnostic;
+use crate::diag::codes;
+use crate::diag::suggest::suggest;
 use crate::ir::*;
 use crate::syntax::ast::{self, ConceptStmt, Ident, Item, ItemKind, Member};
 

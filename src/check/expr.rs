@@ -1,9 +1,9 @@
 //! Conditions (`when …` of rules, shape parts and stage items) → IR expressions.
 
-use super::codes;
-use super::diagnostic::Diagnostic;
 use super::lower::Checker;
 use super::names::unknown;
+use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::ir::{AttrType, CmpOp, Expr, KindId};
 use crate::syntax::ast::{self, ExprKind, Ident};
 

@@ -8,9 +8,9 @@
 //! kind. A filter that names a kind matches that kind and all kinds that descend from it (the
 //! checker lists them in [`TargetFilter::kinds`]).
 
-use super::codes;
-use super::diagnostic::Diagnostic;
 use super::names::{Namespace, unknown};
+use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::ir::*;
 use crate::syntax::ast::{self, Ident, Item, ItemKind, Num, ValueLit};
 
@@ -618,7 +618,7 @@ impl<'a> Checker<'a> {
                 None => {
                     let d = Diagnostic::error(codes::UNKNOWN_UNIT, u.span, format!("unknown unit `{}`", u.name))
                         .with_label("no `unit` declares this suffix");
-                    let d = match super::names::suggest(&u.name, self.units.names()) {
+                    let d = match crate::diag::suggest::suggest(&u.name, self.units.names()) {
                         Some(s) => d.with_help(format!("did you mean `{s}`?")),
                         None => d.with_help("declare it with `unit NAME: DIMENSION = SCALE`"),
                     };
@@ -653,7 +653,7 @@ impl<'a> Checker<'a> {
                             format!("`{}` is not a variant of enum `{}`", n.name, def.name),
                         )
                         .with_label(format!("`{attr}` is a `{}`", def.name));
-                        let d = match super::names::suggest(&n.name, def.variants.iter().map(String::as_str)) {
+                        let d = match crate::diag::suggest::suggest(&n.name, def.variants.iter().map(String::as_str)) {
                             Some(s) => d.with_help(format!("did you mean `{s}`?")),
                             None => d.with_help(format!("the variants are: {}", def.variants.join(", "))),
                         };

@@ -6,20 +6,19 @@
 //! checks types and builds the [`ir::Domain`]. The core does no I/O: files named by
 //! `use "path"` are read through the `load` callback the caller passes in.
 
-pub mod codes;
 mod concepts;
-pub mod diagnostic;
 mod expr;
 mod lower;
-pub(crate) mod names;
+mod names;
 mod rules;
 mod shapes;
 
 use std::collections::{HashMap, HashSet};
 
+use crate::diag::suggest::suggest;
+use crate::diag::{Diagnostic, codes};
 use crate::ir::{self, SourceFile};
 use crate::syntax::{self, ast};
-use diagnostic::Diagnostic;
 
 /// The standard library, embedded in the binary: `use std::NAME` loads `stdlib/NAME.rev`. Every
 /// file in `stdlib/` must have a line here (a test in `tests/language.rs` checks).
@@ -175,7 +174,7 @@ impl Loader<'_> {
                             format!("unknown module `std::{}`", m.name),
                         )
                         .with_label("not in the standard library");
-                        let d = match names::suggest(&m.name, STDLIB.iter().map(|(n, _)| *n)) {
+                        let d = match suggest(&m.name, STDLIB.iter().map(|(n, _)| *n)) {
                             Some(s) => d.with_help(format!("did you mean `std::{s}`?")),
                             None => d.with_help(format!(
                                 "the standard library has: {}",

@@ -1,9 +1,10 @@
-//! Namespaces of declared names, duplicate detection, and "did you mean" suggestions.
+//! Namespaces of declared names, duplicate detection, and unknown-name diagnostics with "did you
+//! mean".
 
 use std::collections::HashMap;
 
-use super::codes;
-use super::diagnostic::Diagnostic;
+use crate::diag::suggest::suggest;
+use crate::diag::{Diagnostic, codes};
 use crate::ir::Span;
 use crate::syntax::ast::Ident;
 
@@ -66,40 +67,6 @@ impl<T: Clone> Namespace<T> {
     }
 }
 
-/// Levenshtein distance (on chars), case-insensitive so that `weather` finds `Weather`.
-pub fn edit_distance(a: &str, b: &str) -> usize {
-    let a: Vec<char> = a.to_lowercase().chars().collect();
-    let b: Vec<char> = b.to_lowercase().chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    let mut cur = vec![0; b.len() + 1];
-    for (i, ca) in a.iter().enumerate() {
-        cur[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != cb);
-            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        std::mem::swap(&mut prev, &mut cur);
-    }
-    prev[b.len()]
-}
-
-/// The closest candidate within a third of the name's length (at least 1 edit, at most 3);
-/// ties go to the candidate seen first, so the result is deterministic.
-pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    let limit = (name.chars().count() / 3).clamp(1, 3);
-    let mut best: Option<(usize, &str)> = None;
-    for c in candidates {
-        if c == name {
-            continue;
-        }
-        let d = edit_distance(name, c);
-        if d <= limit && best.is_none_or(|(bd, _)| d < bd) {
-            best = Some((d, c));
-        }
-    }
-    best.map(|(_, c)| c)
-}
-
 /// "unknown SORT `name`" with a "did you mean" help when a candidate is close.
 pub fn unknown<'a>(sort: &str, name: &Ident, candidates: impl IntoIterator<Item = &'a str>) -> Diagnostic {
     let d = Diagnostic::error(codes::UNKNOWN_NAME, name.span, format!("unknown {sort} `{}`", name.name))
@@ -107,19 +74,5 @@ pub fn unknown<'a>(sort: &str, name: &Ident, candidates: impl IntoIterator<Item 
     match suggest(&name.name, candidates) {
         Some(s) => d.with_help(format!("did you mean `{s}`?")),
         None => d,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn distance_and_suggestions() {
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
-        assert_eq!(edit_distance("", "abc"), 3);
-        assert_eq!(suggest("pedestrain", ["Pedestrian", "Cyclist"]), Some("Pedestrian"));
-        assert_eq!(suggest("xyz", ["Pedestrian", "Cyclist"]), None);
-        assert_eq!(suggest("far", ["far", "near"]), None);
     }
 }

@@ -1,10 +1,11 @@
 //! Questions and ground-truth rules.
 
-use super::codes;
-use super::diagnostic::Diagnostic;
 use super::expr::Scope;
 use super::lower::{Checker, duplicate_statement};
-use super::names::{Namespace, suggest, unknown};
+use super::names::{Namespace, unknown};
+use crate::diag::Diagnostic;
+use crate::diag::codes;
+use crate::diag::suggest::suggest;
 use crate::ir::*;
 use crate::syntax::ast::{self, Item, ItemKind, QuestionStmt, RuleStmt};
 

@@ -1,10 +1,10 @@
 //! Builtin-renderer shapes: kinds' looks (`shape { … }` or `look KIND { … }`), stage items, and
 //! the shape parts they are made of.
 
-use super::codes;
-use super::diagnostic::Diagnostic;
 use super::expr::Scope;
 use super::lower::{Checker, TypeSym, duplicate_statement};
+use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::ir::*;
 use crate::syntax::ast::{self, Item, ItemKind};
 

@@ -12,9 +12,10 @@ use std::sync::Arc;
 use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
+use crate::outcome::{Answer, Outcome};
 use crate::render::RendererOptions;
 use crate::vlm::registry::build_model;
-use crate::vlm::{Answer, Outcome, Query, Reply, Truth, prompt};
+use crate::vlm::{Query, Reply, Truth, prompt};
 
 #[derive(clap::Args, Debug)]
 pub struct AskArgs {
@@ -44,7 +45,7 @@ pub fn run(args: AskArgs) -> ExitCode {
         Ok(d) => d,
         Err(code) => return code,
     };
-    let set = match concept_set(&domain, &args.concepts) {
+    let set = match domain.parse_set(&args.concepts) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -68,39 +69,6 @@ pub fn run(args: AskArgs) -> ExitCode {
             ExitCode::from(1)
         }
     }
-}
-
-/// Concept names → a set, with "did you mean" for typos.
-fn concept_set(domain: &Domain, names: &[String]) -> Result<ConceptSet, String> {
-    let mut ids = Vec::new();
-    for n in names {
-        match domain.concepts.iter().find(|c| &c.name == n) {
-            Some(c) => ids.push(c.id),
-            None => {
-                let near = domain.concepts.iter().map(|c| (edit_distance(n, &c.name), &c.name)).min();
-                return Err(match near {
-                    Some((d, name)) if d <= 1 + n.len() / 4 => {
-                        format!("unknown concept `{n}` in domain `{}`: did you mean `{name}`?", domain.name)
-                    }
-                    _ => format!("unknown concept `{n}` in domain `{}`", domain.name),
-                });
-            }
-        }
-    }
-    Ok(ConceptSet::from_ids(ids))
-}
-
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1];
-        for (j, cb) in b.iter().enumerate() {
-            cur.push((prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1));
-        }
-        prev = cur;
-    }
-    prev[b.len()]
 }
 
 async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, String> {
@@ -188,7 +156,7 @@ fn report(model: &str, prompt_text: &str, options: &[String], reply: &Reply, exp
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vlm::Usage;
+    use crate::outcome::Usage;
 
     #[test]
     fn report_layout() {
@@ -249,7 +217,7 @@ mod tests {
         // environment accessors are serialised.
         unsafe { std::env::set_var("OPENAI_API_KEY", KEY) };
         let domain = crate::lattice::testkit::driving();
-        let set = concept_set(&domain, &["debris_near".into()]).unwrap();
+        let set = domain.parse_set(&["debris_near"]).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let mut outputs = Vec::new();
         for status in [200, 401] {
@@ -288,22 +256,5 @@ mod tests {
         for o in outputs {
             assert!(!o.contains(KEY), "the key leaked: {o}");
         }
-    }
-
-    #[test]
-    fn unknown_concepts_suggest_a_near_name() {
-        let d = crate::lattice::testkit::driving();
-        assert_eq!(
-            concept_set(&d, &["debris_nera".into()]).unwrap_err(),
-            "unknown concept `debris_nera` in domain `test`: did you mean `debris_near`?"
-        );
-        assert_eq!(concept_set(&d, &["zebra".into()]).unwrap_err(), "unknown concept `zebra` in domain `test`");
-    }
-
-    #[test]
-    fn edit_distances() {
-        assert_eq!(edit_distance("debris_far", "debris_far"), 0);
-        assert_eq!(edit_distance("debri_far", "debris_far"), 1);
-        assert_eq!(edit_distance("", "ab"), 2);
     }
 }

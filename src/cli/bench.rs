@@ -13,9 +13,9 @@ use serde::Serialize;
 use crate::ir::Domain;
 use crate::journal::domain_hash;
 use crate::lattice::Lattice;
-use crate::search::eval::{DomainWorld, World};
+use crate::run::eval::{DomainWorld, World};
+use crate::run::runner::{self, RunConfig, Setup};
 use crate::search::metrics::mean_sd;
-use crate::search::runner::{self, RunConfig, Setup};
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::{Profile, SimModel};
@@ -137,7 +137,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     let mut results = Vec::new();
-    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
+    for algo in Algo::ALL {
         let mut rows: Vec<[Option<f64>; 5]> = Vec::new();
         for seed in 0..args.seeds {
             let params = Params { algo, seed, ..base.clone() };

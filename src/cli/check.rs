@@ -10,8 +10,8 @@ use std::process::ExitCode;
 
 use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, SourceSpan};
 
-use crate::check::diagnostic::{Diagnostic, Severity};
 use crate::check::{self, Compiled};
+use crate::diag::{Diagnostic, Severity};
 use crate::ir::{SourceFile, Span};
 
 #[derive(clap::Args, Debug)]
@@ -122,7 +122,7 @@ pub fn compile_path(path: &Path, lints: bool) -> Compiled {
         Ok(t) => t,
         Err(e) => {
             let d = Diagnostic::new(
-                crate::check::codes::FILE_NOT_FOUND,
+                crate::diag::codes::FILE_NOT_FOUND,
                 Severity::Error,
                 None,
                 format!("cannot read `{name}`: {}", io_reason(&e)),
@@ -138,7 +138,7 @@ pub fn compile_path(path: &Path, lints: bool) -> Compiled {
 pub fn compile_text(name: &str, text: &str, lints: bool) -> Compiled {
     let mut compiled = check::compile(name, text, &|p| std::fs::read_to_string(p).ok());
     if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
-        compiled.diagnostics.extend(crate::lattice::lints::lint_domain(domain));
+        compiled.diagnostics.extend(crate::lint::lint_domain(domain));
         check::sort_diagnostics(&mut compiled.diagnostics);
     }
     compiled

@@ -46,7 +46,7 @@ pub fn run(args: EmitArgs) -> ExitCode {
     };
     let set = match domain.parse_set(&args.concepts) {
         Ok(s) => s,
-        Err(e) => return fail(&e),
+        Err(e) => return fail(&e.to_string()),
     };
     let scene = match sample::sample(&domain, set, args.seed) {
         Ok(s) => s,

@@ -25,7 +25,7 @@ pub fn run(args: OracleArgs) -> ExitCode {
         Ok(d) => d,
         Err(code) => return code,
     };
-    let set = match parse_concepts(&domain, &args.concepts) {
+    let set = match domain.parse_set(&args.concepts) {
         Ok(s) => s,
         Err(msg) => {
             eprintln!("error: {msg}");
@@ -48,45 +48,6 @@ pub fn run(args: OracleArgs) -> ExitCode {
             ExitCode::from(1)
         }
     }
-}
-
-/// Concept names to a set; an unknown name gets a "did you mean" when one is close.
-pub fn parse_concepts(domain: &Domain, names: &[String]) -> Result<ConceptSet, String> {
-    let mut set = ConceptSet::EMPTY;
-    for n in names {
-        match domain.concept_by_name(n) {
-            Some(c) => set = set.with(c.id),
-            None => {
-                let close = domain
-                    .concepts
-                    .iter()
-                    .map(|c| (edit_distance(n, &c.name), &c.name))
-                    .filter(|(d, c)| *d <= 2.max(c.len() / 4))
-                    .min_by_key(|(d, _)| *d);
-                return Err(match close {
-                    Some((_, c)) => format!("unknown concept `{n}`; did you mean `{c}`?"),
-                    None => format!("unknown concept `{n}`"),
-                });
-            }
-        }
-    }
-    Ok(set)
-}
-
-/// Levenshtein distance over chars.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diag = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let next = (row[j + 1] + 1).min(row[j] + 1).min(diag + usize::from(ca != *cb));
-            diag = row[j + 1];
-            row[j + 1] = next;
-        }
-    }
-    row[b.len()]
 }
 
 pub fn write_verdict(
@@ -147,7 +108,7 @@ mod tests {
     fn render(names: &[&str], json: bool) -> String {
         let d = driving();
         let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-        let set = parse_concepts(&d, &names).unwrap();
+        let set = d.parse_set(&names).unwrap();
         let v = oracle::evaluate(&d, set).unwrap();
         let mut buf = Vec::new();
         write_verdict(&d, set, &v, json, &mut buf).unwrap();
@@ -167,16 +128,11 @@ mod tests {
     #[test]
     fn unknown_concepts_get_a_suggestion() {
         let d = driving();
-        let err = |n: &str| parse_concepts(&d, &[n.to_string()]).unwrap_err();
-        assert_eq!(err("obstruction_nera"), "unknown concept `obstruction_nera`; did you mean `obstruction_near`?");
-        assert_eq!(err("zebra"), "unknown concept `zebra`");
-    }
-
-    #[test]
-    fn edit_distance_counts_single_edits() {
-        assert_eq!(edit_distance("near", "near"), 0);
-        assert_eq!(edit_distance("near", "nera"), 2);
-        assert_eq!(edit_distance("far", "fart"), 1);
-        assert_eq!(edit_distance("", "abc"), 3);
+        let err = |n: &str| d.parse_set(&[n]).unwrap_err().to_string();
+        assert_eq!(
+            err("obstruction_nera"),
+            "unknown concept `obstruction_nera` in domain `test`; did you mean `obstruction_near`?"
+        );
+        assert_eq!(err("zebra"), "unknown concept `zebra` in domain `test`");
     }
 }

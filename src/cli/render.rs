@@ -115,7 +115,7 @@ pub fn plan(domain: &Domain, args: &RenderArgs) -> Result<Vec<Job>, String> {
             .map(|set| Job { set, seed: args.seed, caption: caption(domain, set) })
             .collect());
     }
-    let set = domain.parse_set(&args.concepts)?;
+    let set = domain.parse_set(&args.concepts).map_err(|e| e.to_string())?;
     let label = if args.concepts.is_empty() { "(empty)".to_string() } else { args.concepts.join(" ") };
     match args.grid {
         None => Ok(vec![Job { set, seed: args.seed, caption: label }]),

@@ -9,8 +9,8 @@ use crate::ir::Domain;
 use crate::journal::domain_hash;
 use crate::lattice::Lattice;
 use crate::render::{Renderer, RendererOptions, build_renderer};
-use crate::search::eval::{DomainWorld, World};
-use crate::search::runner::{self, RunConfig, Setup, Summary};
+use crate::run::eval::{DomainWorld, World};
+use crate::run::runner::{self, RunConfig, Setup, Summary};
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
 use crate::vlm::Model;
 use crate::vlm::registry::{ModelOptions, build_model};
@@ -22,7 +22,7 @@ pub struct SearchArgs {
     /// The model: `sim:PROFILE.toml`, `openai:MODEL`, `anthropic:MODEL`, `gemini:MODEL`, `bedrock:MODEL_ID`
     #[arg(long)]
     pub model: String,
-    #[arg(long, value_enum, default_value = "gpts")]
+    #[arg(long, default_value = "gpts", value_parser = algo_parser())]
     pub algo: Algo,
     /// Inference budget (sets evaluated = budget / samples)
     #[arg(long, default_value_t = 1000)]
@@ -195,6 +195,13 @@ pub fn run(args: SearchArgs) -> ExitCode {
     }
 }
 
+/// `--algo`: the search algorithms by name, listed in `--help`.
+pub(crate) fn algo_parser() -> impl clap::builder::TypedValueParser<Value = Algo> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Algo::ALL.map(Algo::name))
+        .map(|name| name.parse::<Algo>().expect("the parser only lets listed names through"))
+}
+
 pub(crate) type Parts = (Arc<dyn Model>, Option<Arc<dyn Renderer>>);
 
 pub(crate) fn build_parts(
@@ -276,7 +283,7 @@ pub fn print_summary(
     )
 }
 
-pub(crate) fn outcome_name(o: crate::vlm::Outcome) -> String {
+pub(crate) fn outcome_name(o: crate::outcome::Outcome) -> String {
     serde_json::to_value(o).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
 
@@ -285,9 +292,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
+    use crate::outcome::Outcome;
+    use crate::run::runner::SetRow;
     use crate::search::metrics::Metrics;
-    use crate::search::runner::SetRow;
-    use crate::vlm::Outcome;
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
         SetRow {
@@ -321,7 +328,7 @@ mod tests {
             },
             failure_modes: modes.clone(),
             sets: modes,
-            spend: crate::search::eval::Spend {
+            spend: crate::run::eval::Spend {
                 calls: 1000,
                 cached: 12,
                 input_tokens: 1_290_000,

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::journal::domain_hash;
-use crate::search::eval::{DomainWorld, World};
-use crate::search::runner::{self, CONSISTENT_FR, Setup, Validation};
+use crate::run::eval::{DomainWorld, World};
+use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
 
 use super::search::{ModelFlags, build_parts, runtime};
 
@@ -126,7 +126,7 @@ pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::search::runner::{SetRow, ValidatedSet};
+    use crate::run::runner::{SetRow, ValidatedSet};
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
         SetRow {
@@ -154,7 +154,7 @@ mod tests {
             mean_fr: 0.625,
             sd_fr: 0.3889,
             consistent: 1,
-            spend: crate::search::eval::Spend {
+            spend: crate::run::eval::Spend {
                 calls: 40,
                 input_tokens: 51_600,
                 output_tokens: 1_280,

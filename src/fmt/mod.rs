@@ -19,8 +19,8 @@
 mod layout;
 mod printer;
 
-use crate::check::codes;
-use crate::check::diagnostic::Diagnostic;
+use crate::diag::codes;
+use crate::diag::Diagnostic;
 use crate::syntax;
 
 /// Settings blocks and `enum` lists are kept on one line up to this many columns.
@@ -43,7 +43,7 @@ pub fn format(text: &str) -> Result<String, Vec<Diagnostic>> {
         // The parser accepted the file, so this is a bug in the formatter, not the input.
         None => Err(vec![Diagnostic::new(
             codes::SYNTAX,
-            crate::check::diagnostic::Severity::Error,
+            crate::diag::Severity::Error,
             None,
             "cannot format this file: its layout could not be planned (a bug in `revelio fmt`)",
         )]),

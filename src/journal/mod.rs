@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::ir::Domain;
-use crate::vlm::{Answer, Outcome, Usage};
+use crate::outcome::{Answer, Outcome, Usage};
 
 /// Lines between fsyncs of the journal.
 pub const SYNC_EVERY: usize = 64;

@@ -16,7 +16,6 @@
 //! concept could repair them. The search visits sets in lexicographic order, so bucketing them by
 //! size yields the canonical order without sorting.
 
-pub mod lints;
 #[cfg(test)]
 pub(crate) mod testkit;
 mod validity;

@@ -7,8 +7,8 @@ use image::{ImageEncoder, RgbaImage};
 
 use super::gpu::{AdapterSummary, Gpu};
 use super::{RenderError, Rendered, Renderer, atmosphere, mesh};
+use crate::net::BoxFuture;
 use crate::scene::Scene;
-use crate::vlm::BoxFuture;
 
 /// Largest image side accepted; wgpu's guaranteed minimum texture size.
 pub const MAX_SIDE: u32 = 8192;

@@ -1,7 +1,7 @@
 //! Image-generation renderers: `imagegen:gemini:MODEL` (generateContent with
 //! `responseModalities: ["IMAGE"]`, the image as `inlineData`) and `imagegen:openai:MODEL`
 //! (`POST /images/generations`, `b64_json`). Fed by the scene's image prompt, with the VLM
-//! clients' resilience (`vlm::http`), a content-addressed image cache, and blocks and refusals
+//! clients' resilience (`net::http`), a content-addressed image cache, and blocks and refusals
 //! reported as errors that say so.
 
 use std::io::Cursor;
@@ -10,12 +10,13 @@ use std::sync::Arc;
 use base64::Engine;
 use serde_json::{Value, json};
 
+use crate::net::cache::{Store, key};
+use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict, snippet};
+use crate::net::json as json_at;
+use crate::net::secret::{Secret, base_url, env_any, redact};
+use crate::net::{BoxFuture, gemini};
 use crate::render::{RenderError, Rendered, Renderer, RendererOptions};
 use crate::scene::Scene;
-use crate::vlm::api::{Secret, base_url, env_any, json as json_at, redact};
-use crate::vlm::cache::{Store, key};
-use crate::vlm::http::{self, Gate, Limits, Request, Response, Transport, Verdict, snippet};
-use crate::vlm::{BoxFuture, gemini};
 
 enum Provider {
     Gemini { url: String, key: Option<Secret> },
@@ -49,9 +50,9 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
             (Provider::Gemini { url: gemini::endpoint(&b, model), key: gemini::key(spec, &b)? }, b)
         }
         "openai" => {
-            let b = base_url(base, &["OPENAI_BASE_URL"], crate::vlm::openai::DEFAULT_BASE_URL)?;
+            let b = base_url(base, &["OPENAI_BASE_URL"], crate::net::openai::DEFAULT_BASE_URL)?;
             let key = env_any(&["OPENAI_API_KEY"]).map(Secret);
-            if key.is_none() && b == crate::vlm::openai::DEFAULT_BASE_URL {
+            if key.is_none() && b == crate::net::openai::DEFAULT_BASE_URL {
                 return Err(format!("`{spec}` needs an API key: set `OPENAI_API_KEY`"));
             }
             (Provider::OpenAi { url: format!("{b}/images/generations"), model: model.to_string(), key }, b)

@@ -2,8 +2,8 @@
 //! embedded default, see `builtin`); image-generation renderers live in their own modules.
 pub mod imagegen;
 
+use crate::net::BoxFuture;
 use crate::scene::Scene;
-use crate::vlm::BoxFuture;
 
 mod atmosphere;
 pub mod builtin;

@@ -59,7 +59,7 @@ pub fn select(candidates: &[SetStats], width: usize, lambda: f64) -> Vec<Concept
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vlm::Outcome;
+    use crate::outcome::Outcome;
 
     fn st(bits: u128, wrong: u32, n: u32) -> SetStats {
         let mut s = SetStats::new(ConceptSet(bits));

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::ir::ConceptSet;
-use crate::vlm::Outcome;
+use crate::outcome::Outcome;
 
 /// The observations of one concept set.
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]

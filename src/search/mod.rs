@@ -11,15 +11,11 @@
 //! `samples` observations. No set is evaluated twice.
 
 pub mod beam;
-pub mod eval;
 pub mod gp;
 pub mod gpts;
 pub mod metrics;
 pub mod random;
-pub mod runner;
 pub mod space;
-#[cfg(test)]
-pub(crate) mod testkit;
 
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
@@ -30,7 +26,7 @@ use crate::ir::ConceptSet;
 pub use metrics::SetStats;
 pub use space::Space;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Algo {
     Random,
@@ -39,12 +35,25 @@ pub enum Algo {
 }
 
 impl Algo {
+    /// Every algorithm, in the order help texts and benchmarks list them.
+    pub const ALL: [Algo; 3] = [Algo::Random, Algo::Beam, Algo::Gpts];
+
     pub fn name(self) -> &'static str {
         match self {
             Algo::Random => "random",
             Algo::Beam => "beam",
             Algo::Gpts => "gpts",
         }
+    }
+}
+
+impl std::str::FromStr for Algo {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Algo, String> {
+        Algo::ALL.into_iter().find(|a| a.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = Algo::ALL.iter().map(|a| a.name()).collect();
+            format!("unknown algorithm `{s}`: expected one of {}", names.join(", "))
+        })
     }
 }
 

@@ -45,7 +45,7 @@ mod tests {
 
     #[test]
     fn extensions_respect_validity_and_order() {
-        let space = Space::new(crate::search::testkit::lattice(4, 3), 4);
+        let space = Space::new(crate::ir::testkit::lattice(4, 3), 4);
         let s = |bits: u128| ConceptSet(bits);
         assert_eq!(space.extensions(ConceptSet::EMPTY).collect::<Vec<_>>(), vec![s(1), s(2), s(4), s(8)]);
         // Concepts 0 and 1 exclude each other.

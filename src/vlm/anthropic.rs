@@ -8,9 +8,11 @@
 
 use serde_json::{Value, json};
 
-use crate::vlm::api::{ApiModel, Parsed, Protocol, ProviderError, Secret, Stop, base_url, env_any, json as j};
+use crate::net::http::{Request, snippet};
+use crate::net::secret::{Secret, base_url, env_any};
+use crate::net::{ProviderError, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
 use crate::vlm::config::Resolved;
-use crate::vlm::http::{Request, snippet};
 use crate::vlm::image::Encoded;
 
 pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";

@@ -4,12 +4,15 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use crate::net::ProviderError;
+use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict};
+use crate::net::secret::redact;
+use crate::outcome::{Answer, Usage};
 use crate::vlm::cache::ReplyCache;
 use crate::vlm::config::{ImageFormat, Resolved};
 use crate::vlm::cost::{Ledger, Prices, Spend};
-use crate::vlm::http::{self, Gate, Limits, Request, Response, Transport, Verdict};
 use crate::vlm::image::{self, Encoded};
-use crate::vlm::{Answer, BoxFuture, Model, Query, Reply, Usage, parse};
+use crate::vlm::{BoxFuture, Model, Query, Reply, parse};
 
 /// How a successful response ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -35,16 +38,6 @@ pub struct Parsed {
     pub thinking_tokens: u64,
 }
 
-/// A provider's error response.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ProviderError {
-    pub message: String,
-    /// Never worth retrying even on a transient status (quota and spend limits).
-    pub permanent: bool,
-    /// A retry delay the body asks for (Gemini's `RetryInfo`).
-    pub retry_after: Option<Duration>,
-}
-
 /// One provider's wire format.
 pub trait Protocol: Send + Sync + 'static {
     /// Build the request for one attempt.
@@ -56,40 +49,6 @@ pub trait Protocol: Send + Sync + 'static {
     /// The credentials this protocol sends, scrubbed from every message and reply text in case
     /// a server echoes them back.
     fn secrets(&self) -> Vec<&str>;
-}
-
-/// Replace every occurrence of the secrets in `text`.
-pub fn redact(text: String, secrets: &[&str]) -> String {
-    secrets
-        .iter()
-        .filter(|s| s.len() >= 4)
-        .fold(text, |t, s| if t.contains(*s) { t.replace(*s, "[redacted]") } else { t })
-}
-
-/// A secret (API key, AWS secret) whose `Debug` never shows the value.
-#[derive(Clone)]
-pub struct Secret(pub String);
-
-impl std::fmt::Debug for Secret {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Secret(***)")
-    }
-}
-
-/// The first set, non-empty environment variable of `names`.
-pub fn env_any(names: &[&str]) -> Option<String> {
-    names.iter().find_map(|n| std::env::var(n).ok().filter(|v| !v.trim().is_empty()))
-}
-
-/// `--base-url` first, then the provider's environment variables, then the default; without a
-/// trailing slash.
-pub fn base_url(flag: Option<&str>, env: &[&str], default: &str) -> Result<String, String> {
-    let url = flag.map(str::to_string).or_else(|| env_any(env)).unwrap_or_else(|| default.to_string());
-    let url = url.trim().trim_end_matches('/').to_string();
-    match reqwest::Url::parse(&url) {
-        Ok(u) if matches!(u.scheme(), "http" | "https") && u.host().is_some() => Ok(url),
-        _ => Err(format!("invalid base URL `{url}`: expected an http:// or https:// URL")),
-    }
 }
 
 /// Judge a response with the provider's parser and the standard retry rules.
@@ -142,7 +101,7 @@ pub fn model_id(spec: &str, s: &Resolved) -> String {
     }
     if let Some(e) = &s.extra {
         let json = serde_json::Value::Object(e.clone()).to_string();
-        parts.push(format!("extra={}", &crate::vlm::cache::key(&[json.as_bytes()])[..8]));
+        parts.push(format!("extra={}", &crate::net::cache::key(&[json.as_bytes()])[..8]));
     }
     if parts.is_empty() { spec.to_string() } else { format!("{spec}@{}", parts.join(",")) }
 }
@@ -273,60 +232,9 @@ fn warn_once(msg: &str) {
     WARNED.call_once(|| eprintln!("warning: {msg}; replies will not be cached"));
 }
 
-/// JSON helpers for the providers' loosely typed bodies.
-pub mod json {
-    use serde_json::Value;
-
-    pub fn u64_at(v: &Value, path: &[&str]) -> u64 {
-        at(v, path).and_then(Value::as_u64).unwrap_or(0)
-    }
-
-    pub fn str_at<'a>(v: &'a Value, path: &[&str]) -> Option<&'a str> {
-        at(v, path).and_then(Value::as_str)
-    }
-
-    pub fn at<'a>(v: &'a Value, path: &[&str]) -> Option<&'a Value> {
-        path.iter().try_fold(v, |v, k| match k.parse::<usize>() {
-            Ok(i) => v.get(i),
-            Err(_) => v.get(*k),
-        })
-    }
-
-    /// Parse a body as a JSON object.
-    pub fn object(body: &[u8]) -> Result<Value, String> {
-        match serde_json::from_slice::<Value>(body) {
-            Ok(v @ Value::Object(_)) => Ok(v),
-            Ok(_) => Err("expected a JSON object".into()),
-            Err(e) => Err(format!("invalid JSON: {e}")),
-        }
-    }
-
-    /// Merge `extra` fields into a request body (top level, overriding).
-    pub fn merge(body: &mut Value, extra: Option<&serde_json::Map<String, Value>>) {
-        if let (Value::Object(b), Some(e)) = (body, extra) {
-            for (k, v) in e {
-                b.insert(k.clone(), v.clone());
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base_url_precedence_and_validation() {
-        assert_eq!(base_url(Some("http://localhost:8000/v1/"), &[], "https://x").unwrap(), "http://localhost:8000/v1");
-        assert_eq!(
-            base_url(None, &["REVELIO_TEST_UNSET_VAR"], "https://api.example.com").unwrap(),
-            "https://api.example.com"
-        );
-        assert_eq!(
-            base_url(Some("localhost:8000"), &[], "https://x").unwrap_err(),
-            "invalid base URL `localhost:8000`: expected an http:// or https:// URL"
-        );
-    }
 
     #[test]
     fn ids_carry_answer_changing_settings() {
@@ -335,16 +243,5 @@ mod tests {
         s.temperature = Some(0.0);
         s.image_format = ImageFormat::Jpeg;
         assert_eq!(model_id("gemini:g", &s), "gemini:g@thinking=low,temperature=0,image=jpeg90");
-    }
-
-    #[test]
-    fn redaction() {
-        assert_eq!(redact("bad key sk-abcdef given".into(), &["sk-abcdef"]), "bad key [redacted] given");
-        assert_eq!(redact("x".into(), &[""]), "x");
-    }
-
-    #[test]
-    fn secrets_do_not_debug_print() {
-        assert_eq!(format!("{:?}", Secret("sk-123".into())), "Secret(***)");
     }
 }

@@ -10,10 +10,12 @@ use std::time::SystemTime;
 
 use serde_json::{Value, json};
 
+use crate::net::http::{Request, snippet};
+use crate::net::secret::{base_url, env_any};
+use crate::net::{ProviderError, json as j};
 use crate::vlm::anthropic::thinking_fields;
-use crate::vlm::api::{ApiModel, Parsed, Protocol, ProviderError, Stop, base_url, env_any, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
 use crate::vlm::config::Resolved;
-use crate::vlm::http::{Request, snippet};
 use crate::vlm::image::Encoded;
 use crate::vlm::sigv4::{self, Credentials, Scope, SignRequest, uri_encode};
 
@@ -186,7 +188,7 @@ impl Protocol for Bedrock {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vlm::api::Secret;
+    use crate::net::secret::Secret;
 
     fn proto(model: &str, base: &str) -> Bedrock {
         let parsed = reqwest::Url::parse(base).unwrap();

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::Serialize;
 
-use crate::vlm::Usage;
+use crate::outcome::Usage;
 
 /// Prices in US dollars per million tokens (thinking tokens are billed as output).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -5,18 +5,15 @@
 //! (Gemini 3); `thinking_budget` sets `thinkingBudget` (Gemini 2.5). Parts marked
 //! `thought: true` are thinking and never parsed; thinking tokens count as output.
 
-use std::time::Duration;
-
 use serde_json::{Value, json};
 
-use crate::vlm::api::{ApiModel, Parsed, Protocol, ProviderError, Secret, Stop, base_url, env_any, json as j};
+use crate::net::gemini::{BASE_URL_ENV, DEFAULT_BASE_URL, endpoint, error, headers, key};
+use crate::net::http::Request;
+use crate::net::secret::{Secret, base_url};
+use crate::net::{ProviderError, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
 use crate::vlm::config::Resolved;
-use crate::vlm::http::{Request, snippet};
 use crate::vlm::image::Encoded;
-
-pub const DEFAULT_BASE_URL: &str = "https://generativelanguage.googleapis.com";
-pub const BASE_URL_ENV: &[&str] = &["GEMINI_BASE_URL", "GOOGLE_GEMINI_BASE_URL"];
-pub const KEY_ENV: &[&str] = &["GEMINI_API_KEY", "GOOGLE_API_KEY"];
 
 /// Finish reasons that mean the provider's filters stopped the reply.
 const BLOCKING: &[&str] =
@@ -26,21 +23,6 @@ pub struct Gemini {
     url: String,
     key: Option<Secret>,
     settings: Resolved,
-}
-
-/// `https://…/v1beta/models/MODEL:generateContent` (a `models/` prefix on the name is allowed).
-pub fn endpoint(base: &str, model: &str) -> String {
-    let model = model.strip_prefix("models/").unwrap_or(model);
-    format!("{base}/v1beta/models/{model}:generateContent")
-}
-
-/// The key, required for Google's own endpoint (a proxy behind `--base-url` may not need one).
-pub fn key(spec: &str, base: &str) -> Result<Option<Secret>, String> {
-    let key = env_any(KEY_ENV).map(Secret);
-    if key.is_none() && base == DEFAULT_BASE_URL {
-        return Err(format!("`{spec}` needs an API key: set `GEMINI_API_KEY` (or `GOOGLE_API_KEY`)"));
-    }
-    Ok(key)
 }
 
 pub fn build(
@@ -67,41 +49,6 @@ pub fn build(
     let base = base_url(base, BASE_URL_ENV, DEFAULT_BASE_URL)?;
     let proto = Gemini { url: endpoint(&base, model), key: key(spec, &base)?, settings: settings.clone() };
     ApiModel::new(spec, &format!("gemini {base}"), proto, settings, cache)
-}
-
-/// Headers for a Gemini call.
-pub fn headers(key: Option<&Secret>) -> Vec<(String, String)> {
-    let mut h = vec![("content-type".to_string(), "application/json".to_string())];
-    if let Some(k) = key {
-        h.push(("x-goog-api-key".into(), k.0.clone()));
-    }
-    h
-}
-
-/// A Gemini error body (`{"error": {"code", "message", "status", "details"}}`). A daily quota
-/// does not lift by retrying; a per-minute one says when to come back in `RetryInfo`.
-pub fn error(body: &[u8]) -> ProviderError {
-    let v: Value = serde_json::from_slice(body).unwrap_or(Value::Null);
-    let status = j::str_at(&v, &["error", "status"]).unwrap_or("");
-    let message = j::str_at(&v, &["error", "message"]).map(|m| snippet(m.as_bytes())).unwrap_or_else(|| snippet(body));
-    let details = j::at(&v, &["error", "details"]).and_then(Value::as_array).cloned().unwrap_or_default();
-    let mut retry_after = None;
-    let mut daily = false;
-    for d in &details {
-        if let Some(delay) = d.get("retryDelay").and_then(Value::as_str) {
-            retry_after = delay
-                .strip_suffix('s')
-                .and_then(|s| s.parse::<f64>().ok())
-                .filter(|s| s.is_finite() && *s >= 0.0)
-                .map(Duration::from_secs_f64);
-        }
-        if let Some(vs) = d.get("violations").and_then(Value::as_array) {
-            daily |=
-                vs.iter().any(|q| q.get("quotaId").and_then(Value::as_str).is_some_and(|id| id.contains("PerDay")));
-        }
-    }
-    let message = if status.is_empty() { message } else { format!("{message} ({status})") };
-    ProviderError { message, permanent: daily, retry_after }
 }
 
 impl Protocol for Gemini {
@@ -222,7 +169,7 @@ mod tests {
         let per_minute = br#"{"error":{"code":429,"message":"Resource has been exhausted","status":"RESOURCE_EXHAUSTED","details":[{"@type":"type.googleapis.com/google.rpc.QuotaFailure","violations":[{"quotaMetric":"generativelanguage.googleapis.com/generate_content_requests","quotaId":"GenerateRequestsPerMinutePerProjectPerModel"}]},{"@type":"type.googleapis.com/google.rpc.RetryInfo","retryDelay":"17s"}]}}"#;
         let e = error(per_minute);
         assert!(!e.permanent);
-        assert_eq!(e.retry_after, Some(Duration::from_secs(17)));
+        assert_eq!(e.retry_after, Some(std::time::Duration::from_secs(17)));
         assert_eq!(e.message, "Resource has been exhausted (RESOURCE_EXHAUSTED)");
         let daily = br#"{"error":{"code":429,"message":"Quota exceeded","status":"RESOURCE_EXHAUSTED","details":[{"@type":"type.googleapis.com/google.rpc.QuotaFailure","violations":[{"quotaId":"GenerateRequestsPerDayPerProjectPerModel-FreeTier"}]}]}}"#;
         assert!(error(daily).permanent);

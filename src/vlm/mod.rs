@@ -4,14 +4,11 @@
 //! Providers: the offline `sim` model (answers from the ground truth it is handed, with planted
 //! failure modes), and the real API clients (OpenAI-compatible, Anthropic, Gemini, Bedrock).
 
-use std::future::Future;
-use std::pin::Pin;
-
 use serde::{Deserialize, Serialize};
 
 use crate::ir::ConceptSet;
-
-pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
+pub use crate::net::BoxFuture;
+use crate::outcome::{Answer, Usage};
 
 /// One question to a model about one image.
 #[derive(Debug, Clone)]
@@ -39,66 +36,6 @@ pub struct Truth {
     /// A deterministic per-observation key (run seed, set, observation index mixed), so a
     /// simulated answer is the same on a resumed run.
     pub key: u64,
-}
-
-/// How a model's reply ended, before comparing with the expected answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Answer {
-    /// A parsed option index.
-    Option(u32),
-    /// No option could be read from the reply.
-    Unparsed,
-    /// The reply names more than one option.
-    Ambiguous,
-    /// The model declined to answer.
-    Refusal,
-    /// The provider blocked the prompt or reply (safety filters).
-    Blocked,
-    /// The reply was cut off (max tokens) before an answer.
-    Truncated,
-    /// The call failed (after bounded retries).
-    ApiError,
-}
-
-/// The outcome recorded for an observation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Outcome {
-    Correct,
-    Wrong,
-    Unparsed,
-    Ambiguous,
-    Refusal,
-    Blocked,
-    Truncated,
-    ApiError,
-}
-
-impl Outcome {
-    pub fn from_answer(a: Answer, expected: u32) -> Outcome {
-        match a {
-            Answer::Option(o) if o == expected => Outcome::Correct,
-            Answer::Option(_) => Outcome::Wrong,
-            Answer::Unparsed => Outcome::Unparsed,
-            Answer::Ambiguous => Outcome::Ambiguous,
-            Answer::Refusal => Outcome::Refusal,
-            Answer::Blocked => Outcome::Blocked,
-            Answer::Truncated => Outcome::Truncated,
-            Answer::ApiError => Outcome::ApiError,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-pub struct Usage {
-    pub input_tokens: u64,
-    /// Output tokens including thinking tokens.
-    pub output_tokens: u64,
-    /// Of the output tokens, how many were thinking.
-    pub thinking_tokens: u64,
-    /// Cost in US dollars from the model's configured prices (0 when unknown or cached).
-    pub cost_usd: f64,
 }
 
 /// A model's reply to one query.
@@ -140,7 +77,6 @@ pub mod cache;
 pub mod config;
 pub mod cost;
 pub mod gemini;
-pub mod http;
 pub mod image;
 pub mod openai;
 pub mod parse;

@@ -6,12 +6,14 @@
 
 use serde_json::{Value, json};
 
-use crate::vlm::api::{ApiModel, Parsed, Protocol, ProviderError, Secret, Stop, base_url, env_any, json as j};
+use crate::net::http::{Request, snippet};
+use crate::net::secret::{Secret, base_url, env_any};
+use crate::net::{ProviderError, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
 use crate::vlm::config::Resolved;
-use crate::vlm::http::{Request, snippet};
 use crate::vlm::image::Encoded;
 
-pub const DEFAULT_BASE_URL: &str = "https://api.openai.com/v1";
+pub use crate::net::openai::DEFAULT_BASE_URL;
 
 /// Reasoning efforts the Chat Completions API accepts.
 const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh"];

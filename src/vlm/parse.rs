@@ -10,7 +10,7 @@
 //!
 //! A reply that names two different options at the deciding step is [`Answer::Ambiguous`].
 
-use crate::vlm::Answer;
+use crate::outcome::Answer;
 
 /// What one step of the parser found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -32,7 +32,8 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
-use crate::vlm::{Answer, BoxFuture, Model, Query, Reply, Usage};
+use crate::outcome::{Answer, Usage};
+use crate::vlm::{BoxFuture, Model, Query, Reply};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -102,8 +103,7 @@ impl Profile {
             }
             let mut set = ConceptSet::EMPTY;
             for name in &m.concepts {
-                let c = domain.concept_by_name(name).ok_or_else(|| unknown_concept(origin, name, domain))?;
-                set = set.with(c.id);
+                set = set.union(domain.parse_set(&[name]).map_err(|e| format!("invalid sim profile `{origin}`: {e}"))?);
             }
             modes.push(Mode { concepts: set, error: rate("error", m.error)? });
         }
@@ -124,37 +124,6 @@ impl Profile {
                 self.base_error + (m.error - self.base_error) * (1.0 - self.dilution).powi(extra)
             })
     }
-}
-
-fn unknown_concept(origin: &str, name: &str, domain: &Domain) -> String {
-    let best = domain
-        .concepts
-        .iter()
-        .map(|c| (edit_distance(name, &c.name), &c.name))
-        .filter(|(d, n)| *d <= (n.len().max(name.len()) / 3).max(1))
-        .min_by_key(|(d, _)| *d);
-    match best {
-        Some((_, n)) => format!(
-            "invalid sim profile `{origin}`: unknown concept `{name}` in domain `{}`; did you mean `{n}`?",
-            domain.name
-        ),
-        None => format!("invalid sim profile `{origin}`: unknown concept `{name}` in domain `{}`", domain.name),
-    }
-}
-
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diag = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let next = (diag + usize::from(ca != *cb)).min(row[j] + 1).min(row[j + 1] + 1);
-            diag = row[j + 1];
-            row[j + 1] = next;
-        }
-    }
-    row[b.len()]
 }
 
 /// The sim model for one profile.
@@ -235,7 +204,7 @@ pub(crate) mod tests {
     use crate::vlm::Truth;
 
     pub(crate) fn names_domain(names: &[&str]) -> Domain {
-        crate::search::testkit::domain(names)
+        crate::ir::testkit::domain(names)
     }
 
     fn query(set: ConceptSet, expected: u32, key: u64) -> Query {

@@ -22,8 +22,8 @@ use pest::iterators::Pair;
 use super::ast::*;
 use super::grammar::{RevParser, Rule, is_keyword};
 use super::lexer::{self, Token};
-use crate::check::codes;
-use crate::check::diagnostic::Diagnostic;
+use crate::diag::codes;
+use crate::diag::Diagnostic;
 use crate::ir::Span;
 
 mod expr;

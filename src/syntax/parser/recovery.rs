@@ -5,8 +5,8 @@ use pest::Parser;
 use pest::iterators::Pair;
 
 use super::Builder;
-use crate::check::codes;
-use crate::check::diagnostic::Diagnostic;
+use crate::diag::codes;
+use crate::diag::Diagnostic;
 use crate::syntax::grammar::{ITEM_KEYWORDS, RevParser, Rule, keyword_text};
 
 impl Builder<'_> {
@@ -228,7 +228,7 @@ fn keyword_typo_help(d: Diagnostic, word: &str, expected: &[String]) -> Diagnost
         return d;
     }
     let keywords = expected.iter().filter_map(|e| e.strip_prefix('`').and_then(|e| e.strip_suffix('`')));
-    match crate::check::names::suggest(word, keywords) {
+    match crate::diag::suggest::suggest(word, keywords) {
         Some(k) => d.with_help(format!("did you mean `{k}`?")),
         None => d,
     }

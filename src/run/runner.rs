@@ -10,12 +10,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::ir::{ConceptSet, Domain};
 use crate::journal::{Journal, Phase};
+use crate::outcome::Outcome;
 use crate::render::Renderer;
-use crate::vlm::{Model, Outcome};
+use crate::vlm::Model;
 
 use super::eval::{Evaluator, EvaluatorConfig, Spend, World, observation_seed};
-use super::metrics::{Metrics, mean_sd, metrics, ranked};
-use super::{Params, SetStats, Space};
+use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
+use crate::search::{Params, SetStats, Space};
 
 /// The resolved configuration of a run (`config.json`): everything that changes its results.
 /// Concurrency is not in it: it changes timing, never answers.
@@ -76,7 +77,7 @@ impl SetRow {
 pub struct Summary {
     pub domain: String,
     pub model: String,
-    pub algo: super::Algo,
+    pub algo: crate::search::Algo,
     pub threshold: f64,
     /// Valid sets in the search space.
     pub space: usize,
@@ -140,7 +141,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         phase: Phase::Search,
     })?;
     eval.progress = progress_bar(setup.progress, params.max_sets() as u64 * u64::from(params.samples));
-    let history = super::run(params, space, &mut eval).await;
+    let history = crate::search::run(params, space, &mut eval).await;
     eval.progress.finish_and_clear();
     let history = history?;
     let summary = summarize(&setup.domain, config, space.sets.len(), &history, eval.spend.clone());
@@ -237,7 +238,7 @@ pub async fn validate(
         .sets
         .iter()
         .map(|row| {
-            let set = setup.domain.parse_set(&row.concepts)?;
+            let set = setup.domain.parse_set(&row.concepts).map_err(|e| e.to_string())?;
             let mut s = SetStats::new(set);
             s.wrong = row.wrong;
             s.correct = row.answered - row.wrong;
@@ -262,7 +263,7 @@ pub async fn validate(
     })?;
     eval.progress = progress_bar(setup.progress, chosen.len() as u64 * u64::from(samples));
     let sets: Vec<ConceptSet> = chosen.iter().map(|s| s.set).collect();
-    let result = super::Evaluate::evaluate(&mut eval, &sets).await;
+    let result = crate::search::Evaluate::evaluate(&mut eval, &sets).await;
     eval.progress.finish_and_clear();
     let validated = result?;
     let frs: Vec<f64> = validated.iter().filter_map(SetStats::fr).collect();

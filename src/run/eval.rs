@@ -13,9 +13,10 @@ use crate::render::Renderer;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
-use crate::vlm::{Answer, Model, Outcome, Query, Truth, Usage};
+use crate::outcome::{Answer, Outcome, Usage};
+use crate::vlm::{Model, Query, Truth};
 
-use super::{Evaluate, SetStats};
+use crate::search::{Evaluate, SetStats};
 
 /// What the model is asked about a set, and the right answer.
 #[derive(Debug, Clone, PartialEq)]

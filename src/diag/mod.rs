@@ -1,9 +1,20 @@
-//! The one neutral diagnostic type: produced by the checker and the lattice lints, rendered by
-//! the CLI (human via miette, plain, JSON) and converted by editors.
+//! The bottom of the pipeline: source spans, the one neutral diagnostic type (produced by the
+//! parser, the checker and the lattice lints; rendered by the CLI as human, plain or JSON and
+//! converted by editors), the stable codes, and the one "did you mean" rule.
 
-use serde::Serialize;
+pub mod codes;
+pub mod suggest;
 
-use crate::ir::Span;
+use serde::{Deserialize, Serialize};
+
+/// A byte range in one source file. `file` indexes the compiled domain's files
+/// (`ir::Domain::files`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub struct Span {
+    pub file: u32,
+    pub start: u32,
+    pub end: u32,
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "lowercase")]

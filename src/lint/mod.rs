@@ -14,7 +14,7 @@
 //! | R0106 | no rule matches some valid set |
 
 use crate::anchor::Tri;
-use crate::check::diagnostic::{Diagnostic, Label, Severity};
+use crate::diag::{Diagnostic, Label, Severity};
 use crate::ir::{ConceptSet, Domain, Selection, Span};
 use crate::lattice::{DEFAULT_MAX_SIZE, Lattice};
 use crate::oracle::{self, Decision, Oracle, explain, set_text};

@@ -1,5 +1,5 @@
-//! Test fixtures: tiny domains built in Rust and a synthetic world, so the search runtime is
-//! tested without the front end, the sampler or the oracle.
+//! Test fixtures: tiny domains and lattices built in Rust, so later stages (search, runtime, models)
+//! are tested without the front end.
 use crate::ir::{Camera, Concept, ConceptId, ConceptKind, ConceptSet, Domain, Probe, RenderBindings, Selection, Span};
 
 /// A domain whose concepts are `names` (in index order) with no constraints.
@@ -52,33 +52,4 @@ pub fn numbered(n: usize) -> Domain {
 pub fn lattice(n: usize, max_size: usize) -> Vec<ConceptSet> {
     let excl = ConceptSet(0b11);
     (1u128..1 << n).map(ConceptSet).filter(|s| s.len() <= max_size && s.intersection(excl) != excl).collect()
-}
-
-/// A world without oracle or sampler: three options, the expected one fixed per set, and a
-/// scene that only records the set and seed.
-pub struct FakeWorld(pub Domain);
-
-impl crate::search::eval::World for FakeWorld {
-    fn task(&self, set: ConceptSet) -> Result<crate::search::eval::Task, String> {
-        Ok(crate::search::eval::Task {
-            question: "What should the car do?".into(),
-            options: vec!["stop".into(), "slow down".into(), "continue".into()],
-            expected: (set.0 % 3) as u32,
-        })
-    }
-
-    fn scene(&self, set: ConceptSet, seed: u64) -> Result<crate::scene::Scene, String> {
-        Ok(crate::scene::Scene {
-            domain: self.0.name.clone(),
-            domain_hash: String::new(),
-            concepts: self.0.set_names(set).into_iter().map(String::from).collect(),
-            seed,
-            world: Default::default(),
-            environment: Default::default(),
-            entities: vec![],
-            extras: vec![],
-            stage: vec![],
-            camera: Camera::default(),
-        })
-    }
 }

@@ -1,0 +1,66 @@
+//! What one observation came to: the model's [`Answer`] (an option, or why there is none), the
+//! [`Outcome`] recorded against the expected option, and the [`Usage`] it cost. Shared by the
+//! model clients, the search algorithms (failure rates count outcomes), the journal and reports,
+//! so it sits below all of them and imports nothing.
+
+use serde::{Deserialize, Serialize};
+
+/// How a model's reply ended, before comparing with the expected answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Answer {
+    /// A parsed option index.
+    Option(u32),
+    /// No option could be read from the reply.
+    Unparsed,
+    /// The reply names more than one option.
+    Ambiguous,
+    /// The model declined to answer.
+    Refusal,
+    /// The provider blocked the prompt or reply (safety filters).
+    Blocked,
+    /// The reply was cut off (max tokens) before an answer.
+    Truncated,
+    /// The call failed (after bounded retries).
+    ApiError,
+}
+
+/// The outcome recorded for an observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Correct,
+    Wrong,
+    Unparsed,
+    Ambiguous,
+    Refusal,
+    Blocked,
+    Truncated,
+    ApiError,
+}
+
+impl Outcome {
+    pub fn from_answer(a: Answer, expected: u32) -> Outcome {
+        match a {
+            Answer::Option(o) if o == expected => Outcome::Correct,
+            Answer::Option(_) => Outcome::Wrong,
+            Answer::Unparsed => Outcome::Unparsed,
+            Answer::Ambiguous => Outcome::Ambiguous,
+            Answer::Refusal => Outcome::Refusal,
+            Answer::Blocked => Outcome::Blocked,
+            Answer::Truncated => Outcome::Truncated,
+            Answer::ApiError => Outcome::ApiError,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Usage {
+    pub input_tokens: u64,
+    /// Output tokens including thinking tokens.
+    pub output_tokens: u64,
+    /// Of the output tokens, how many were thinking.
+    pub thinking_tokens: u64,
+    /// Cost in US dollars from the model's configured prices (0 when unknown or cached).
+    pub cost_usd: f64,
+}

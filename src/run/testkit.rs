@@ -1,0 +1,31 @@
+//! A synthetic world (no oracle, no sampler) for testing the runtime.
+use crate::ir::{Camera, ConceptSet, Domain};
+
+/// A world without oracle or sampler: three options, the expected one fixed per set, and a
+/// scene that only records the set and seed.
+pub struct FakeWorld(pub Domain);
+
+impl crate::run::eval::World for FakeWorld {
+    fn task(&self, set: ConceptSet) -> Result<crate::run::eval::Task, String> {
+        Ok(crate::run::eval::Task {
+            question: "What should the car do?".into(),
+            options: vec!["stop".into(), "slow down".into(), "continue".into()],
+            expected: (set.0 % 3) as u32,
+        })
+    }
+
+    fn scene(&self, set: ConceptSet, seed: u64) -> Result<crate::scene::Scene, String> {
+        Ok(crate::scene::Scene {
+            domain: self.0.name.clone(),
+            domain_hash: String::new(),
+            concepts: self.0.set_names(set).into_iter().map(String::from).collect(),
+            seed,
+            world: Default::default(),
+            environment: Default::default(),
+            entities: vec![],
+            extras: vec![],
+            stage: vec![],
+            camera: Camera::default(),
+        })
+    }
+}
