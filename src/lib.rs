@@ -19,6 +19,7 @@ pub mod ir;
 pub mod journal;
 pub mod lattice;
 pub mod lint;
+pub mod lsp;
 pub mod net;
 pub mod oracle;
 pub mod outcome;

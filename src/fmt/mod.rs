@@ -19,8 +19,8 @@
 mod layout;
 mod printer;
 
-use crate::diag::codes;
 use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::syntax;
 
 /// Settings blocks and `enum` lists are kept on one line up to this many columns.

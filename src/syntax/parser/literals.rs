@@ -3,8 +3,8 @@
 use pest::iterators::Pair;
 
 use super::{Builder, Children};
-use crate::diag::codes;
 use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::ir::{CmpOp, Span};
 use crate::syntax::ast::*;
 use crate::syntax::grammar::Rule;

@@ -22,8 +22,8 @@ use pest::iterators::Pair;
 use super::ast::*;
 use super::grammar::{RevParser, Rule, is_keyword};
 use super::lexer::{self, Token};
-use crate::diag::codes;
 use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::ir::Span;
 
 mod expr;

@@ -5,8 +5,8 @@ use pest::Parser;
 use pest::iterators::Pair;
 
 use super::Builder;
-use crate::diag::codes;
 use crate::diag::Diagnostic;
+use crate::diag::codes;
 use crate::syntax::grammar::{ITEM_KEYWORDS, RevParser, Rule, keyword_text};
 
 impl Builder<'_> {
