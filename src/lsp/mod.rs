@@ -22,6 +22,8 @@ mod hover;
 mod index;
 mod server;
 mod symbols;
+#[cfg(test)]
+mod tests;
 mod text;
 mod tokens;
 
