@@ -1,6 +1,7 @@
 //! The server's state (open documents, their analyses and lint results) and the message loop.
 
 use std::collections::HashMap;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender, select};
@@ -161,13 +162,19 @@ impl Server {
                             if conn.handle_shutdown(&r).map_err(|e| format!("protocol error: {e}"))? {
                                 return Ok(());
                             }
-                            self.request(conn, r);
+                            let id = r.id.clone();
+                            // A bug in one feature answers that request with an error; the
+                            // session goes on.
+                            if catch_unwind(AssertUnwindSafe(|| self.request(conn, r))).is_err() {
+                                let msg = "internal error in `revelio lsp` (please report it)".to_string();
+                                Self::send(conn, Message::Response(Response::new_err(id, ErrorCode::InternalError as i32, msg)));
+                            }
                         }
                         Message::Notification(n) => {
                             if n.method == notif::Exit::METHOD {
                                 return Ok(());
                             }
-                            self.notification(conn, n);
+                            let _ = catch_unwind(AssertUnwindSafe(|| self.notification(conn, n)));
                         }
                         Message::Response(_) => {}
                     }
@@ -316,7 +323,8 @@ impl Server {
             d.linting = true;
             let (tx, uri, generation) = (self.lint_tx.clone(), uri.clone(), d.generation);
             std::thread::spawn(move || {
-                let diagnostics = crate::lint::lint_domain(&domain);
+                // A failed lint pass still reports back, so the document is not left waiting.
+                let diagnostics = catch_unwind(|| crate::lint::lint_domain(&domain)).unwrap_or_default();
                 let _ = tx.send(LintDone { uri, generation, diagnostics });
             });
         }

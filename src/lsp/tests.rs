@@ -143,3 +143,60 @@ fn semantic_tokens_tell_names_from_keywords() {
     assert_eq!(kind_of("K"), ["struct"]);
     assert_eq!(kind_of("#ffffff"), ["number"]);
 }
+
+#[test]
+fn every_feature_survives_broken_text_at_every_kind_of_position() {
+    // Cut-and-spliced variants of the domain: completion, hover, tokens, outline and fixes run at
+    // many offsets of each, and must answer without panicking.
+    let mut seed = 0x853c_49e6_748f_ea9bu64;
+    let mut next = move |n: usize| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed % n.max(1) as u64) as usize
+    };
+    let pieces =
+        ["{", "}", ".", "..", ":", "=", "\"", "\"\"\"", "é🚶", "// c\n", "exists e: ", "add x: ", "world.", "\n"];
+    for round in 0..40 {
+        let mut text = DOMAIN.to_string();
+        for _ in 0..1 + next(4) {
+            let mut at = next(text.len() + 1);
+            while !text.is_char_boundary(at) {
+                at -= 1;
+            }
+            if next(2) == 0 {
+                text.insert_str(at, pieces[next(pieces.len())]);
+            } else {
+                let mut end = (at + next(30)).min(text.len());
+                while !text.is_char_boundary(end) {
+                    end -= 1;
+                }
+                text.replace_range(at..end, "");
+            }
+        }
+        let a = analyse(&text);
+        let lines = super::text::LineIndex::new(&text);
+        let enc = super::text::Encoding::Utf16;
+        let _ = super::tokens::tokens(&a, &lines, enc);
+        let _ = super::symbols::outline(&a, &lines, enc);
+        for _ in 0..20 {
+            let mut at = next(text.len() + 1);
+            while !text.is_char_boundary(at) {
+                at -= 1;
+            }
+            let _ = complete(&a, &text, at as u32);
+            if let Some((_, id)) = a.index.at(0, at as u32) {
+                let _ = super::hover::markdown(&a.index, id);
+            }
+        }
+        let uri = lsp_types::Url::parse("file:///t.rev").unwrap();
+        let diags: Vec<_> = a
+            .compiled
+            .diagnostics
+            .iter()
+            .map(|d| (d, lsp_types::Diagnostic { message: d.message.clone(), ..Default::default() }))
+            .collect();
+        let _ = super::actions::actions(&a, &uri, &lines, enc, &diags, 0, text.len() as u32);
+        assert!(round < 40);
+    }
+}
