@@ -31,7 +31,7 @@ pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
     let prev = sig.last().copied();
     let prev_word = prev.map(|t| word_of(&t)).unwrap_or("");
     let statement = statement_tokens(&sig, text);
-    let first = statement.first().map(|t| word_of(t)).unwrap_or("");
+    let first = statement.first().map(&word_of).unwrap_or("");
 
     // After `.`: attributes, options or variants of what precedes the dot.
     if prev.is_some_and(|t| t.kind == TokenKind::Dot) && sig.len() >= 2 {
@@ -43,7 +43,7 @@ pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
         && matches!(prev.map(|t| t.kind), Some(TokenKind::LBrace | TokenKind::Comma))
     {
         let add = sig.iter().rposition(|t| word_of(t) == "add");
-        let kind = add.and_then(|i| sig.get(i + 3)).map(|t| word_of(t)).unwrap_or("");
+        let kind = add.and_then(|i| sig.get(i + 3)).map(&word_of).unwrap_or("");
         let kinds: Vec<usize> =
             ix.global(&[Sort::Kind, Sort::Tag], kind).map(|k| ix.kinds_matching(&[k])).unwrap_or_default();
         return symbols(ix, &kinds.iter().flat_map(|&k| ix.attrs_of_kind(k)).collect::<Vec<_>>());

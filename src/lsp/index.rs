@@ -130,7 +130,7 @@ pub struct Source<'a> {
     pub tree: &'a File,
 }
 
-fn text_of<'a>(text: &'a str, s: Span) -> &'a str {
+fn text_of(text: &str, s: Span) -> &str {
     text.get(s.start as usize..s.end as usize).unwrap_or("")
 }
 

@@ -315,7 +315,7 @@ impl Server {
     fn start_due_lints(&mut self) {
         let now = Instant::now();
         for (uri, d) in &mut self.docs {
-            if d.linting || !d.lint_due.is_some_and(|t| t <= now) {
+            if d.linting || d.lint_due.is_none_or(|t| t > now) {
                 continue;
             }
             d.lint_due = None;
