@@ -243,7 +243,10 @@ fn sequential_search_with_cores_end_to_end() {
     for c in cores {
         assert!(c["ci95"][0].as_f64().unwrap() <= c["fr"].as_f64().unwrap());
         assert!(c["supersets"].as_u64().is_some() && c["answered"].as_u64().unwrap() >= 5);
-        let line = format!(" {}", c["concepts"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect::<Vec<_>>().join(" + "));
+        let line = format!(
+            " {}",
+            c["concepts"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect::<Vec<_>>().join(" + ")
+        );
         assert!(table.contains(&line), "{line} in {table}");
     }
     // Sequential validation against the run's τ.
