@@ -1,7 +1,7 @@
 //! Revelio: find interpretable failure modes of vision-language models.
 //!
 //! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
-//! [`diag`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
+//! [`diag`], [`hash`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
 //! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
 //! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
@@ -14,6 +14,7 @@ pub mod diag;
 #[cfg(test)]
 mod editor_sync;
 pub mod emit;
+pub mod hash;
 pub mod ir;
 pub mod journal;
 pub mod lattice;

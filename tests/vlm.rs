@@ -59,7 +59,7 @@ fn options() -> Vec<String> {
 fn query(tag: &str) -> Query {
     let image = png(64, 48);
     Query {
-        image_hash: hex::encode(<sha2::Sha256 as sha2::Digest>::digest(&image)),
+        image_hash: revelio::hash::sha256_hex(&image),
         image: Some(Arc::new(image)),
         prompt: prompt::build(&format!("tag:{tag}; What should the ego vehicle do?"), &options()),
         options: options(),

@@ -10,7 +10,8 @@ use std::sync::Arc;
 use base64::Engine;
 use serde_json::{Value, json};
 
-use crate::net::cache::{Store, key};
+use crate::hash::parts_hex;
+use crate::net::cache::Store;
 use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict, snippet};
 use crate::net::json as json_at;
 use crate::net::secret::{Secret, base_url, env_any, redact};
@@ -247,7 +248,7 @@ impl Renderer for ImageGen {
             if prompt.trim().is_empty() {
                 return Err(RenderError("cannot generate an image: the scene's image prompt is empty".into()));
             }
-            let k = key(&[b"imagegen-v1", self.id.as_bytes(), prompt.as_bytes()]);
+            let k = parts_hex([&b"imagegen-v1"[..], self.id.as_bytes(), prompt.as_bytes()]);
             if let Some(png) = self.cache.as_ref().and_then(|c| c.get(&k)) {
                 return Ok(Rendered { png, cached: true });
             }

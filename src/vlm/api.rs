@@ -101,7 +101,7 @@ pub fn model_id(spec: &str, s: &Resolved) -> String {
     }
     if let Some(e) = &s.extra {
         let json = serde_json::Value::Object(e.clone()).to_string();
-        parts.push(format!("extra={}", &crate::net::cache::key(&[json.as_bytes()])[..8]));
+        parts.push(format!("extra={}", &crate::hash::parts_hex([json.as_bytes()])[..8]));
     }
     if parts.is_empty() { spec.to_string() } else { format!("{spec}@{}", parts.join(",")) }
 }

@@ -29,7 +29,6 @@ use std::time::Duration;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
-use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
 use crate::outcome::{Answer, Usage};
@@ -107,7 +106,7 @@ impl Profile {
             }
             modes.push(Mode { concepts: set, error: rate("error", m.error)? });
         }
-        let hash = hex::encode(Sha256::digest(text.as_bytes()));
+        let hash = crate::hash::sha256_hex(text.as_bytes());
         Ok(Profile { name: file.name, base_error, unparsed, latency_ms: file.latency_ms, dilution, modes, hash })
     }
 
