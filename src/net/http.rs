@@ -11,6 +11,8 @@ use std::time::{Duration, Instant, SystemTime};
 use governor::{DefaultDirectRateLimiter, Quota, RateLimiter};
 use tokio::sync::Semaphore;
 
+use crate::diag::terminal_safe;
+
 /// One HTTP request, rebuilt for every attempt (Bedrock signs with the attempt's time).
 pub struct Request {
     pub url: String,
@@ -216,7 +218,7 @@ fn describe(e: &reqwest::Error) -> String {
         msg.push_str(&s.to_string());
         src = s.source();
     }
-    msg
+    terminal_safe(&msg).into_owned()
 }
 
 fn deadline_message(deadline: Duration) -> String {
@@ -290,15 +292,17 @@ pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
     (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
-/// A provider error body's message, shortened: error bodies can be long HTML pages.
+/// A provider error body's message, shortened (error bodies can be long HTML pages) and safe to
+/// print (a body's escape sequences must not reach a terminal).
 pub fn snippet(body: &[u8]) -> String {
     let text = String::from_utf8_lossy(body);
     let one_line: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
-    if one_line.chars().count() > 300 {
+    let short = if one_line.chars().count() > 300 {
         format!("{}…", one_line.chars().take(300).collect::<String>())
     } else {
         one_line
-    }
+    };
+    terminal_safe(&short).into_owned()
 }
 
 #[cfg(test)]
@@ -349,5 +353,6 @@ mod tests {
     fn snippets_are_short_single_lines() {
         assert_eq!(snippet(b"bad\n  request"), "bad request");
         assert_eq!(snippet(&[b'x'; 1000]).chars().count(), 301);
+        assert_eq!(snippet(b"\x1b[2Jgone"), "\\u{1b}[2Jgone");
     }
 }
