@@ -3,9 +3,9 @@
 //! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
 //! [`diag`], [`hash`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
-//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
+//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`], [`source`] → [`render`] → [`vlm`] →
 //! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
-//! and GPU live in `net`, `render`, `vlm`, `journal`, `run` and `cli`.
+//! and GPU live in `net`, `source`, `render`, `vlm`, `journal`, `run` and `cli`.
 
 pub mod anchor;
 pub mod check;
@@ -27,5 +27,6 @@ pub mod run;
 pub mod sample;
 pub mod scene;
 pub mod search;
+pub mod source;
 pub mod syntax;
 pub mod vlm;

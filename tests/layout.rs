@@ -6,7 +6,7 @@
 //! The floors, bottom first (README "Architecture" draws the same line): `diag` (spans,
 //! diagnostics, codes, suggestions), `hash` and `outcome` → `ir` → `syntax` → `check` → `anchor`,
 //! `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure algorithms) →
-//! `net` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt`, `lsp` → `cli`.
+//! `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt`, `lsp` → `cli`.
 //! `ir` is the compiler's output but plain data: it sits below the front end that builds it.
 
 use std::collections::BTreeMap;
@@ -29,6 +29,7 @@ const FLOORS: &[(&str, u32)] = &[
     ("emit", 8),
     ("search", 9),
     ("net", 10),
+    ("source", 10),
     ("render", 11),
     ("vlm", 12),
     ("journal", 13),
@@ -42,8 +43,8 @@ const FLOORS: &[(&str, u32)] = &[
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.
 const CORE: &[&str] = &[
-    "diag", "hash", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample", "emit",
-    "search",
+    "diag", "hash", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample",
+    "emit", "search",
 ];
 
 /// Paths whose use in the core means I/O.

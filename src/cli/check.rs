@@ -11,6 +11,7 @@ use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, S
 use crate::check::{self, Compiled};
 use crate::diag::{Diagnostic, Severity};
 use crate::ir::{SourceFile, Span};
+use crate::source::{file_kind, io_reason};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -21,6 +22,12 @@ pub struct CheckArgs {
     /// per line)
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
+    /// Largest concept set the lattice lints judge
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
+    pub max_size: u32,
+    /// Most valid sets the lattice lints enumerate; a larger lattice is reported (R0070)
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,7 +45,8 @@ pub fn run(args: CheckArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    let limits = crate::lint::Limits { max_size: args.max_size as usize, max_sets: args.max_sets };
+    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
     let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
     reports.sort_by(|a, b| a.key().cmp(&b.key()));
     reports.dedup_by(|a, b| a.key() == b.key());
@@ -92,62 +100,57 @@ pub fn reports_of(c: &Compiled) -> Vec<Report<'_>> {
         .collect()
 }
 
-/// Compile one file from disk: `use "…"` paths are read relative to it. With `lints`, the
-/// lattice lints run on domain files that compiled without errors.
+/// Compile one file from disk (`use "…"` paths are read relative to it, under the policy of
+/// [`crate::source`]). With `lints`, the lattice lints run on domain files that compiled without
+/// errors.
 pub fn compile_path(path: &Path, lints: bool) -> Compiled {
-    let name = path.to_string_lossy().into_owned();
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) => {
-            let d = Diagnostic::new(
-                crate::diag::codes::FILE_NOT_FOUND,
-                Severity::Error,
-                None,
-                format!("cannot read `{name}`: {}", io_reason(&e)),
-            );
-            return Compiled { domain: None, diagnostics: vec![d], files: Vec::new() };
-        }
-    };
-    let mut compiled = check::compile(&name, &text, &|p| std::fs::read_to_string(p).ok());
-    if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
-        compiled.diagnostics.extend(crate::lint::lint_domain(domain));
+    compile_path_with(path, lints.then(crate::lint::Limits::default))
+}
+
+/// [`compile_path`] with the lattice lints' limits (none: no lints), showing their progress.
+pub fn compile_path_with(path: &Path, lints: Option<crate::lint::Limits>) -> Compiled {
+    let mut compiled = crate::source::compile_file(path);
+    if let (Some(domain), Some(limits)) = (compiled.domain.as_ref().filter(|d| !d.name.is_empty()), lints) {
+        let mut work = super::progress::Work::new();
+        compiled.diagnostics.extend(crate::lint::lint_domain_with(domain, limits, &mut |w, d, t| work.report(w, d, t)));
         check::sort_diagnostics(&mut compiled.diagnostics);
     }
     compiled
-}
-
-fn io_reason(e: &std::io::Error) -> String {
-    match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file".to_string(),
-        std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
-        std::io::ErrorKind::InvalidData => "not UTF-8 text".to_string(),
-        _ => e.to_string().to_lowercase(),
-    }
 }
 
 /// The `.rev` files named by `paths`, folders searched recursively, sorted within a folder.
 pub fn collect_rev_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     let mut out = Vec::new();
     for p in paths {
-        if p.is_dir() {
-            walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
-        } else if p.is_file() {
-            out.push(p.clone());
-        } else {
-            return Err(format!("`{}` does not exist", p.display()));
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => {
+                walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
+            }
+            Ok(m) if m.is_file() => out.push(p.clone()),
+            Ok(m) => return Err(format!("`{}` is {}, not a `.rev` file or a folder", p.display(), file_kind(&m))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(format!("`{}` does not exist", p.display()));
+            }
+            Err(e) => return Err(format!("cannot read `{}`: {}", p.display(), io_reason(&e))),
         }
     }
     Ok(out)
 }
 
+/// The `.rev` files below `dir`. Links to folders are not followed (a link to `..` would never
+/// end); links to files are listed, and [`crate::source`] judges where they lead.
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)?.map(|e| e.map(|e| e.path())).collect::<Result<_, _>>()?;
+    let mut entries = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let e = e?;
+        entries.push((e.path(), e.file_type()?.is_dir()));
+    }
     entries.sort();
-    for e in entries {
-        if e.is_dir() {
-            walk(&e, out)?;
-        } else if e.extension().is_some_and(|x| x == "rev") {
-            out.push(e);
+    for (path, is_dir) in entries {
+        if is_dir {
+            walk(&path, out)?;
+        } else if path.extension().is_some_and(|x| x == "rev") {
+            out.push(path);
         }
     }
     Ok(())
@@ -393,7 +396,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let lib = write(dir.path(), "lib.rev", "/// A tag.\ntag Shiny\n");
         let bad = write(dir.path(), "bad.rev", "kind K: Shinny {}\n");
-        let run_on = |paths: Vec<PathBuf>| run(CheckArgs { paths, format: Format::Plain });
+        let run_on = |paths: Vec<PathBuf>| {
+            run(CheckArgs {
+                paths,
+                format: Format::Plain,
+                max_size: crate::lattice::DEFAULT_MAX_SIZE as u32,
+                max_sets: crate::lattice::DEFAULT_MAX_SETS,
+            })
+        };
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);
         assert_eq!(run_on(vec![lib, bad]), ExitCode::from(1));
         assert_eq!(run_on(vec![dir.path().to_path_buf()]), ExitCode::from(1), "folders are searched");

@@ -12,6 +12,7 @@ pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
+pub mod progress;
 pub mod render;
 pub mod search;
 pub mod validate;

@@ -51,6 +51,9 @@ pub struct SearchArgs {
     /// Largest concept set searched
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
     pub max_size: usize,
+    /// Most valid concept sets searched over; a larger lattice is refused with the ways out
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
     /// Model calls in flight at once
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
@@ -143,7 +146,17 @@ pub fn run(args: SearchArgs) -> ExitCode {
         params,
     };
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = Lattice::enumerate(&domain, config.params.max_size);
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let lattice = match lattice {
+        Ok(l) => l,
+        Err(too_large) => {
+            eprintln!("{}", too_large.plain());
+            return ExitCode::from(1);
+        }
+    };
     let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(
