@@ -341,7 +341,7 @@ async fn gemini_generate_content() {
     let req = &server.received_requests().await.unwrap()[0];
     assert_eq!(req.headers.get("x-goog-api-key").unwrap(), KEY);
     let b = body_of(req);
-    assert_eq!(b["generationConfig"]["thinkingConfig"], json!({"thinkingLevel": "minimal"}));
+    assert_eq!(b["generationConfig"]["thinkingConfig"], json!({"thinkingLevel": "MINIMAL"}));
     let inline = &b["contents"][0]["parts"][0]["inlineData"];
     assert_eq!(inline["mimeType"], "image/jpeg");
     let bytes = base64::engine::general_purpose::STANDARD.decode(inline["data"].as_str().unwrap()).unwrap();

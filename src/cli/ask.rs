@@ -81,7 +81,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let render_opts = RendererOptions {
         size: None,
         cache_dir: args.cache_dir.as_ref().map(|d| d.join("images")),
-        base_url: args.model_opts.base_url.clone(),
+        base_url: args.model_opts.renderer_base_url.clone(),
     };
     let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
         None => None,

@@ -73,12 +73,17 @@ pub struct SearchArgs {
     pub json: bool,
 }
 
-/// Flags that configure model clients (shared with `validate`).
+/// Flags that configure the model and image-generation clients (shared with `validate` and
+/// `ask`).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
-    /// Override the provider endpoint
+    /// Override the model provider's endpoint (the model only; never the renderer's)
     #[arg(long)]
     pub base_url: Option<String>,
+    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
+    /// `OPENAI_BASE_URL`)
+    #[arg(long)]
+    pub renderer_base_url: Option<String>,
     /// Per-model settings (TOML)
     #[arg(long)]
     pub model_config: Option<PathBuf>,
@@ -227,7 +232,11 @@ pub(crate) fn build_parts(
     let model = build_model(model, domain, &flags.options(Some(out.join("cache"))))?;
     let renderer = build_renderer(
         renderer,
-        &RendererOptions { size: None, cache_dir: Some(out.join("image-cache")), base_url: flags.base_url.clone() },
+        &RendererOptions {
+            size: None,
+            cache_dir: Some(out.join("image-cache")),
+            base_url: flags.renderer_base_url.clone(),
+        },
     )?;
     Ok((model, renderer))
 }

@@ -9,19 +9,26 @@
 use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
-use crate::net::secret::{Secret, base_url, env_any};
-use crate::net::{ProviderError, json as j};
-use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
+use crate::net::secret::Secret;
+use crate::net::{Host, ProviderError, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
 
 pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";
 pub const VERSION: &str = "2023-06-01";
 
+pub const PROVIDER: Provider = Provider {
+    host: Host { provider: "anthropic", base_env: &["ANTHROPIC_BASE_URL"], key_env: &["ANTHROPIC_API_KEY"] },
+    usage: "`anthropic:MODEL`, e.g. `anthropic:claude-sonnet-4-6`",
+    owned: &["model", "messages", "max_tokens", "temperature", "thinking", "output_config", "stream"],
+};
+
 pub struct Anthropic {
     url: String,
     model: String,
-    key: Secret,
+    /// Required on Anthropic's host; a proxy behind `--base-url` may not need one.
+    key: Option<Secret>,
     settings: Resolved,
 }
 
@@ -70,17 +77,16 @@ pub fn build(
     base: Option<&str>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Anthropic>, String> {
-    if model.is_empty() {
-        return Err(format!("invalid model `{spec}`: expected `anthropic:MODEL`, e.g. `anthropic:claude-sonnet-4-6`"));
-    }
+    let endpoint = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;
     thinking_fields(spec, &settings)?;
-    let base = base_url(base, &["ANTHROPIC_BASE_URL"], DEFAULT_BASE_URL)?;
-    let key = env_any(&["ANTHROPIC_API_KEY"])
-        .map(Secret)
-        .ok_or_else(|| format!("`{spec}` needs an API key: set `ANTHROPIC_API_KEY`"))?;
-    let proto =
-        Anthropic { url: format!("{base}/v1/messages"), model: model.to_string(), key, settings: settings.clone() };
-    ApiModel::new(spec, &format!("anthropic {base}"), proto, settings, cache)
+    let base = endpoint.base;
+    let proto = Anthropic {
+        url: format!("{base}/v1/messages"),
+        model: model.to_string(),
+        key: endpoint.key,
+        settings: settings.clone(),
+    };
+    ApiModel::new(spec, &PROVIDER.host, &base, proto, settings, cache)
 }
 
 /// Read the Messages-format content blocks: `text` blocks are the reply, `thinking` blocks the
@@ -119,11 +125,13 @@ impl Protocol for Anthropic {
             body[k] = v;
         }
         j::merge(&mut body, self.settings.extra.as_ref());
-        let headers = vec![
+        let mut headers = vec![
             ("content-type".to_string(), "application/json".to_string()),
-            ("x-api-key".into(), self.key.0.clone()),
-            ("anthropic-version".into(), VERSION.into()),
+            ("anthropic-version".to_string(), VERSION.to_string()),
         ];
+        if let Some(k) = &self.key {
+            headers.push(("x-api-key".into(), k.0.clone()));
+        }
         Ok(Request { url: self.url.clone(), headers, body: body.to_string().into_bytes() })
     }
 
@@ -151,7 +159,7 @@ impl Protocol for Anthropic {
     }
 
     fn secrets(&self) -> Vec<&str> {
-        vec![self.key.0.as_str()]
+        self.key.iter().map(|k| k.0.as_str()).collect()
     }
 
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
@@ -176,7 +184,7 @@ mod tests {
         Anthropic {
             url: "http://x/v1/messages".into(),
             model: "m".into(),
-            key: Secret("k".into()),
+            key: Some(Secret("k".into())),
             settings: settings(None),
         }
     }
