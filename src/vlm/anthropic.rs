@@ -5,6 +5,10 @@
 //! (`{"type": "enabled", "budget_tokens": N}`); `--thinking low|medium|high|max` sends adaptive
 //! thinking with that effort (`{"type": "adaptive"}` and `output_config.effort`, Claude 4.6 and
 //! later); `--thinking adaptive` leaves the effort to the model. Only `text` blocks are parsed.
+//!
+//! No `temperature` is sent: the Messages API takes none (the official SDK's request type,
+//! `anthropic` 2.12, has no sampling fields), so a configured temperature applies to the other
+//! providers only.
 
 use serde_json::{Value, json};
 
@@ -57,16 +61,13 @@ pub fn thinking_fields(spec: &str, s: &Resolved) -> Result<Vec<(&'static str, Va
             vec![("thinking", json!({"type": "enabled", "budget_tokens": budget}))]
         }
         (Some("adaptive"), None) => adaptive_effort(None),
-        (Some(e @ ("low" | "medium" | "high" | "max")), None) => adaptive_effort(Some(e)),
+        (Some(e @ ("low" | "medium" | "high" | "xhigh" | "max")), None) => adaptive_effort(Some(e)),
         (Some(other), None) => {
             return Err(format!(
-                "invalid thinking level `{other}` for `{spec}`: Anthropic models take `off`, `adaptive`, `low`, `medium`, `high` or `max` (or `thinking_budget` in the model config)"
+                "invalid thinking level `{other}` for `{spec}`: Anthropic models take `off`, `adaptive`, `low`, `medium`, `high`, `xhigh` or `max` (or `thinking_budget` in the model config)"
             ));
         }
     };
-    if !fields.is_empty() && s.temperature.is_some_and(|t| t != 1.0) {
-        return Err(format!("`{spec}` uses thinking, which needs `temperature` unset or 1"));
-    }
     Ok(fields)
 }
 
@@ -118,9 +119,6 @@ impl Protocol for Anthropic {
             "max_tokens": self.settings.max_tokens,
             "messages": [{"role": "user", "content": content}],
         });
-        if let Some(t) = self.settings.temperature {
-            body["temperature"] = json!(t);
-        }
         for (k, v) in thinking_fields(&self.model, &self.settings)? {
             body[k] = v;
         }
@@ -203,9 +201,14 @@ mod tests {
         s.thinking_budget = Some(512);
         assert!(thinking_fields("a", &s).unwrap_err().contains("at least 1024"));
         assert!(thinking_fields("a", &settings(Some("minimal"))).unwrap_err().contains("`minimal`"));
-        let mut hot = settings(Some("low"));
-        hot.temperature = Some(0.0);
-        assert!(thinking_fields("a", &hot).unwrap_err().contains("temperature"));
+    }
+
+    #[test]
+    fn no_temperature_is_sent() {
+        let mut p = proto();
+        p.settings.temperature = Some(0.0);
+        let body: Value = serde_json::from_slice(&p.request("q", None).unwrap().body).unwrap();
+        assert!(body.get("temperature").is_none(), "{body}");
     }
 
     #[test]

@@ -66,6 +66,10 @@ pub fn build(
     }
     if !thinking.is_empty() {
         check_extra(spec, &settings, &["additionalModelRequestFields"])?;
+        // Converse sends `inferenceConfig.temperature`, which Claude's thinking needs at 1.
+        if settings.temperature.is_some_and(|t| t != 1.0) {
+            return Err(format!("`{spec}` uses thinking, which needs `temperature` unset or 1"));
+        }
     }
     let extra_fields =
         (!thinking.is_empty()).then(|| Value::Object(thinking.into_iter().map(|(k, v)| (k.to_string(), v)).collect()));

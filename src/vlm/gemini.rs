@@ -17,7 +17,7 @@ use crate::vlm::image::Encoded;
 
 /// Finish reasons that mean the provider's filters stopped the reply (`MODEL_ARMOR`: a Model
 /// Armor template on the project screened it).
-const BLOCKING: &[&str] = &[
+pub const BLOCKING: &[&str] = &[
     "SAFETY",
     "RECITATION",
     "BLOCKLIST",
@@ -53,10 +53,10 @@ pub fn build(
         (Some(_), Some(_)) => {
             return Err(format!("`{spec}` has both `thinking` and `thinking_budget`: set one of them"));
         }
-        (Some("minimal" | "low" | "medium" | "high") | None, _) => {}
+        (Some("minimal" | "low" | "medium" | "high" | "xhigh") | None, _) => {}
         (Some(other), _) => {
             return Err(format!(
-                "invalid thinking level `{other}` for `{spec}`: Gemini models take `minimal`, `low`, `medium` or `high`"
+                "invalid thinking level `{other}` for `{spec}`: Gemini models take `minimal`, `low`, `medium`, `high` or `xhigh`"
             ));
         }
     }

@@ -32,7 +32,7 @@ pub const PROVIDER: Provider = Provider {
 };
 
 /// Reasoning efforts the Chat Completions API accepts.
-const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh"];
+const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh", "max"];
 
 pub struct OpenAi {
     url: String,
