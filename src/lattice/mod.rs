@@ -165,9 +165,18 @@ impl Lattice {
     /// Enumerate every valid set of 1 to `max_size` concepts, however many there are (for
     /// domains known to be small; [`Lattice::build`] for any domain).
     pub fn enumerate(domain: &Domain, max_size: usize) -> Lattice {
+        // One pass, bucketed by size: no count first, for the small domains this is for.
         let validity = Validity::new(domain);
-        let counted = count(&validity, max_size, u64::MAX, &mut quiet);
-        Lattice::materialise(validity, max_size, &counted, &mut quiet)
+        let mut buckets: Vec<Vec<ConceptSet>> = vec![Vec::new(); max_size + 1];
+        for_each_valid(&validity, max_size, |s| buckets[s.len()].push(s));
+        let mut offsets = Vec::with_capacity(max_size + 2);
+        let mut sets = Vec::with_capacity(buckets.iter().map(Vec::len).sum());
+        for b in buckets {
+            offsets.push(sets.len());
+            sets.extend(b);
+        }
+        offsets.push(sets.len());
+        Lattice { sets, offsets, max_size, validity }
     }
 
     /// Enumerate every valid set of 1 to `max_size` concepts, unless there are more than
