@@ -92,7 +92,10 @@ async fn exchange(spec: &str, settings: &str, reply: &Value) -> (Value, Answer) 
     (serde_json::from_slice(&sent[0].body).unwrap(), reply.answer)
 }
 
-fn openai_replies() -> Vec<(Value, Answer)> {
+/// Reply fixtures with the answer Revelio must read from each.
+type Replies = Vec<(Value, Answer)>;
+
+fn openai_replies() -> Replies {
     vec![
         (
             json!({"id": "chatcmpl-1", "object": "chat.completion", "created": 1_760_000_000, "model": "gpt-4.1-mini",
@@ -116,7 +119,7 @@ fn openai_replies() -> Vec<(Value, Answer)> {
     ]
 }
 
-fn anthropic_replies() -> Vec<(Value, Answer)> {
+fn anthropic_replies() -> Replies {
     vec![
         (
             json!({"id": "msg_01", "type": "message", "role": "assistant", "model": "claude-sonnet-4-6",
@@ -135,7 +138,7 @@ fn anthropic_replies() -> Vec<(Value, Answer)> {
     ]
 }
 
-fn gemini_replies() -> Vec<(Value, Answer)> {
+fn gemini_replies() -> Replies {
     vec![
         (
             json!({"candidates": [{"content": {"parts": [{"text": "Fog, debris.", "thought": true}, {"text": "Answer: A"}], "role": "model"},
@@ -155,40 +158,57 @@ fn gemini_replies() -> Vec<(Value, Answer)> {
     ]
 }
 
+/// One provider: a model spec, the model-config settings whose requests are checked, and the
+/// reply fixtures.
+struct Case {
+    provider: &'static str,
+    spec: &'static str,
+    settings: &'static [&'static str],
+    replies: fn() -> Replies,
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn requests_and_replies_match_the_official_sdks() {
-    let cases: &[(&str, &[&str], fn() -> Vec<(Value, Answer)>)] = &[
-        (
-            "openai",
-            &[
+    let cases = [
+        Case {
+            provider: "openai",
+            spec: "openai:o3",
+            settings: &[
                 "",
                 "temperature = 0.0\nmax_tokens = 1024",
                 "thinking = \"low\"",
                 "max_tokens_field = \"max_completion_tokens\"\nthinking = \"minimal\"",
             ],
-            openai_replies,
-        ),
-        (
-            "anthropic",
-            &["", "thinking = \"high\"", "thinking = \"adaptive\"", "thinking_budget = 2048\ntemperature = 1.0"],
-            anthropic_replies,
-        ),
-        (
-            "gemini",
-            &["", "thinking = \"minimal\"", "thinking = \"high\"\ntemperature = 1.0", "thinking_budget = 512"],
-            gemini_replies,
-        ),
+            replies: openai_replies,
+        },
+        Case {
+            provider: "anthropic",
+            spec: "anthropic:claude-sonnet-4-6",
+            settings: &[
+                "",
+                "thinking = \"high\"",
+                "thinking = \"adaptive\"",
+                "thinking_budget = 2048\ntemperature = 1.0",
+            ],
+            replies: anthropic_replies,
+        },
+        Case {
+            provider: "gemini",
+            spec: "gemini:gemini-3-flash-preview",
+            settings: &[
+                "",
+                "thinking = \"minimal\"",
+                "thinking = \"high\"\ntemperature = 1.0",
+                "thinking_budget = 512",
+            ],
+            replies: gemini_replies,
+        },
     ];
     let mut data = serde_json::Map::new();
-    for (provider, settings, replies) in cases {
-        let spec = match *provider {
-            "openai" => "openai:o3",
-            "anthropic" => "anthropic:claude-sonnet-4-6",
-            _ => "gemini:gemini-3-flash-preview",
-        };
+    for Case { provider, spec, settings, replies } in cases {
         let replies = replies();
         let mut requests = Vec::new();
-        for s in *settings {
+        for s in settings {
             let (body, answer) = exchange(spec, s, &replies[0].0).await;
             assert_eq!(answer, replies[0].1, "{spec} [{s}]");
             requests.push(body);

@@ -66,6 +66,28 @@ pub struct Refused {
     pub help: Option<String>,
 }
 
+impl Refused {
+    /// R0004 for the file `name` of `len` bytes (`None`: past the limit, read no further).
+    pub fn too_large(name: &str, len: Option<usize>) -> Refused {
+        let size = match len {
+            Some(n) => format!("is {}; a `.rev` file may be at most", size_text(n)),
+            None => "is larger than the most a `.rev` file may be,".to_string(),
+        };
+        Refused {
+            code: codes::FILE_TOO_LARGE,
+            message: format!("`{name}` {size} {}", size_text(MAX_FILE_BYTES)),
+            help: Some("split the file into modules joined with `use \"…\"`".into()),
+        }
+    }
+
+    /// The refusal as an error diagnostic at `span` (none: about a whole file).
+    pub fn diagnostic(self, span: Option<crate::diag::Span>) -> Diagnostic {
+        let mut d = Diagnostic::new(self.code, crate::diag::Severity::Error, span, self.message);
+        d.help = self.help;
+        d
+    }
+}
+
 /// The `load` callback's answer.
 pub type Load = Result<Loaded, Refused>;
 
@@ -196,19 +218,7 @@ impl Loader<'_> {
         // Too large to parse: say so (the parser would only run out of its call budget and
         // blame nesting), keep no text, and go on without its items.
         let text = if text.len() > MAX_FILE_BYTES {
-            self.diagnostics.push(
-                Diagnostic::new(
-                    codes::FILE_TOO_LARGE,
-                    crate::diag::Severity::Error,
-                    None,
-                    format!(
-                        "`{name}` is {}; a `.rev` file may be at most {}",
-                        size_text(text.len()),
-                        size_text(MAX_FILE_BYTES)
-                    ),
-                )
-                .with_help("split the file into modules joined with `use \"…\"`"),
-            );
+            self.diagnostics.push(Refused::too_large(&name, Some(text.len())).diagnostic(None));
             String::new()
         } else {
             text
@@ -307,7 +317,10 @@ impl Loader<'_> {
                                     "cannot load `{name}`: the domain's files would pass {} together",
                                     size_text(MAX_DOMAIN_BYTES)
                                 ),
-                                help: Some("a domain's source files may hold at most 8 MiB in all".into()),
+                                help: Some(format!(
+                                    "a domain's source files may hold at most {} in all",
+                                    size_text(MAX_DOMAIN_BYTES)
+                                )),
                             }));
                             return None;
                         }
@@ -329,7 +342,7 @@ impl Loader<'_> {
 /// A byte count for messages: `512 bytes`, `1 MiB`, `10.0 MB`.
 pub fn size_text(bytes: usize) -> String {
     const MIB: usize = 1 << 20;
-    if bytes % MIB == 0 && bytes > 0 {
+    if bytes.is_multiple_of(MIB) && bytes > 0 {
         format!("{} MiB", bytes / MIB)
     } else if bytes >= 100_000 {
         format!("{:.1} MB", bytes as f64 / 1e6)

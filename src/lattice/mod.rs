@@ -118,7 +118,7 @@ pub fn count(validity: &Validity, max_size: usize, limit: u64, progress: Progres
     let stopped = try_for_each_valid(validity, max_size, |s| {
         per_size[s.len()] += 1;
         total += 1;
-        if total % PROGRESS_EVERY == 0 {
+        if total.is_multiple_of(PROGRESS_EVERY) {
             progress("counting valid sets", total, limit);
         }
         if total > limit { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
@@ -204,7 +204,7 @@ impl Lattice {
             sets[next[s.len()]] = s;
             next[s.len()] += 1;
             done += 1;
-            if done % PROGRESS_EVERY == 0 {
+            if done.is_multiple_of(PROGRESS_EVERY) {
                 progress("enumerating valid sets", done, total);
             }
         });

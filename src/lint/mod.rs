@@ -143,7 +143,7 @@ impl Survey {
         let oracle = Oracle::new(domain);
         let total = lattice.len() as u64;
         for (i, &set) in lattice.sets.iter().enumerate() {
-            if i as u64 % PROGRESS_EVERY == 0 {
+            if (i as u64).is_multiple_of(PROGRESS_EVERY) {
                 progress("judging valid sets", i as u64, total);
             }
             // Lattice sets are valid by construction, so `judge` only fails if the validity masks

@@ -19,8 +19,8 @@ use std::fs::{File, Metadata};
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
-use crate::check::{self, Compiled, Load, Loaded, MAX_FILE_BYTES, Refused, UseRequest, size_text};
-use crate::diag::{Diagnostic, Severity, codes};
+use crate::check::{self, Compiled, Load, Loaded, MAX_FILE_BYTES, Refused, UseRequest};
+use crate::diag::codes;
 
 /// What a non-regular file is, for messages: `a FIFO`, `a folder`, `a character device`, ….
 pub fn file_kind(meta: &Metadata) -> &'static str {
@@ -159,7 +159,7 @@ pub fn read(path: &Path, name: &str) -> Result<String, Refused> {
         return Err(use_refused(format!("`{name}` is {}, not a `.rev` file", file_kind(&meta)), "name a `.rev` file"));
     }
     if meta.len() > MAX_FILE_BYTES as u64 {
-        return Err(too_large(name, meta.len()));
+        return Err(Refused::too_large(name, usize::try_from(meta.len()).ok()));
     }
     let file = File::open(path).map_err(|e| not_read(name, &e))?;
     // The handle may not be the file judged above (replaced in between): judge it again.
@@ -172,22 +172,13 @@ pub fn read(path: &Path, name: &str) -> Result<String, Refused> {
     // byte past the limit.
     file.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(|e| not_read(name, &e))?;
     if bytes.len() > MAX_FILE_BYTES {
-        return Err(too_large(name, bytes.len() as u64));
+        return Err(Refused::too_large(name, None));
     }
     String::from_utf8(bytes).map_err(|_| Refused {
         code: codes::FILE_NOT_FOUND,
         message: format!("cannot read `{name}`: not UTF-8 text"),
         help: None,
     })
-}
-
-fn too_large(name: &str, len: u64) -> Refused {
-    let shown = if len > MAX_FILE_BYTES as u64 { size_text(len as usize) } else { "larger than that".into() };
-    Refused {
-        code: codes::FILE_TOO_LARGE,
-        message: format!("`{name}` is {shown}; a `.rev` file may be at most {}", size_text(MAX_FILE_BYTES)),
-        help: Some("split the file into modules joined with `use \"…\"`".into()),
-    }
 }
 
 /// Compile the `.rev` file at `path` and everything it uses, under the policy above.
@@ -225,15 +216,13 @@ pub fn compile_file(path: &Path) -> Compiled {
 /// by absolute path), then the disk, under the same policy as [`compile_file`].
 pub fn compile_text(path: &Path, text: &str, open: &dyn Fn(&Path) -> Option<String>) -> Compiled {
     let name = path.to_string_lossy().into_owned();
-    let key = std::fs::canonicalize(path).map_or_else(|_| normalize(path), |p| p).to_string_lossy().into_owned();
+    let key = std::fs::canonicalize(path).unwrap_or_else(|_| normalize(path)).to_string_lossy().into_owned();
     let tree = Tree::of(path);
     check::compile_entry(&name, &key, text, &|r| tree.load_with(r, open))
 }
 
 fn refused_entry(r: Refused) -> Compiled {
-    let mut d = Diagnostic::new(r.code, Severity::Error, None, r.message);
-    d.help = r.help;
-    Compiled { domain: None, diagnostics: vec![d], files: Vec::new() }
+    Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() }
 }
 
 /// `path` made absolute (against the working folder) with `.` and `..` collapsed, without
