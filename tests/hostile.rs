@@ -36,12 +36,23 @@ fn root() -> PathBuf {
 
 /// Run `revelio` with exactly `env` (nothing inherited), killed after [`GUARD`].
 fn revelio(args: &[&str], env: &[(&str, &str)]) -> Output {
+    revelio_fed(args, env, None)
+}
+
+/// [`revelio`] with `input` on its standard input (none: an empty one).
+fn revelio_fed(args: &[&str], env: &[(&str, &str)], input: Option<String>) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_revelio"));
-    cmd.args(args).current_dir(root()).env_clear().stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    let stdin = if input.is_some() { Stdio::piped() } else { Stdio::null() };
+    cmd.args(args).current_dir(root()).env_clear().stdin(stdin).stdout(Stdio::piped()).stderr(Stdio::piped());
     for (k, v) in env {
         cmd.env(k, v);
     }
     let mut child = cmd.spawn().expect("the revelio binary starts");
+    if let (Some(input), Some(mut pipe)) = (input, child.stdin.take()) {
+        std::thread::spawn(move || {
+            let _ = pipe.write_all(input.as_bytes());
+        });
+    }
     let mut out = child.stdout.take().unwrap();
     let mut err = child.stderr.take().unwrap();
     let read_out = std::thread::spawn(move || {
@@ -120,6 +131,17 @@ fn use_reads_nothing_outside_the_domain_folder() {
             }
         }
     }
+    // An unsaved buffer checked through standard input is held to the same policy.
+    let d = dir.path().join("d/domain.rev");
+    let o = revelio_fed(
+        &["check", "-", "--stdin-filename", s(&d), "--format", "plain"],
+        &[("SECRET_TOKEN", ENV_CANARY)],
+        Some("use \"/proc/self/environ\"\nuse \"../outside.rev\"\ntag T\n".into()),
+    );
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("is an absolute path") && all.contains("is outside the domain's folder"), "{all}");
+    assert!(!all.contains(ENV_CANARY) && !all.contains("OutsideCanary"), "{all}");
     // `search` (and every command) loads through the same policy.
     let d = write(dir.path(), "d/domain.rev", "use \"/proc/self/environ\"\ntag T\n");
     let o = revelio(
@@ -167,6 +189,11 @@ fn a_ten_megabyte_comment_is_too_large_not_too_deep() {
     let d = write(dir.path(), "d.rev", "use \"big.rev\"\ntag U\n");
     let o = revelio(&["check", s(&d), "--format", "plain"], &[]);
     assert!(text(&o).contains("R0004"), "{}", text(&o));
+    // Standard input is read no further than the limit (`check - < /dev/zero` used to run on).
+    let o = revelio_fed(&["check", "-", "--format", "plain"], &[], Some(format!("// {}\n", "x".repeat(10_000_000))));
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("R0004") && all.contains("`<stdin>` is larger than the most a `.rev` file may be"), "{all}");
 }
 
 #[test]

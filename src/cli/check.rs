@@ -1,6 +1,8 @@
 //! `revelio check PATH...`: compile `.rev` files (folders are searched recursively) and report
-//! every diagnostic as human (miette), plain or JSON output. Also home of the diagnostic
-//! renderers the other subcommands use through [`super::load_domain`].
+//! every diagnostic as human (miette), plain or JSON output. `-` checks standard input (an
+//! editor's unsaved buffer), named by `--stdin-filename` so that its `use "…"` paths resolve
+//! and its diagnostics name the file. Also home of the diagnostic renderers the other
+//! subcommands use through [`super::load_domain`].
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,9 +17,13 @@ use crate::source::{file_kind, io_reason};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
-    /// `.rev` files or folders (searched recursively for `*.rev`)
+    /// `.rev` files or folders (searched recursively for `*.rev`), or `-` for standard input
     #[arg(required = true, value_name = "PATH")]
     pub paths: Vec<PathBuf>,
+    /// The file name the text read from `-` stands for: `use "…"` paths resolve from its folder
+    /// and diagnostics name it (default `<stdin>`)
+    #[arg(long, value_name = "NAME")]
+    pub stdin_filename: Option<PathBuf>,
     /// Output format: `human` (annotated source), `plain` (one line each) or `json` (one object
     /// per line)
     #[arg(long, value_enum, default_value_t = Format::Human)]
@@ -38,7 +44,13 @@ pub enum Format {
 }
 
 pub fn run(args: CheckArgs) -> ExitCode {
-    let files = match collect_rev_files(&args.paths) {
+    let stdin = args.paths.iter().filter(|p| p.as_os_str() == "-").count();
+    if stdin > 1 || (stdin == 0 && args.stdin_filename.is_some()) {
+        eprintln!("error: `-` (standard input) may be given once, and `--stdin-filename` only with it");
+        return ExitCode::from(2);
+    }
+    let paths: Vec<PathBuf> = args.paths.iter().filter(|p| p.as_os_str() != "-").cloned().collect();
+    let mut files = match collect_rev_files(&paths) {
         Ok(f) => f,
         Err(msg) => {
             eprintln!("error: {msg}");
@@ -46,7 +58,15 @@ pub fn run(args: CheckArgs) -> ExitCode {
         }
     };
     let limits = crate::lint::Limits { max_size: args.max_size as usize, max_sets: args.max_sets };
-    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
+    let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
+    if stdin == 1 {
+        let name = args.stdin_filename.unwrap_or_else(|| PathBuf::from("<stdin>"));
+        compiled.push(match crate::source::read_bounded(std::io::stdin(), &name.to_string_lossy()) {
+            Ok(text) => compile_text_with(&name, &text, Some(limits)),
+            Err(r) => Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() },
+        });
+        files.push(name);
+    }
     let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
     reports.sort_by(|a, b| a.key().cmp(&b.key()));
     reports.dedup_by(|a, b| a.key() == b.key());
@@ -109,7 +129,18 @@ pub fn compile_path(path: &Path, lints: bool) -> Compiled {
 
 /// [`compile_path`] with the lattice lints' limits (none: no lints), showing their progress.
 pub fn compile_path_with(path: &Path, lints: Option<crate::lint::Limits>) -> Compiled {
-    let mut compiled = crate::source::compile_file(path);
+    with_lints(crate::source::compile_file(path), lints)
+}
+
+/// Compile `text` as the file `path` (standard input named by `--stdin-filename`): its
+/// `use "…"` paths are read from disk relative to it, under the policy of [`crate::source`];
+/// lints as [`compile_path_with`].
+pub fn compile_text_with(path: &Path, text: &str, lints: Option<crate::lint::Limits>) -> Compiled {
+    with_lints(crate::source::compile_text(path, text, &|_| None), lints)
+}
+
+/// `compiled` with the lattice lints' diagnostics added (none: as it is), showing their progress.
+fn with_lints(mut compiled: Compiled, lints: Option<crate::lint::Limits>) -> Compiled {
     if let (Some(domain), Some(limits)) = (compiled.domain.as_ref().filter(|d| !d.name.is_empty()), lints) {
         let mut work = super::progress::Work::new();
         compiled.diagnostics.extend(crate::lint::lint_domain_with(domain, limits, &mut |w, d, t| work.report(w, d, t)));
@@ -399,6 +430,7 @@ mod tests {
         let run_on = |paths: Vec<PathBuf>| {
             run(CheckArgs {
                 paths,
+                stdin_filename: None,
                 format: Format::Plain,
                 max_size: crate::lattice::DEFAULT_MAX_SIZE as u32,
                 max_sets: crate::lattice::DEFAULT_MAX_SETS,

@@ -167,10 +167,15 @@ pub fn read(path: &Path, name: &str) -> Result<String, Refused> {
     if !meta.is_file() {
         return Err(use_refused(format!("`{name}` is {}, not a `.rev` file", file_kind(&meta)), "name a `.rev` file"));
     }
+    // Files like those in /proc report a length of 0 and may be any size.
+    read_bounded(file, name)
+}
+
+/// The text of `reader` (a file, standard input) as the `.rev` file `name`, read no further than
+/// one byte past [`MAX_FILE_BYTES`]: more is refused (R0004), not read without end.
+pub fn read_bounded(reader: impl Read, name: &str) -> Result<String, Refused> {
     let mut bytes = Vec::new();
-    // Files like those in /proc report a length of 0 and may be any size: read at most one
-    // byte past the limit.
-    file.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(|e| not_read(name, &e))?;
+    reader.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(|e| not_read(name, &e))?;
     if bytes.len() > MAX_FILE_BYTES {
         return Err(Refused::too_large(name, None));
     }
