@@ -3,11 +3,12 @@
 //! error outcome, an exit code), never by measuring time or memory; a command that hangs or
 //! spins is killed after a generous guard and fails its test.
 //!
-//! - files: `use` of `/proc/self/environ`, `/dev/zero`, a FIFO, `..`, links out of the tree; a
-//!   10 MB comment; one file by two spellings; `check` on a FIFO;
+//! - files: `use` of `/proc/self/environ`, `/dev/zero`, a FIFO, `..`, links out of the tree,
+//!   also from standard input (`check -`); a 10 MB comment, in a file or on standard input; one
+//!   file by two spellings; `check` on a FIFO;
 //! - keys: every (model provider × image provider) pair, each key only at its own host;
-//! - replies: an endless chunked body, a stalled body, a 50 MB reply, a 3 MB answer that the
-//!   journal keeps only a prefix of, escape sequences in replies and errors;
+//! - replies: an endless chunked body, a stalled body, a body that trickles, a 50 MB reply, a
+//!   3 MB answer that the journal keeps only a prefix of, escape sequences in replies and errors;
 //! - domains: 128 unconstrained concepts refused quickly by `check`, `lattice` and `search`;
 //!   10 000 rules checked;
 //! - configuration: `extra` replacing `messages`/`stream`, `latency_ms` of `i64::MAX`,
@@ -430,6 +431,8 @@ enum Misbehave {
     Stall,
     /// 50 MB, chunked (no length to refuse up front).
     Huge,
+    /// A byte every 50 ms, for ever: never stalled, never done.
+    Trickle,
 }
 
 /// A one-trick HTTP/1.1 server on a local port; returns its base URL.
@@ -484,6 +487,12 @@ fn serve(mut s: TcpStream, mode: Misbehave) {
                 }
             }
             let _ = s.write_all(b"0\r\n\r\n");
+        }
+        Misbehave::Trickle => {
+            let _ = s.write_all(chunked.as_bytes());
+            while s.write_all(b"1\r\n \r\n").and_then(|()| s.flush()).is_ok() {
+                std::thread::sleep(Duration::from_millis(50));
+            }
         }
         Misbehave::Stall => {
             let _ = s.write_all(
@@ -556,6 +565,19 @@ async fn a_stalled_body_ends_the_call() {
     assert_eq!(r.answer, Answer::ApiError);
     assert!(r.raw.contains("the reply stalled: no data for 0.5 s"), "{}", r.raw);
     assert_eq!(r.attempts, 2, "a stall is retried like a timeout");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_slow_body_ends_at_the_call_deadline() {
+    // Bytes that keep coming, too slowly to finish, pass every stall check: the call's deadline
+    // bounds them (with the defaults, 300 s a call, not 120 s for each of six attempts).
+    let dir = tempfile::tempdir().unwrap();
+    let config =
+        models_toml(dir.path(), "timeout_s = 200\nstall_timeout_s = 5\nretry_deadline_s = 1\nretry_attempts = 6");
+    let r = ask_openai(&misbehaving(Misbehave::Trickle), &config).await;
+    assert_eq!(r.answer, Answer::ApiError);
+    assert!(r.raw.contains("timed out after 1.0 s") && r.raw.contains("the 1 s deadline"), "{}", r.raw);
+    assert_eq!(r.attempts, 1, "{}", r.raw);
 }
 
 /// A chat reply with `content`.
