@@ -186,6 +186,10 @@ fn fifos_are_named_not_opened() {
     let o = revelio(&["lattice", s(&fifo)], &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o).contains("is a FIFO (named pipe)"), "{}", text(&o));
+    // `fmt` on the folder lists the FIFO among the `.rev` files and must not open it.
+    let o = revelio(&["fmt", "--check", s(fifo.parent().unwrap())], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("is a FIFO (named pipe), not a `.rev` file"), "{}", text(&o));
 }
 
 #[test]
@@ -206,6 +210,13 @@ fn a_ten_megabyte_comment_is_too_large_not_too_deep() {
     let all = text(&o);
     assert_eq!(o.status.code(), Some(1), "{all}");
     assert!(all.contains("R0004") && all.contains("`<stdin>` is larger than the most a `.rev` file may be"), "{all}");
+    // `fmt` reads under the same bound.
+    let o = revelio(&["fmt", "--check", s(&big)], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("is 10.0 MB; a `.rev` file may be at most 1 MiB"), "{}", text(&o));
+    let o = revelio_fed(&["fmt", "-"], &[], Some(format!("// {}\n", "x".repeat(10_000_000))));
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("`<stdin>` is larger than the most"), "{}", text(&o));
 }
 
 #[test]
