@@ -4,9 +4,11 @@
 //! [`diag`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
 //! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
-//! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
-//! and GPU live in `net`, `render`, `vlm`, `journal`, `run` and `cli`.
+//! [`journal`] → [`run`] → [`analysis`] → [`report`] → [`cli`]. The core (`diag` … `search`)
+//! does no I/O; files, network and GPU live in `net`, `render`, `vlm`, `journal`, `run`,
+//! `report` and `cli`.
 
+pub mod analysis;
 pub mod anchor;
 pub mod check;
 pub mod cli;
@@ -22,6 +24,7 @@ pub mod net;
 pub mod oracle;
 pub mod outcome;
 pub mod render;
+pub mod report;
 pub mod run;
 pub mod sample;
 pub mod scene;

@@ -13,6 +13,7 @@ pub mod emit;
 pub mod lattice;
 pub mod oracle;
 pub mod render;
+pub mod report;
 pub mod search;
 pub mod validate;
 
@@ -45,6 +46,8 @@ pub enum Command {
     Ask(ask::AskArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     Render(render::RenderArgs),
+    /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
+    Report(report::ReportArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -67,6 +70,7 @@ pub fn main() -> ExitCode {
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
         Command::Render(args) => render::run(args),
+        Command::Report(a) => report::run(a),
     }
 }
 
