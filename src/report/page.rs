@@ -279,7 +279,11 @@ fn core_view(
         ci: interval(c.ci95),
         wrong: c.fr.map_or(0, |fr| (fr * f64::from(c.answered)).round() as u32),
         answered: c.answered,
-        validated: validated_text(run.validated(&c.concepts)),
+        validated: match (&run.validation, run.validated(&c.concepts)) {
+            (None, _) => "run not validated".into(),
+            (Some(v), None) => format!("not among the top {} validated", v.top),
+            (Some(_), row) => validated_text(row),
+        },
         supersets: c.supersets,
         superset_rows,
         verdict,

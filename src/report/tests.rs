@@ -168,6 +168,7 @@ fn page_shows_every_core_with_its_images_and_escapes_replies() {
         html.split("class=\"verdict\"").nth(1).unwrap_or("no verdict")
     );
     assert!(html.contains("validated: <b>75% [53–89%] of 20</b>"), "validated FR missing");
+    assert!(html.contains("validated: <b>not among the top 1 validated</b>"));
     let links = linked_files(&html);
     let images = links.iter().filter(|l| l.starts_with("thumbs/")).count();
     assert_eq!(images, 10, "five observations of each core");
@@ -217,7 +218,7 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
 fn csv_tables_hold_every_set_and_outcome() {
     let f = fixture("builtin");
     let out = f.dir.join("report");
-    write_report(&f, &out);
+    assert!(write_report(&f, &out).contains("validated: <b>run not validated</b>"));
     let sets = std::fs::read_to_string(out.join("sets.csv")).unwrap();
     let lines: Vec<&str> = sets.lines().collect();
     assert_eq!(lines[0], "order,concepts,size,fr,ci95_lo,ci95_hi,wrong,answered,observations,failure_mode,unparsed");
