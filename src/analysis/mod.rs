@@ -229,9 +229,9 @@ pub fn minimal_failure_modes(modes: &[SetRow]) -> Vec<usize> {
     minimal
 }
 
-/// How many of `modes` contain `core` and are larger than it.
+/// How many of `modes` contain `core`, itself included (as `summary.json`'s `cores` count them).
 pub fn supersets(core: &[String], modes: &[SetRow]) -> usize {
-    modes.iter().filter(|m| m.concepts.len() > core.len() && is_subset(core, &m.concepts)).count()
+    modes.iter().filter(|m| is_subset(core, &m.concepts)).count()
 }
 
 #[cfg(test)]

@@ -131,8 +131,9 @@ fn minimal_failure_modes_are_those_without_a_failing_subset() {
         row(&["e", "f", "g"], 3, 5),
     ];
     let minimal = minimal_failure_modes(&modes);
-    // {a, b} (two supersets) first, then {c, d} (FR 1.0), then {e, f, g} (0.6).
+    // {a, b} (in three failure modes) first, then {c, d} (FR 1.0), then {e, f, g} (0.6).
     assert_eq!(minimal, vec![1, 3, 4]);
-    assert_eq!(supersets(&modes[1].concepts, &modes), 2);
+    assert_eq!(supersets(&modes[1].concepts, &modes), 3);
     assert_eq!(supersets(&names(&["d"]), &modes), 2);
+    assert_eq!(supersets(&names(&["z"]), &modes), 0);
 }

@@ -42,12 +42,14 @@ pub struct Run {
     pub finished: Option<SystemTime>,
 }
 
-/// Fields of `summary.json` that only newer runs carry: intervals per set and the cores found by
-/// shrinking. Absent fields fall back to what the report can compute itself.
+/// Fields of `summary.json` that only newer runs carry: intervals per set, the cores found by
+/// shrinking and the shrink phase. Absent fields fall back to what the report can compute.
 #[derive(Debug, Clone, Default, Deserialize)]
 pub struct Extras {
     #[serde(default)]
-    pub cores: Option<Vec<CoreRow>>,
+    pub cores: Vec<CoreRow>,
+    #[serde(default)]
+    pub shrink: Option<ShrinkRow>,
     #[serde(default)]
     pub failure_modes: Vec<Interval>,
     #[serde(default)]
@@ -69,9 +71,31 @@ pub struct CoreRow {
     #[serde(default)]
     pub ci95: Option<(f64, f64)>,
     #[serde(default)]
+    pub wrong: Option<u32>,
+    #[serde(default)]
     pub answered: u32,
+    /// Failure modes of the search containing the core, itself included.
     #[serde(default)]
     pub supersets: Option<usize>,
+    /// Whether every one-smaller valid subset was tested and passed.
+    #[serde(default = "yes")]
+    pub minimal: bool,
+    #[serde(default)]
+    pub shrunk_from: Vec<String>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// `summary.json`'s `shrink`: the phase that shrank failure modes to cores.
+#[derive(Debug, Clone, Default, Deserialize)]
+pub struct ShrinkRow {
+    #[serde(default)]
+    pub inferences: u64,
+    /// Failure modes of the search that did not fail when re-tested.
+    #[serde(default)]
+    pub refuted: Vec<SetRow>,
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<Option<T>, String> {
@@ -102,9 +126,14 @@ pub struct Core {
     pub concepts: Vec<String>,
     pub fr: Option<f64>,
     pub ci95: Option<(f64, f64)>,
+    pub wrong: u32,
     pub answered: u32,
-    /// Failure modes larger than the core that contain it.
+    /// Failure modes of the search that contain the core, itself included.
     pub supersets: usize,
+    /// False when shrinking stopped (out of budget) before testing every smaller subset.
+    pub minimal: bool,
+    /// The failure mode it was shrunk from (empty for a minimal failure mode standing in).
+    pub shrunk_from: Vec<String>,
 }
 
 /// The analysis of a run the page and the tables share.
@@ -144,36 +173,42 @@ impl Run {
 
     pub fn findings(&self) -> Findings<'_> {
         let modes = &self.summary.failure_modes;
-        let (shrunk, cores): (bool, Vec<Core>) = match &self.extras.cores {
-            Some(rows) => (
-                true,
-                rows.iter()
-                    .map(|c| Core {
+        // A run that was shrunk lists its cores (none, if every failure mode was refuted);
+        // otherwise the minimal failure modes stand in.
+        let shrunk = self.extras.shrink.is_some() || !self.extras.cores.is_empty();
+        let cores: Vec<Core> = if shrunk {
+            self.extras
+                .cores
+                .iter()
+                .map(|c| {
+                    let wrong =
+                        c.wrong.unwrap_or_else(|| c.fr.map_or(0, |f| (f * f64::from(c.answered)).round() as u32));
+                    Core {
                         concepts: c.concepts.clone(),
                         fr: c.fr,
-                        ci95: c.ci95.or_else(|| {
-                            c.fr.and_then(|f| {
-                                wilson95((f * f64::from(c.answered)).round() as u64, u64::from(c.answered))
-                            })
-                        }),
+                        ci95: c.ci95.or_else(|| wilson95(u64::from(wrong), u64::from(c.answered))),
+                        wrong,
                         answered: c.answered,
                         supersets: c.supersets.unwrap_or_else(|| analysis::supersets(&c.concepts, modes)),
-                    })
-                    .collect(),
-            ),
-            None => (
-                false,
-                analysis::minimal_failure_modes(modes)
-                    .into_iter()
-                    .map(|i| Core {
-                        concepts: modes[i].concepts.clone(),
-                        fr: modes[i].fr,
-                        ci95: self.mode_ci(i),
-                        answered: modes[i].answered,
-                        supersets: analysis::supersets(&modes[i].concepts, modes),
-                    })
-                    .collect(),
-            ),
+                        minimal: c.minimal,
+                        shrunk_from: c.shrunk_from.clone(),
+                    }
+                })
+                .collect()
+        } else {
+            analysis::minimal_failure_modes(modes)
+                .into_iter()
+                .map(|i| Core {
+                    concepts: modes[i].concepts.clone(),
+                    fr: modes[i].fr,
+                    ci95: self.mode_ci(i),
+                    wrong: modes[i].wrong,
+                    answered: modes[i].answered,
+                    supersets: analysis::supersets(&modes[i].concepts, modes),
+                    minimal: true,
+                    shrunk_from: Vec::new(),
+                })
+                .collect()
         };
         let observations = analysis::latest_observations(&self.records);
         let core_observations = cores

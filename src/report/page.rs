@@ -69,7 +69,10 @@ pub struct CoreView {
     pub wrong: u32,
     pub answered: u32,
     pub validated: String,
+    /// Failure modes of the search that contain the core, itself included.
     pub supersets: usize,
+    pub shrunk_from: Option<String>,
+    pub minimal: bool,
     pub superset_rows: Vec<ModeRow>,
     pub verdict: Option<VerdictView>,
     /// Why the oracle gave no verdict (the domain is there but the set has no ground truth).
@@ -104,6 +107,8 @@ pub struct IndexPage<'a> {
     pub cores_note: String,
     pub cores: Vec<CoreView>,
     pub others: Vec<ModeRow>,
+    /// Failure modes of the search that passed when the shrink phase re-tested them.
+    pub refuted: Vec<ModeRow>,
     pub concepts: Vec<ConceptRow>,
     pub heatmap: &'a str,
     pub discovery: &'a str,
@@ -277,7 +282,7 @@ fn core_view(
         concepts: c.concepts.clone(),
         fr: pct(c.fr),
         ci: interval(c.ci95),
-        wrong: c.fr.map_or(0, |fr| (fr * f64::from(c.answered)).round() as u32),
+        wrong: c.wrong,
         answered: c.answered,
         validated: match (&run.validation, run.validated(&c.concepts)) {
             (None, _) => "run not validated".into(),
@@ -285,6 +290,8 @@ fn core_view(
             (Some(_), row) => validated_text(row),
         },
         supersets: c.supersets,
+        shrunk_from: (!c.shrunk_from.is_empty()).then(|| c.shrunk_from.join(" + ")),
+        minimal: c.minimal,
         superset_rows,
         verdict,
         verdict_error,
@@ -354,7 +361,11 @@ fn metrics(run: &Run, f: &Findings<'_>) -> Vec<Metric> {
         Metric {
             label: "Distinct cores".into(),
             value: f.cores.len().to_string(),
-            detail: if f.shrunk { "minimal failing subsets".into() } else { "minimal failure modes found".into() },
+            detail: match &run.extras.shrink {
+                Some(sh) => format!("shrunk in {} inferences", grouped(sh.inferences)),
+                None if f.shrunk => "minimal failing subsets".into(),
+                None => "minimal failure modes found".into(),
+            },
         },
         Metric {
             label: "PFM".into(),
@@ -440,6 +451,21 @@ pub fn render(
             failure_modes: c.failure_modes,
         })
         .collect();
+    let refuted = run
+        .extras
+        .shrink
+        .iter()
+        .flat_map(|sh| &sh.refuted)
+        .enumerate()
+        .map(|(i, r)| ModeRow {
+            rank: i + 1,
+            concepts: r.concepts.clone(),
+            fr: pct(r.fr),
+            ci: interval(super::row_ci(r)),
+            answered: r.answered,
+            validated: validated_text(run.validated(&r.concepts)),
+        })
+        .collect();
     let (outcome_phases, outcome_rows) = outcome_table(f);
     let cores_note = if f.shrunk {
         "Each core is a smallest set that still fails by the sequential test (found by shrinking the strongest failure families); every failure mode is listed under the first core it contains."
@@ -462,6 +488,7 @@ pub fn render(
         cores_note,
         cores,
         others,
+        refuted,
         concepts,
         heatmap,
         discovery,

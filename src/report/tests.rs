@@ -186,7 +186,15 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
     let f = fixture("builtin");
     let path = f.dir.join("summary.json");
     let mut s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    s["cores"] = serde_json::json!([{"concepts": ["obstruction_near"], "fr": 0.9, "ci95": [0.6, 0.98], "answered": 10, "supersets": 2}]);
+    // As a shrunk run writes them: a core is a set row with its supersets (itself included).
+    s["cores"] = serde_json::json!([{
+        "concepts": ["obstruction_near"], "fr": 0.9, "ci95": [0.6, 0.98], "wrong": 9, "answered": 10,
+        "observations": 10, "supersets": 2, "minimal": false,
+        "shrunk_from": ["intersection_ego", "obstruction_near", "cone"]
+    }]);
+    s["shrink"] = serde_json::json!({"budget": 100, "inferences": 42, "max_samples": 20, "new_sets": 3, "refuted": [
+        {"concepts": ["cone"], "fr": 0.2, "ci95": [0.05, 0.5], "wrong": 2, "answered": 10, "observations": 10}
+    ]});
     for m in s["failure_modes"].as_array_mut().unwrap() {
         m["ci95"] = serde_json::json!([0.11, 0.22]);
     }
@@ -201,6 +209,13 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
     assert!(html.contains("data-concepts=\"obstruction_near\""));
     assert!(html.contains("95% CI [60–98%]"));
     assert!(html.contains("[11–22%]"), "the summary's intervals are shown");
+    assert!(html.contains("<b>9</b> wrong of <b>10</b> answered"));
+    assert!(html.contains("<b>2</b> failure modes of the search contain it"));
+    assert!(html.contains("shrunk from <code>intersection_ego + obstruction_near + cone</code>"));
+    assert!(html.contains("the shrink budget ran out"));
+    assert!(html.contains("shrunk in 42 inferences"));
+    let refuted = html.split("id=\"refuted\"").nth(1).expect("a 'refuted' section");
+    assert!(refuted.contains("<code>cone</code>"));
     // {debris_far} contains no core: it is listed under the other failure modes.
     let others = html.split("id=\"others\"").nth(1).expect("an 'other failure modes' section");
     assert!(others.contains("<code>debris_far</code>"));
