@@ -161,13 +161,18 @@ pub struct Discovery {
 
 /// The discovery curve over the observations of every phase but validation (which re-checks
 /// what was found and finds nothing new). A failure mode counts as found at its last
-/// observation; a core counts as found when the first failure mode containing it is found.
+/// observation in the phase that first evaluated it (shrinking re-tests failure modes later,
+/// which finds nothing new); a core counts as found when the first failure mode containing it
+/// is found.
 pub fn discovery(observations: &[&Record], failure_modes: &[Vec<String>], cores: &[Vec<String>]) -> Discovery {
     let searched: Vec<&Record> = observations.iter().copied().filter(|r| r.phase != Phase::Validate).collect();
-    // A set's observations may be spread over phases (shrinking re-tests sets); the last one counts.
+    let mut first_phase: HashMap<&[String], Phase> = HashMap::new();
     let mut last: HashMap<&[String], usize> = HashMap::new();
     for (i, r) in searched.iter().enumerate() {
-        last.insert(r.set.as_slice(), i);
+        let phase = *first_phase.entry(r.set.as_slice()).or_insert(r.phase);
+        if r.phase == phase {
+            last.insert(r.set.as_slice(), i);
+        }
     }
     let mut found_at: Vec<(usize, &Vec<String>)> =
         failure_modes.iter().filter_map(|m| last.iter().find(|(s, _)| same_set(s, m)).map(|(_, &i)| (i, m))).collect();
