@@ -22,7 +22,8 @@ pub fn run(args: ReportArgs) -> ExitCode {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(1);
+            // As `validate`: a folder that holds no finished run is a usage error.
+            return ExitCode::from(2);
         }
     };
     let domain = run_domain(&run.config.domain_file, &run.config.domain_hash);
