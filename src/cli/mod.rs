@@ -16,6 +16,7 @@ pub mod lsp;
 pub mod oracle;
 pub mod progress;
 pub mod render;
+pub mod report;
 pub mod search;
 pub mod validate;
 
@@ -52,6 +53,8 @@ pub enum Command {
     Ask(ask::AskArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     Render(render::RenderArgs),
+    /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
+    Report(report::ReportArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -76,6 +79,7 @@ pub fn main() -> ExitCode {
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
         Command::Render(args) => render::run(args),
+        Command::Report(a) => report::run(a),
     }
 }
 

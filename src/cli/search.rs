@@ -213,6 +213,9 @@ pub fn run(args: SearchArgs) -> ExitCode {
     } else {
         print_summary(&mut stdout, &report.summary, args.top, &out, started.elapsed())
     };
+    if written.is_ok() {
+        super::report::refresh(&out, &setup.domain, args.json);
+    }
     match written {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,

@@ -96,6 +96,9 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     } else {
         print_validation(&mut out, &v)
     };
+    if written.is_ok() {
+        super::report::refresh(&args.run_dir, &setup.domain, args.json);
+    }
     match written {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
             eprintln!("error: cannot write the report: {e}");

@@ -134,7 +134,7 @@ impl Journal {
             .map_err(|e| io_err("open", &path, e))?;
         let mut text = Vec::new();
         file.read_to_end(&mut text).map_err(|e| io_err("read", &path, e))?;
-        let (records, good_len) = parse_journal(&text, &path)?;
+        let (records, good_len) = parse_journal(&text, &path).map_err(|e| format!("cannot resume: {e}"))?;
         let dropped_torn_line = good_len < text.len();
         if dropped_torn_line {
             file.set_len(good_len as u64).map_err(|e| io_err("truncate", &path, e))?;
@@ -196,6 +196,14 @@ impl Journal {
     }
 }
 
+/// Read a run folder's journal without opening it for appending (reports read finished runs).
+/// A torn last line is skipped, as [`Journal::open`] would drop it.
+pub fn read(dir: &Path) -> Result<Vec<Record>, String> {
+    let path = dir.join("journal.jsonl");
+    let text = std::fs::read(&path).map_err(|e| io_err("read", &path, e))?;
+    Ok(parse_journal(&text, &path).map_err(|e| format!("cannot read the journal: {e}"))?.0)
+}
+
 /// Parse journal bytes; returns the records and the length of the valid prefix. Only the last
 /// line may be torn (no newline, or unparseable): it is dropped. A bad line before it is an error.
 fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), String> {
@@ -210,7 +218,7 @@ fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), Strin
         match serde_json::from_slice::<Record>(line) {
             Ok(r) => records.push(r),
             Err(_) if end == text.len() => break,
-            Err(e) => return Err(format!("cannot resume: line {line_no} of `{}` is corrupt: {e}", path.display())),
+            Err(e) => return Err(format!("line {line_no} of `{}` is corrupt: {e}", path.display())),
         }
         start = end;
     }
