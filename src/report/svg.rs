@@ -37,13 +37,17 @@ fn titled(svg: String, title: &str) -> String {
     }
 }
 
-/// Tick values 0, step, 2·step, … up to the first at or above `max`, with a 1-2-5 step giving
-/// about `target` intervals.
+/// Tick values 0, step, 2·step, … up to the first at or above `max`, with the smallest 1-2-5
+/// step giving at most `target + 1` intervals (so the axis ends close above the data).
 pub fn nice_ticks(max: f64, target: usize) -> Vec<f64> {
     let max = max.max(1.0);
-    let raw = max / target.max(1) as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+    let target = target.max(1);
+    let mag = 10f64.powf((max / target as f64).log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * mag)
+        .find(|s| (max / s).ceil() as usize <= target + 1)
+        .unwrap_or(10.0 * mag);
     let step = step.max(1.0); // counts: whole numbers only
     let n = (max / step).ceil() as usize;
     (0..=n).map(|i| i as f64 * step).collect()
@@ -245,6 +249,8 @@ mod tests {
         assert_eq!(nice_ticks(37.0, 5), vec![0.0, 10.0, 20.0, 30.0, 40.0]);
         assert_eq!(nice_ticks(0.0, 5), vec![0.0, 1.0]);
         assert_eq!(nice_ticks(3.0, 5), vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(nice_ticks(1092.0, 5), vec![0.0, 200.0, 400.0, 600.0, 800.0, 1000.0, 1200.0]);
+        assert_eq!(nice_ticks(52.0, 5), vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0]);
     }
 
     #[test]
