@@ -11,7 +11,10 @@ mod expr;
 mod lower;
 mod names;
 mod rules;
+mod scene;
 mod shapes;
+mod types;
+mod values;
 
 use std::collections::{HashMap, HashSet};
 
