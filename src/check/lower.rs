@@ -70,6 +70,8 @@ pub(crate) struct Checker<'a> {
     pub look_spans: Vec<Option<(Span, &'static str)>>,
     /// Names of the entities that any concept adds (targets of `add … RELATION NAME`).
     pub entity_names: Vec<String>,
+    /// Every `add`, with its relation, for the checks that need all concepts.
+    pub related_adds: Vec<super::relations::RelatedAdd>,
 }
 
 /// Lower the gathered items. `entry` is the file whose `domain` line names the domain.
@@ -82,9 +84,7 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
     for (_, item) in items {
         match &item.kind {
             ItemKind::World { attrs } => c.lower_world(attrs),
-            ItemKind::Relation { name, text } => {
-                c.d.relations.push(RelationDef { name: name.name.clone(), text: text.value.clone(), span: item.span })
-            }
+            ItemKind::Relation { name, text, placements } => c.lower_relation(item, name, text, placements.as_deref()),
             _ => {}
         }
     }
@@ -99,6 +99,7 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
     c.lower_looks(items);
     c.lower_stage(items);
     c.lower_concepts(items);
+    c.check_relations();
     c.lower_constraints(items);
     c.lower_questions(items);
     c.lower_rules(entry, items);
@@ -150,6 +151,7 @@ impl<'a> Checker<'a> {
             tag_progress: Vec::new(),
             look_spans: Vec::new(),
             entity_names: Vec::new(),
+            related_adds: Vec::new(),
         }
     }
 
@@ -216,6 +218,7 @@ impl<'a> Checker<'a> {
                             tags: Vec::new(),
                             attrs: Vec::new(),
                             shape: Vec::new(),
+                            regions: Vec::new(),
                             span: item.span,
                         });
                         self.kind_items.push(item);

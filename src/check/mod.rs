@@ -10,6 +10,7 @@ mod concepts;
 mod expr;
 mod lower;
 mod names;
+mod relations;
 mod rules;
 mod scene;
 mod shapes;

@@ -101,6 +101,18 @@ impl Checker<'_> {
             if !seen.declare(p, (), |_| "a parameter of this preset", &mut self.diags) {
                 continue;
             }
+            if !ENVIRONMENT_PARAMS.iter().any(|(k, _)| *k == p.name) {
+                let known = ENVIRONMENT_PARAMS.iter().map(|(k, _)| *k);
+                let d =
+                    Diagnostic::error(codes::UNKNOWN_ATTR, p.span, format!("unknown preset parameter `{}`", p.name))
+                        .with_label("no renderer or emitter reads this parameter");
+                let d = match crate::diag::suggest::suggest(&p.name, known.clone()) {
+                    Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                    None => d.with_help(format!("the parameters are: {}", known.collect::<Vec<_>>().join(", "))),
+                };
+                self.error(d);
+                continue;
+            }
             let value = match &n.unit {
                 None => Some(n.value),
                 Some(u) => self.units.get(&u.name).map(|i| i.scale * n.value),

@@ -88,7 +88,9 @@ impl Checker<'_> {
 
     fn lower_kind(&mut self, k: KindId) {
         let item = self.kind_items[k.index()];
-        let ItemKind::Kind { name, parents, attrs, .. } = &item.kind else { unreachable!("kind items are kinds") };
+        let ItemKind::Kind { name, parents, attrs, stands_in, .. } = &item.kind else {
+            unreachable!("kind items are kinds")
+        };
         match self.kind_progress[k.index()] {
             Progress::Done => return,
             Progress::Doing => {
@@ -104,6 +106,8 @@ impl Checker<'_> {
         self.kind_progress[k.index()] = Progress::Doing;
         let mut tags: Vec<TagId> = Vec::new();
         let mut inherited: Vec<AttrDef> = Vec::new();
+        // Regions a parent kind restricts its entities to; a child stays inside every such list.
+        let mut parent_regions: Option<Vec<RegionId>> = None;
         for p in parents {
             match self.resolve_type(p, "kind or tag") {
                 Some(TypeSym::Tag(t)) => {
@@ -114,6 +118,13 @@ impl Checker<'_> {
                 Some(TypeSym::Kind(pk)) => {
                     self.lower_kind(pk);
                     self.kind_parents[k.index()].push(pk);
+                    let theirs = self.d.kinds[pk.index()].regions.clone();
+                    if !theirs.is_empty() {
+                        parent_regions = Some(match parent_regions {
+                            None => theirs,
+                            Some(mine) => mine.into_iter().filter(|r| theirs.contains(r)).collect(),
+                        });
+                    }
                     for a in self.d.kinds[pk.index()].tags.clone() {
                         push_unique(&mut tags, a);
                     }
@@ -131,6 +142,7 @@ impl Checker<'_> {
                 None => {}
             }
         }
+        let regions = self.lower_stands_in(stands_in).or(parent_regions).unwrap_or_default();
         let own = self.lower_attrs(attrs);
         for a in own {
             match inherited.iter().position(|x| x.name == a.name) {
@@ -141,7 +153,29 @@ impl Checker<'_> {
         let kind = &mut self.d.kinds[k.index()];
         kind.tags = tags;
         kind.attrs = inherited;
+        kind.regions = regions;
         self.kind_progress[k.index()] = Progress::Done;
+    }
+
+    /// `in REGION, …` statements of a kind (`None` when it has none); unknown regions are
+    /// reported, and a second statement is a duplicate.
+    fn lower_stands_in(&mut self, lists: &[Vec<Ident>]) -> Option<Vec<RegionId>> {
+        let first = lists.first()?;
+        if let Some(second) = lists.get(1).and_then(|l| l.first()) {
+            let prev = first.first().map_or(second.span, |i| i.span);
+            self.error(super::lower::duplicate_statement("in", second.span, prev));
+        }
+        let mut out = Vec::new();
+        for r in first {
+            match self.regions.get(&r.name) {
+                Some(id) => push_unique(&mut out, *id),
+                None => {
+                    let d = unknown("region", r, self.regions.names());
+                    self.error(d);
+                }
+            }
+        }
+        Some(out)
     }
 
     /// The kind and every kind that descends from it.

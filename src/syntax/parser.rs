@@ -212,6 +212,7 @@ fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_material => "material",
         kw_yaw => "yaw",
         kw_roll => "roll",
+        kw_pitch => "pitch",
         kw_repeat => "repeat",
         kw_step => "step",
         kw_in => "in",
@@ -303,7 +304,9 @@ impl<'t> Builder<'t> {
             }
             Rule::relation_item => {
                 let name = self.ident(c.next());
-                ItemKind::Relation { name, text: self.string(c.next()) }
+                let text = self.string(c.next());
+                let placements = c.next_if(Rule::placements).map(|b| self.placements(b));
+                ItemKind::Relation { name, text, placements }
             }
             Rule::kind_item => self.kind_item(c),
             Rule::look_item => {
@@ -355,14 +358,35 @@ impl<'t> Builder<'t> {
         let parents = c.next_if(Rule::parents).map(|p| self.idents(Children::of(p))).unwrap_or_default();
         let mut attrs = Vec::new();
         let mut shapes = Vec::new();
+        let mut stands_in = Vec::new();
         for p in c.rest() {
             match p.as_rule() {
                 Rule::shape_block => shapes.push(self.parts(Children::of(p).next())),
                 Rule::attr_decl => attrs.push(self.attr_decl(p)),
+                Rule::stands_in => stands_in.push(self.idents(Children::of(p))),
                 _ => self.junk(p),
             }
         }
-        ItemKind::Kind { name, parents, attrs, shapes }
+        ItemKind::Kind { name, parents, attrs, shapes, stands_in }
+    }
+
+    fn placements(&mut self, p: Pair<Rule>) -> Vec<Placement> {
+        let mut out = Vec::new();
+        for w in Children::of(p).rest() {
+            if w.as_rule() != Rule::placement {
+                self.junk(w);
+                continue;
+            }
+            let span = self.span(&w);
+            let mut c = Children::of(w);
+            let word = self.ident(c.next());
+            let range = c.next_if(Rule::number).map(|lo| {
+                let lo = self.number(lo);
+                (lo, self.number(c.next()))
+            });
+            out.push(Placement { word, range, span });
+        }
+        out
     }
 
     fn attr_list(&mut self, c: Children) -> Vec<AttrDecl> {
@@ -659,6 +683,7 @@ impl<'t> Builder<'t> {
             Some(Rule::kw_material) => PartProp::Material(self.ident(c.next())),
             Some(Rule::kw_yaw) => PartProp::Yaw(self.number(c.next())),
             Some(Rule::kw_roll) => PartProp::Roll(self.number(c.next())),
+            Some(Rule::kw_pitch) => PartProp::Pitch(self.number(c.next())),
             _ => PartProp::When(self.expr(c.next()), span),
         }
     }
@@ -700,10 +725,20 @@ impl<'t> Builder<'t> {
                 let var = self.ident(c.next());
                 ExprKind::In { var, region: self.ident(c.next()) }
             }
+            Rule::related_expr => {
+                let var = self.ident(c.next());
+                let relation = self.ident(c.next());
+                ExprKind::Related { var, relation, to: self.ident(c.next()) }
+            }
             _ => {
                 let path = self.path(c.next());
                 let op = cmp_op(c.next().as_str());
-                ExprKind::Cmp { path, op, value: self.value(c.next()) }
+                let rhs = c.next();
+                if rhs.as_rule() == Rule::attr_ref {
+                    ExprKind::CmpAttrs { left: path, op, right: self.path(rhs) }
+                } else {
+                    ExprKind::Cmp { path, op, value: self.value(rhs) }
+                }
             }
         };
         Expr { kind, span }
@@ -821,6 +856,10 @@ impl<'t> Builder<'t> {
                 None => (None, "an item"),
             },
             Rule::attrs_junk if self.text[start..].starts_with("shape") => (Some(Rule::shape_block), "an attribute"),
+            Rule::attrs_junk if self.text[start..].starts_with("in") && !is_word_char(&self.text[start + 2..]) => {
+                (Some(Rule::stands_in), "regions `in REGION, …`")
+            }
+            Rule::placement_junk => (Some(Rule::placement), "a placement (`distance`, `ahead`, `left`, `on_top`)"),
             Rule::attrs_junk => (Some(Rule::attr_decl), "an attribute `NAME: TYPE = DEFAULT`"),
             Rule::parts_junk => {
                 (Some(Rule::shape_part), "a shape part (`box`, `cylinder`, `capsule`, `sphere`, `plane`, `cone`)")
@@ -991,7 +1030,11 @@ fn describe_rule(r: Rule) -> Option<String> {
             | Rule::exists_expr
             | Rule::count_expr
             | Rule::in_expr
+            | Rule::related_expr
             | Rule::cmp_expr => "an expression",
+            Rule::attr_ref => "an attribute `VAR.ATTR`",
+            Rule::placement => "a placement",
+            Rule::stands_in => "regions `in REGION, …`",
             Rule::attr_decl => "an attribute",
             Rule::attr_values => "`{`",
             Rule::relation_to => "a relation",
@@ -1069,6 +1112,11 @@ fn span_text(text: &str, s: Span) -> &str {
 }
 
 /// Skip whitespace and `//` comments from `pos`.
+/// Whether `rest` starts with a character that continues a word.
+fn is_word_char(rest: &str) -> bool {
+    rest.starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_')
+}
+
 fn skip_trivia(text: &str, mut pos: usize) -> usize {
     loop {
         let rest = &text[pos..];
