@@ -10,11 +10,13 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::ir::ConceptSet;
 use crate::ir::Domain;
 use crate::journal::domain_hash;
 use crate::lattice::Lattice;
 use crate::run::eval::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
+use crate::search::interact::{Supersets, Surrogate};
 use crate::search::metrics::mean_sd;
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
@@ -58,6 +60,15 @@ pub struct SearchBenchArgs {
     pub beam_width: usize,
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
+    /// Algorithms to run, comma-separated [default: all]
+    #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
+    pub algos: Vec<Algo>,
+    /// Interact: the surrogate (horseshoe, ridge, linear)
+    #[arg(long, default_value = "horseshoe")]
+    pub surrogate: Surrogate,
+    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
+    #[arg(long, default_value = "fallback")]
+    pub supersets: Supersets,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -91,8 +102,14 @@ pub struct AlgoResult {
     pub pfm: Stat,
     pub mfr: Stat,
     pub div: Stat,
-    /// Fraction of planted modes (error ≥ τ) recovered.
+    /// Share of planted modes (error ≥ τ) that some reported core with observed FR ≥ τ contains.
     pub recovered: Stat,
+    /// Share of planted modes reported exactly as a core.
+    pub exact: Stat,
+    /// Share of reported cores whose true error under the profile is ≥ τ.
+    pub precision: Stat,
+    /// Number of distinct cores reported.
+    pub cores: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
 }
@@ -123,6 +140,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         lambda: args.lambda,
         beam_width: args.beam_width,
         beam_budget: args.budget / 2,
+        surrogate: args.surrogate,
+        supersets: args.supersets,
         ..Params::default()
     };
     if let Err(e) = base.validate() {
@@ -134,15 +153,17 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let (space, _) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     let tmp = std::env::temp_dir().join(format!("revelio-bench-{}", std::process::id()));
     let planted: Vec<_> = profile.modes.iter().filter(|m| m.error >= args.threshold).map(|m| m.concepts).collect();
+    let truth = profile.clone();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     let mut results = Vec::new();
-    for algo in Algo::ALL {
-        let mut rows: Vec<[Option<f64>; 5]> = Vec::new();
+    let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
+    for algo in algos {
+        let mut rows: Vec<[Option<f64>; 8]> = Vec::new();
         for seed in 0..args.seeds {
             let params = Params { algo, seed, ..base.clone() };
             let out = tmp.join(format!("{}-{seed}", algo.name()));
-            match bench_one(&args, &domain, &world, &model, &space, params, out, &planted) {
+            match bench_one(&args, &domain, &world, &model, &space, params, out, &planted, &truth) {
                 Ok(r) => rows.push(r),
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -158,7 +179,10 @@ fn search(args: SearchBenchArgs) -> ExitCode {
             mfr: col(1),
             div: col(2),
             recovered: col(3),
-            us_per_inference: col(4),
+            exact: col(4),
+            precision: col(5),
+            cores: col(6),
+            us_per_inference: col(7),
         });
     }
     let _ = std::fs::remove_dir_all(&tmp);
@@ -186,8 +210,9 @@ fn bench_one(
     space: &Space,
     params: Params,
     out: PathBuf,
-    planted: &[crate::ir::ConceptSet],
-) -> Result<[Option<f64>; 5], String> {
+    planted: &[ConceptSet],
+    truth: &Profile,
+) -> Result<[Option<f64>; 8], String> {
     let config = RunConfig {
         domain_file: absolute(&args.domain),
         domain: domain.name.clone(),
@@ -210,22 +235,51 @@ fn bench_one(
     let r = runtime().block_on(runner::search(&setup, &config, space))?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
-    let rec = recovered(&r.history, planted, args.threshold);
+    let cores = reported_cores(&r.history, space, args.threshold);
+    let q = quality(&cores, planted, truth, args.threshold);
     let us = 1e6 * elapsed.as_secs_f64() / (m.inferences.max(1) as f64);
-    Ok([Some(m.pfm), Some(m.mfr), m.div, rec, Some(us)])
+    Ok([Some(m.pfm), Some(m.mfr), m.div, q.recovered, q.exact, q.precision, Some(cores.len() as f64), Some(us)])
 }
 
-/// Fraction of planted modes contained in some evaluated set with observed FR ≥ τ (`None` when
-/// the profile plants none at or above τ).
-pub fn recovered(history: &[SetStats], planted: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
-    if planted.is_empty() {
-        return None;
-    }
-    let found = planted
+/// The cores a run reports: evaluated sets with FR ≥ τ whose every valid one-smaller subset was
+/// evaluated and has FR < τ.
+pub fn reported_cores<'h>(history: &'h [SetStats], space: &Space, threshold: f64) -> Vec<&'h SetStats> {
+    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
+    history
         .iter()
-        .filter(|p| history.iter().any(|s| s.is_failure_mode(threshold) && p.is_subset_of(s.set)))
-        .count();
-    Some(found as f64 / planted.len() as f64)
+        .filter(|s| s.is_failure_mode(threshold))
+        .filter(|s| {
+            s.set
+                .iter()
+                .map(|c| s.set.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
+        })
+        .collect()
+}
+
+/// How well reported cores match the planted modes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quality {
+    /// Share of planted modes that some core with observed FR ≥ τ contains (`None`: none planted).
+    pub recovered: Option<f64>,
+    /// Share of planted modes reported exactly as a core.
+    pub exact: Option<f64>,
+    /// Share of cores whose true error is ≥ τ (`None`: no cores).
+    pub precision: Option<f64>,
+}
+
+pub fn quality(cores: &[&SetStats], planted: &[ConceptSet], truth: &Profile, threshold: f64) -> Quality {
+    let share = |k: usize, n: usize| (n > 0).then(|| k as f64 / n as f64);
+    let recovered =
+        planted.iter().filter(|p| cores.iter().any(|c| c.is_failure_mode(threshold) && p.is_subset_of(c.set))).count();
+    let exact = planted.iter().filter(|p| cores.iter().any(|c| c.set == **p)).count();
+    let true_cores = cores.iter().filter(|c| truth.error_for(c.set) >= threshold).count();
+    Quality {
+        recovered: share(recovered, planted.len()),
+        exact: share(exact, planted.len()),
+        precision: share(true_cores, cores.len()),
+    }
 }
 
 fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], planted: usize) -> std::io::Result<()> {
@@ -240,10 +294,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         args.beam_width,
         args.profile.display()
     )?;
+    writeln!(w, "planted failure modes (error ≥ τ): {planted}")?;
     writeln!(
         w,
-        "{:<7} {:>15} {:>15} {:>13} {:>15} {:>14}",
-        "algo", "PFM %", "MFR %", "Div", "planted found", "µs/inference"
+        "{:<9} {:>12} {:>12} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
+        "algo", "PFM %", "MFR %", "Div", "recovered", "exact", "precision", "cores", "µs/inf"
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
         if s.n == 0 { "-".to_string() } else { format!("{:.*} ± {:.*}", digits, s.mean * scale, digits, s.sd * scale) }
@@ -251,23 +306,26 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     for r in results {
         writeln!(
             w,
-            "{:<7} {:>15} {:>15} {:>13} {:>15} {:>14}",
+            "{:<9} {:>12} {:>12} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
             r.algo.name(),
             f(&r.pfm, 1.0, 1),
             f(&r.mfr, 1.0, 1),
             f(&r.div, 1.0, 2),
-            if planted == 0 { "-".into() } else { f(&r.recovered, 100.0, 0) + "%" },
-            f(&r.us_per_inference, 1.0, 0)
+            f(&r.recovered, 1.0, 2),
+            f(&r.exact, 1.0, 2),
+            f(&r.precision, 1.0, 2),
+            f(&r.cores, 1.0, 1),
+            format!("{:.0}", r.us_per_inference.mean),
         )?;
     }
-    let pfm = |a: Algo| results.iter().find(|r| r.algo == a).map_or(0.0, |r| r.pfm.mean);
-    if pfm(Algo::Random) > 0.0 {
-        writeln!(
-            w,
-            "PFM vs random: beam {:.1}×, gpts {:.1}×",
-            pfm(Algo::Beam) / pfm(Algo::Random),
-            pfm(Algo::Gpts) / pfm(Algo::Random)
-        )?;
+    let pfm = |a: Algo| results.iter().find(|r| r.algo == a).map(|r| r.pfm.mean);
+    if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
+        let ratios: Vec<String> = results
+            .iter()
+            .filter(|r| r.algo != Algo::Random)
+            .map(|r| format!("{} {:.1}×", r.algo.name(), r.pfm.mean / random))
+            .collect();
+        writeln!(w, "PFM vs random: {}", ratios.join(", "))?;
     }
     Ok(())
 }

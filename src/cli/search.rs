@@ -117,6 +117,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
         batch: args.batch,
         seed: args.seed,
         max_size: args.max_size,
+        ..Params::default()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");

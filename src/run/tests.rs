@@ -56,7 +56,7 @@ fn journal_lines(dir: &std::path::Path) -> Vec<String> {
 #[test]
 fn same_seed_same_journal_and_summary() {
     let dir = tempfile::tempdir().unwrap();
-    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
+    for algo in Algo::ALL {
         let (a, b) = (dir.path().join(format!("{algo:?}a")), dir.path().join(format!("{algo:?}b")));
         let (sa, space) = setup(&a, 8);
         let ra = block_on(runner::search(&sa, &config(&sa, algo), &space)).unwrap();
@@ -70,13 +70,13 @@ fn same_seed_same_journal_and_summary() {
     }
 }
 
-#[test]
-fn resume_after_a_crash_at_any_point_gives_the_same_summary() {
+/// A run killed at any byte of its journal resumes to the uninterrupted run's summary.
+fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
     use rand::{RngExt, SeedableRng};
     let dir = tempfile::tempdir().unwrap();
     let full = dir.path().join("full");
     let (s, space) = setup(&full, 8);
-    let cfg = config(&s, Algo::Gpts);
+    let cfg = config(&s, algo);
     let reference = block_on(runner::search(&s, &cfg, &space)).unwrap().summary;
     let journal = std::fs::read(full.join("journal.jsonl")).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -95,6 +95,16 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary() {
         assert_eq!(r.dropped_torn_line, cut > 0 && journal[cut - 1] != b'\n');
         assert_eq!(journal_lines(&run), journal_lines(&full));
     }
+}
+
+#[test]
+fn gpts_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts);
+}
+
+#[test]
+fn interact_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact);
 }
 
 #[test]
