@@ -1,8 +1,14 @@
-//! `revelio bench search --profile P --seeds K --budget N [--domain FILE]`: Random, Beam and
-//! GPTS over K seeds against a sim profile (no renderer), reporting mean ± sd of PFM, MFR, Div,
-//! the fraction of the profile's planted failure modes recovered, and Revelio's own time per
-//! inference. `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
-//! latencies (see `src/lsp/bench.rs`).
+//! `revelio bench search --profile P --seeds K --budget N [--domain FILE] [--max-samples M]
+//! [--shrink B]`: Random, Beam and GPTS over K seeds against a sim profile (no renderer),
+//! reporting the mean and 95 % interval over seeds of PFM, MFR, Div, the failure modes reported
+//! and how many of them are false (true error under the profile below τ), their precision, the
+//! fraction of the profile's planted failure modes recovered, and Revelio's own time per
+//! inference. With `--max-samples` every algorithm runs twice at the same budget: with the
+//! paper's fixed m and with sequential sampling up to M. With `--shrink` every run shrinks its
+//! failure modes to cores. Every run reports its cores — the shrink phase's, or without one the
+//! evaluated failure modes whose every valid one-smaller subset was evaluated and passes (what
+//! `--algo interact` confirms as it searches) — with their precision, the share of planted modes
+//! some core holds (recovered) and the share reported exactly as a core (exact).
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -18,6 +24,7 @@ use crate::lattice::Lattice;
 use crate::run::eval::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
 use crate::search::interact::{Supersets, Surrogate};
+use crate::search::interval::mean_ci95;
 use crate::search::metrics::mean_sd;
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
@@ -35,19 +42,6 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
     Search(SearchBenchArgs),
-    /// How long an editor waits for diagnostics from `revelio lsp` (front end per edit, lattice
-    /// lints per save)
-    Lsp(LspBenchArgs),
-}
-
-#[derive(clap::Args, Debug)]
-pub struct LspBenchArgs {
-    /// The domain file to edit
-    #[arg(long, default_value = "domains/driving.rev")]
-    pub domain: PathBuf,
-    /// Edits (each followed by a save)
-    #[arg(long, default_value_t = 20)]
-    pub rounds: usize,
 }
 
 #[derive(clap::Args, Debug)]
@@ -65,6 +59,13 @@ pub struct SearchBenchArgs {
     pub budget: u64,
     #[arg(long, default_value_t = 5)]
     pub samples: u32,
+    /// Also run every algorithm with sequential sampling up to M observations per set, at the
+    /// same budget
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
+    /// Shrink each run's failure modes to cores with this many extra inferences (0: off)
+    #[arg(long, value_name = "B", default_value_t = 0)]
+    pub shrink: u64,
     #[arg(long, default_value_t = 0.6)]
     pub threshold: f64,
     /// Beam diversity weight λ (beam and the beam phase of GPTS)
@@ -91,64 +92,71 @@ pub struct SearchBenchArgs {
 pub fn run(args: BenchArgs) -> ExitCode {
     match args.what {
         BenchWhat::Search(a) => search(a),
-        BenchWhat::Lsp(a) => lsp(a),
     }
 }
 
-fn lsp(args: LspBenchArgs) -> ExitCode {
-    let l = match crate::lsp::bench::measure(&args.domain, args.rounds) {
-        Ok(l) => l,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(1);
-        }
-    };
-    let ms = |d: std::time::Duration| d.as_secs_f64() * 1000.0;
-    let (fe, fe90) = crate::lsp::bench::summary(&l.front_end);
-    let (li, li90) = crate::lsp::bench::summary(&l.lints_on_save);
-    println!("revelio lsp on {} ({} edits)", args.domain.display(), l.front_end.len());
-    println!("  diagnostics after an edit (front end):   median {:7.1} ms, p90 {:7.1} ms", ms(fe), ms(fe90));
-    println!("  lattice lints after a save:              median {:7.1} ms, p90 {:7.1} ms", ms(li), ms(li90));
-    println!(
-        "  lattice lints after an edit (debounced): median {:7.1} ms ({} ms quiet, then the lints)",
-        ms(l.debounce + li),
-        l.debounce.as_millis()
-    );
-    ExitCode::SUCCESS
-}
-
-/// Mean and sample sd of one metric over seeds.
+/// Mean, sample sd and 95 % interval of the mean (Student's t) of one metric over seeds.
 #[derive(Debug, Serialize)]
 pub struct Stat {
     pub mean: f64,
     pub sd: f64,
-    /// Seeds the metric was defined for (Div needs two failure modes).
+    pub ci95: [f64; 2],
+    /// Seeds the metric was defined for (Div needs two failure modes, precision one).
     pub n: usize,
 }
 
 impl Stat {
-    fn of(xs: &[f64]) -> Stat {
+    /// The t interval, clipped to the metric's range `[lo, hi]` (a share cannot exceed 100 %
+    /// however few the seeds).
+    fn of(xs: &[f64], [lo, hi]: [f64; 2]) -> Stat {
         let (mean, sd) = mean_sd(xs);
-        Stat { mean, sd, n: xs.len() }
+        let ci95 = mean_ci95(xs).map_or([0.0, 0.0], |(_, ci)| [ci[0].max(lo), ci[1].min(hi)]);
+        Stat { mean, sd, ci95, n: xs.len() }
     }
 }
 
 #[derive(Debug, Serialize)]
 pub struct AlgoResult {
     pub algo: Algo,
+    /// Most observations per set: `samples` for the paper's fixed count.
+    pub max_samples: u32,
     pub pfm: Stat,
     pub mfr: Stat,
     pub div: Stat,
-    /// Share of planted modes (error ≥ τ) that some reported core with observed FR ≥ τ contains.
+    /// Failure modes reported per run.
+    pub failure_modes: Stat,
+    /// Of them, how many have a true error (under the profile) below τ.
+    pub false_modes: Stat,
+    /// Share of reported failure modes whose true error is ≥ τ.
+    pub precision: Stat,
+    /// Fraction of planted modes (error ≥ τ) recovered.
     pub recovered: Stat,
+    /// Cores per run (the shrink phase's, or without one the failure modes whose every valid
+    /// one-smaller subset was evaluated and passes) and the share whose true error is ≥ τ.
+    pub cores: Stat,
+    pub core_precision: Stat,
+    /// Share of planted modes that some core with observed FR ≥ τ contains.
+    pub core_recovered: Stat,
     /// Share of planted modes reported exactly as a core.
     pub exact: Stat,
-    /// Share of reported cores whose true error under the profile is ≥ τ.
-    pub precision: Stat,
-    /// Number of distinct cores reported.
-    pub cores: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
+}
+
+/// One run's figures (`None`: undefined for this run).
+struct RunFigures {
+    pfm: f64,
+    mfr: f64,
+    div: Option<f64>,
+    failure_modes: f64,
+    false_modes: f64,
+    precision: Option<f64>,
+    recovered: Option<f64>,
+    cores: f64,
+    core_precision: Option<f64>,
+    core_recovered: Option<f64>,
+    exact: Option<f64>,
+    us: f64,
 }
 
 fn search(args: SearchBenchArgs) -> ExitCode {
@@ -177,13 +185,19 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         lambda: args.lambda,
         beam_width: args.beam_width,
         beam_budget: args.budget / 2,
+        shrink: args.shrink,
         surrogate: args.surrogate,
         supersets: args.supersets,
         ..Params::default()
     };
-    if let Err(e) = base.validate() {
+    let sequential = Params { max_samples: args.max_samples, ..base.clone() };
+    if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
         eprintln!("error: {e}");
         return ExitCode::from(2);
+    }
+    let mut modes = vec![base.clone()];
+    if args.max_samples.is_some_and(|m| m > args.samples) {
+        modes.push(sequential);
     }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = Lattice::enumerate(&domain, base.max_size);
@@ -196,31 +210,41 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let mut results = Vec::new();
     let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
     for algo in algos {
-        let mut rows: Vec<[Option<f64>; 8]> = Vec::new();
-        for seed in 0..args.seeds {
-            let params = Params { algo, seed, ..base.clone() };
-            let out = tmp.join(format!("{}-{seed}", algo.name()));
-            match bench_one(&args, &domain, &world, &model, &space, params, out, &planted, &truth) {
-                Ok(r) => rows.push(r),
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    let _ = std::fs::remove_dir_all(&tmp);
-                    return ExitCode::from(1);
+        for mode in &modes {
+            let mut rows: Vec<RunFigures> = Vec::new();
+            for seed in 0..args.seeds {
+                let params = Params { algo, seed, ..mode.clone() };
+                let out = tmp.join(format!("{}-{}-{seed}", algo.name(), params.rule().max_samples));
+                match bench_one(&args, &domain, &world, &model, &space, params, out, &planted, &truth) {
+                    Ok(r) => rows.push(r),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        let _ = std::fs::remove_dir_all(&tmp);
+                        return ExitCode::from(1);
+                    }
                 }
             }
+            let col = |f: &dyn Fn(&RunFigures) -> Option<f64>, range: [f64; 2]| {
+                Stat::of(&rows.iter().filter_map(f).collect::<Vec<_>>(), range)
+            };
+            let (percent, share, count) = ([0.0, 100.0], [0.0, 1.0], [0.0, f64::INFINITY]);
+            results.push(AlgoResult {
+                algo,
+                max_samples: mode.rule().max_samples,
+                pfm: col(&|r| Some(r.pfm), percent),
+                mfr: col(&|r| Some(r.mfr), percent),
+                div: col(&|r| r.div, share),
+                failure_modes: col(&|r| Some(r.failure_modes), count),
+                false_modes: col(&|r| Some(r.false_modes), count),
+                precision: col(&|r| r.precision, share),
+                recovered: col(&|r| r.recovered, share),
+                cores: col(&|r| Some(r.cores), count),
+                core_precision: col(&|r| r.core_precision, share),
+                core_recovered: col(&|r| r.core_recovered, share),
+                exact: col(&|r| r.exact, share),
+                us_per_inference: col(&|r| Some(r.us), count),
+            });
         }
-        let col = |i: usize| Stat::of(&rows.iter().filter_map(|r| r[i]).collect::<Vec<_>>());
-        results.push(AlgoResult {
-            algo,
-            pfm: col(0),
-            mfr: col(1),
-            div: col(2),
-            recovered: col(3),
-            exact: col(4),
-            precision: col(5),
-            cores: col(6),
-            us_per_inference: col(7),
-        });
     }
     let _ = std::fs::remove_dir_all(&tmp);
     let mut w = std::io::stdout().lock();
@@ -247,9 +271,9 @@ fn bench_one(
     space: &Space,
     params: Params,
     out: PathBuf,
-    planted: &[ConceptSet],
+    planted: &[crate::ir::ConceptSet],
     truth: &Profile,
-) -> Result<[Option<f64>; 8], String> {
+) -> Result<RunFigures, String> {
     let config = RunConfig {
         domain_file: absolute(&args.domain),
         domain: domain.name.clone(),
@@ -272,15 +296,44 @@ fn bench_one(
     let r = runtime().block_on(runner::search(&setup, &config, space))?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
-    let cores = reported_cores(&r.history, space, args.threshold);
-    let q = quality(&cores, planted, truth, args.threshold);
-    let us = 1e6 * elapsed.as_secs_f64() / (m.inferences.max(1) as f64);
-    Ok([Some(m.pfm), Some(m.mfr), m.div, q.recovered, q.exact, q.precision, Some(cores.len() as f64), Some(us)])
+    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.threshold)).map(|s| s.set).collect();
+    let cores: Vec<_> = if r.summary.shrink.is_some() {
+        r.found.cores.iter().map(|c| c.stats.set).collect()
+    } else {
+        reported_cores(&r.history, space, args.threshold)
+    };
+    let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
+    let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
+    Ok(RunFigures {
+        pfm: m.pfm,
+        mfr: m.mfr,
+        div: m.div,
+        failure_modes: modes.len() as f64,
+        false_modes: (modes.len() - true_modes(truth, &modes, args.threshold)) as f64,
+        precision: precision(truth, &modes, args.threshold),
+        recovered: recovered(&r.history, planted, args.threshold),
+        cores: cores.len() as f64,
+        core_precision: precision(truth, &cores, args.threshold),
+        // Every core failed when it was confirmed (the shrink keeps failing subsets only).
+        core_recovered: share(planted.iter().filter(|p| cores.iter().any(|c| p.is_subset_of(*c))).count()),
+        exact: share(planted.iter().filter(|p| cores.contains(p)).count()),
+        us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
+    })
 }
 
-/// The cores a run reports: evaluated sets with FR ≥ τ whose every valid one-smaller subset was
-/// evaluated and has FR < τ.
-pub fn reported_cores<'h>(history: &'h [SetStats], space: &Space, threshold: f64) -> Vec<&'h SetStats> {
+/// How many of `sets` truly fail: their error under the profile is ≥ τ.
+pub fn true_modes(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> usize {
+    sets.iter().filter(|s| truth.error_for(**s) >= threshold).count()
+}
+
+/// The share of `sets` that truly fail (`None` for no sets).
+pub fn precision(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
+    (!sets.is_empty()).then(|| true_modes(truth, sets, threshold) as f64 / sets.len() as f64)
+}
+
+/// The cores a run without a shrink phase reports: evaluated failure modes whose every valid
+/// one-smaller subset was evaluated and passes.
+pub fn reported_cores(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
     let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
     history
         .iter()
@@ -292,37 +345,29 @@ pub fn reported_cores<'h>(history: &'h [SetStats], space: &Space, threshold: f64
                 .filter(|sub| !sub.is_empty() && space.contains(*sub))
                 .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
         })
+        .map(|s| s.set)
         .collect()
 }
 
-/// How well reported cores match the planted modes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Quality {
-    /// Share of planted modes that some core with observed FR ≥ τ contains (`None`: none planted).
-    pub recovered: Option<f64>,
-    /// Share of planted modes reported exactly as a core.
-    pub exact: Option<f64>,
-    /// Share of cores whose true error is ≥ τ (`None`: no cores).
-    pub precision: Option<f64>,
-}
-
-pub fn quality(cores: &[&SetStats], planted: &[ConceptSet], truth: &Profile, threshold: f64) -> Quality {
-    let share = |k: usize, n: usize| (n > 0).then(|| k as f64 / n as f64);
-    let recovered =
-        planted.iter().filter(|p| cores.iter().any(|c| c.is_failure_mode(threshold) && p.is_subset_of(c.set))).count();
-    let exact = planted.iter().filter(|p| cores.iter().any(|c| c.set == **p)).count();
-    let true_cores = cores.iter().filter(|c| truth.error_for(c.set) >= threshold).count();
-    Quality {
-        recovered: share(recovered, planted.len()),
-        exact: share(exact, planted.len()),
-        precision: share(true_cores, cores.len()),
+/// Fraction of planted modes contained in some evaluated set with observed FR ≥ τ (`None` when
+/// the profile plants none at or above τ).
+pub fn recovered(history: &[SetStats], planted: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
+    if planted.is_empty() {
+        return None;
     }
+    let found = planted
+        .iter()
+        .filter(|p| history.iter().any(|s| s.is_failure_mode(threshold) && p.is_subset_of(s.set)))
+        .count();
+    Some(found as f64 / planted.len() as f64)
 }
 
 fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], planted: usize) -> std::io::Result<()> {
+    let seq = args.max_samples.map_or_else(String::new, |m| format!(", sequential up to M = {m}"));
+    let shrink = if args.shrink > 0 { format!(", shrink {}", args.shrink) } else { String::new() };
     writeln!(
         w,
-        "{} seeds × budget {} (m = {}, τ = {}, λ = {}, w = {}) against `{}`, renderer none",
+        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
         args.seeds,
         args.budget,
         args.samples,
@@ -331,38 +376,67 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         args.beam_width,
         args.profile.display()
     )?;
-    writeln!(w, "planted failure modes (error ≥ τ): {planted}")?;
     writeln!(
         w,
-        "{:<9} {:>12} {:>12} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
-        "algo", "PFM %", "MFR %", "Div", "recovered", "exact", "precision", "cores", "µs/inf"
+        "mean [95% interval over seeds]; FMs: failure modes reported, false: true error < τ, precision: share ≥ τ; \
+         planted found: held by a failure mode; recovered: held by a core; exact: reported as a core"
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
-        if s.n == 0 { "-".to_string() } else { format!("{:.*} ± {:.*}", digits, s.mean * scale, digits, s.sd * scale) }
+        if s.n == 0 {
+            "-".to_string()
+        } else {
+            format!("{:.*} [{:.*}–{:.*}]", digits, s.mean * scale, digits, s.ci95[0] * scale, digits, s.ci95[1] * scale)
+        }
     };
+    let planted_col = |s: &Stat| if planted == 0 { "-".to_string() } else { f(s, 100.0, 0) };
+    writeln!(
+        w,
+        "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  µs/inference",
+        "algo",
+        "PFM %",
+        "MFR %",
+        "Div",
+        "FMs",
+        "false FMs",
+        "precision %",
+        "planted found %",
+        "cores",
+        "core precision %",
+        "recovered %",
+        "exact %"
+    )?;
     for r in results {
+        let name = if r.max_samples > args.samples {
+            format!("{} ≤{}", r.algo.name(), r.max_samples)
+        } else {
+            r.algo.name().into()
+        };
         writeln!(
             w,
-            "{:<9} {:>12} {:>12} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
-            r.algo.name(),
+            "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
+            name,
             f(&r.pfm, 1.0, 1),
             f(&r.mfr, 1.0, 1),
             f(&r.div, 1.0, 2),
-            f(&r.recovered, 1.0, 2),
-            f(&r.exact, 1.0, 2),
-            f(&r.precision, 1.0, 2),
+            f(&r.failure_modes, 1.0, 1),
+            f(&r.false_modes, 1.0, 1),
+            f(&r.precision, 100.0, 0),
+            planted_col(&r.recovered),
             f(&r.cores, 1.0, 1),
-            format!("{:.0}", r.us_per_inference.mean),
+            f(&r.core_precision, 100.0, 0),
+            planted_col(&r.core_recovered),
+            planted_col(&r.exact),
+            r.us_per_inference.mean
         )?;
     }
-    let pfm = |a: Algo| results.iter().find(|r| r.algo == a).map(|r| r.pfm.mean);
+    let pfm = |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.samples).map(|r| r.pfm.mean);
     if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
-        let ratios: Vec<String> = results
+        let ratios: Vec<String> = Algo::ALL
             .iter()
-            .filter(|r| r.algo != Algo::Random)
-            .map(|r| format!("{} {:.1}×", r.algo.name(), r.pfm.mean / random))
+            .filter(|a| **a != Algo::Random)
+            .filter_map(|a| pfm(*a).map(|p| format!("{} {:.1}×", a.name(), p / random)))
             .collect();
-        writeln!(w, "PFM vs random: {}", ratios.join(", "))?;
+        writeln!(w, "PFM vs random (fixed m): {}", ratios.join(", "))?;
     }
     Ok(())
 }

@@ -10,7 +10,7 @@ use crate::journal::domain_hash;
 use crate::run::eval::{DomainWorld, World};
 use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
 
-use super::search::{ModelFlags, build_parts, runtime};
+use super::search::{ModelFlags, build_parts, fr_ci_text, runtime};
 
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
@@ -22,6 +22,10 @@ pub struct ValidateArgs {
     /// Fresh observations per set
     #[arg(long, default_value_t = 20)]
     pub samples: u32,
+    /// Sequential validation: a set whose 95 % interval still straddles the run's τ gets more
+    /// observations, up to M [default: --samples]
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
     #[command(flatten)]
@@ -77,13 +81,15 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         out: args.run_dir.clone(),
         progress: !args.json,
     };
-    let v = match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples)) {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(1);
-        }
-    };
+    let v =
+        match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples, args.max_samples))
+        {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        };
     let mut out = std::io::stdout().lock();
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
@@ -104,18 +110,28 @@ fn pct(f: Option<f64>) -> String {
 }
 
 pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<()> {
-    writeln!(w, "{:>4}  {:>9}  {:>9}  concepts", "#", "search FR", "valid. FR")?;
+    writeln!(w, "{:>4}  {:>9}  {:<18}  {:>4}  concepts", "#", "search FR", "valid. FR [95% CI]", "n")?;
     for (i, s) in v.sets.iter().enumerate() {
-        let fr = format!("{} /{}", pct(s.validation.fr), s.validation.answered);
-        writeln!(w, "{:>4}  {:>9}  {:>9}  {}", i + 1, pct(s.search.fr), fr, s.search.concepts.join(" + "))?;
+        writeln!(
+            w,
+            "{:>4}  {:>9}  {:<18}  {:>4}  {}",
+            i + 1,
+            pct(s.search.fr),
+            fr_ci_text(s.validation.fr, s.validation.ci95),
+            s.validation.answered,
+            s.search.concepts.join(" + ")
+        )?;
     }
+    let samples = match v.max_samples {
+        Some(max) => format!("{}–{max} samples (sequential)", v.samples),
+        None => format!("{} samples", v.samples),
+    };
     writeln!(
         w,
-        "validated FR {:.1}% ± {:.1}% over {} sets × {} samples; {} of {} reach FR ≥ {:.0}%",
+        "validated FR {:.1}% ± {:.1}% over {} sets × {samples}; {} of {} reach FR ≥ {:.0}%",
         100.0 * v.mean_fr,
         100.0 * v.sd_fr,
         v.sets.len(),
-        v.samples,
         v.consistent,
         v.sets.len(),
         100.0 * CONSISTENT_FR
@@ -132,10 +148,12 @@ mod tests {
         SetRow {
             concepts: concepts.iter().map(|c| c.to_string()).collect(),
             fr: Some(f64::from(wrong) / f64::from(answered)),
+            ci95: crate::search::interval::wilson(wrong, answered),
             wrong,
             answered,
             observations: answered,
             unanswered: Default::default(),
+            core: None,
         }
     }
 
@@ -144,6 +162,7 @@ mod tests {
         let v = Validation {
             top: 2,
             samples: 20,
+            max_samples: None,
             sets: vec![
                 ValidatedSet {
                     search: row(&["debris_far", "town_town02"], 5, 5),

@@ -32,6 +32,9 @@ pub const SYNC_EVERY: usize = 64;
 pub enum Phase {
     Search,
     Validate,
+    /// Shrinking failure modes to cores after the search (more observations of search sets
+    /// continue their indices; subsets start at 0).
+    Shrink,
 }
 
 /// One observation, as one journal line.

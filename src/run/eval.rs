@@ -1,7 +1,9 @@
-//! The evaluator: concept set → m observations, each: sample a scene → render → ask the model →
-//! compare with the oracle's expected option. Observations of a set, and all sets of a batch, run
-//! concurrently up to `concurrency` (a semaphore); every finished observation is appended to the
-//! journal at once, and observations already in the journal are replayed instead of asked again.
+//! The evaluator: asked observations of concept sets (indices `k..n` of a set, so more
+//! observations of a set continue its earlier ones), each: sample a scene → render → ask the
+//! model → compare with the oracle's expected option. Observations of a set, and all sets of a
+//! batch, run concurrently up to `concurrency` (a semaphore); every finished observation is
+//! appended to the journal at once, and observations already in the journal are replayed instead
+//! of asked again.
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -16,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::outcome::{Answer, Outcome, Usage};
 use crate::vlm::{Model, Query, Truth};
 
-use crate::search::{Evaluate, SetStats};
+use crate::search::{Ask, Evaluate, SetStats};
 
 /// What the model is asked about a set, and the right answer.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +81,7 @@ pub fn observation_seed(run_seed: u64, phase: Phase, set: ConceptSet, obs: u32) 
     let p = match phase {
         Phase::Search => 0x5345_4152_4348,
         Phase::Validate => 0x5641_4c49_4441,
+        Phase::Shrink => 0x5348_5249_4e4b,
     };
     let mut h = mix(run_seed ^ p);
     h = mix(h ^ set.0 as u64);
@@ -103,10 +106,11 @@ pub struct Evaluator {
     semaphore: Arc<Semaphore>,
     replay: HashMap<Key, (Outcome, Usage, bool)>,
     pub phase: Phase,
-    pub samples: u32,
     pub threshold: f64,
     /// Inferences done / failure modes so far (indicatif; hidden when stderr is not a terminal).
     pub progress: indicatif::ProgressBar,
+    /// Every set's observations in this process, by phase, for the failure-mode count.
+    totals: HashMap<(Phase, ConceptSet), SetStats>,
     failure_modes: usize,
     /// Observations served from the journal instead of the model.
     pub replayed: u64,
@@ -156,7 +160,6 @@ pub struct EvaluatorConfig {
     pub renderer: Option<Arc<dyn Renderer>>,
     pub journal: Arc<Journal>,
     pub seed: u64,
-    pub samples: u32,
     pub threshold: f64,
     pub concurrency: usize,
     pub phase: Phase,
@@ -185,18 +188,31 @@ impl Evaluator {
             semaphore: Arc::new(Semaphore::new(c.concurrency.max(1))),
             replay,
             phase: c.phase,
-            samples: c.samples,
             threshold: c.threshold,
             progress: indicatif::ProgressBar::hidden(),
+            totals: HashMap::new(),
             failure_modes: 0,
             replayed: 0,
             spend: Spend::default(),
         })
     }
 
+    /// Count a set's new observations toward the progress bar's failure modes (the shrink phase
+    /// re-tests known ones: not counted).
     fn set_done(&mut self, stats: &SetStats) {
-        if stats.is_failure_mode(self.threshold) {
-            self.failure_modes += 1;
+        if self.phase == Phase::Shrink {
+            return;
+        }
+        let total = self.totals.entry((self.phase, stats.set)).or_insert_with(|| SetStats::new(stats.set));
+        let before = total.is_failure_mode(self.threshold);
+        total.merge(stats);
+        let after = total.is_failure_mode(self.threshold);
+        if before != after {
+            if after {
+                self.failure_modes += 1
+            } else {
+                self.failure_modes -= 1
+            }
             self.show_progress();
         }
     }
@@ -221,13 +237,14 @@ impl Evaluator {
 }
 
 impl Evaluate for Evaluator {
-    async fn evaluate(&mut self, sets: &[ConceptSet]) -> Result<Vec<SetStats>, String> {
-        let mut stats: Vec<SetStats> = sets.iter().map(|s| SetStats::new(*s)).collect();
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+        let mut stats: Vec<SetStats> = asks.iter().map(|a| SetStats::new(a.set)).collect();
         let mut tasks = tokio::task::JoinSet::new();
-        for (i, &set) in sets.iter().enumerate() {
+        for (i, ask) in asks.iter().enumerate() {
+            let set = ask.set;
             let task = Arc::new(self.shared.world.task(set)?);
             let prompt = Arc::new(crate::vlm::prompt::build(&task.question, &task.options));
-            for obs in 0..self.samples {
+            for obs in ask.obs.clone() {
                 if let Some((o, usage, cached)) = self.replay.get(&(self.phase, set, obs)).cloned() {
                     stats[i].add(o);
                     self.replayed += 1;
@@ -241,8 +258,8 @@ impl Evaluate for Evaluator {
                     observe(&shared, phase, set, obs, &task, &prompt).await.map(|o| (i, o))
                 });
             }
-            if stats[i].observations() == self.samples {
-                self.set_done(&stats[i]);
+            if stats[i].observations() == ask.len() {
+                self.set_done(&stats[i].clone());
             }
         }
         let mut first_error = None;
@@ -251,8 +268,8 @@ impl Evaluate for Evaluator {
                 Ok(Ok((i, (outcome, usage, cached)))) => {
                     stats[i].add(outcome);
                     self.spent(&usage, cached);
-                    if stats[i].observations() == self.samples {
-                        self.set_done(&stats[i]);
+                    if stats[i].observations() == asks[i].len() {
+                        self.set_done(&stats[i].clone());
                     }
                 }
                 Ok(Err(e)) => {

@@ -5,6 +5,8 @@
 pub mod eval;
 pub mod runner;
 #[cfg(test)]
+mod shrink_tests;
+#[cfg(test)]
 mod testkit;
 #[cfg(test)]
 mod tests;

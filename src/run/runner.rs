@@ -16,7 +16,8 @@ use crate::vlm::Model;
 
 use super::eval::{Evaluator, EvaluatorConfig, Spend, World, observation_seed};
 use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
-use crate::search::{Params, SetStats, Space};
+use crate::search::shrink::{self, Found};
+use crate::search::{Driver, Params, Rule, SetStats, Space};
 
 /// The resolved configuration of a run (`config.json`): everything that changes its results.
 /// Concurrency is not in it: it changes timing, never answers.
@@ -52,11 +53,21 @@ pub struct SetRow {
     pub concepts: Vec<String>,
     /// Failure rate over answered observations (`None`: nothing answered).
     pub fr: Option<f64>,
+    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
+    #[serde(default = "unit_interval")]
+    pub ci95: [f64; 2],
     pub wrong: u32,
     pub answered: u32,
     pub observations: u32,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub unanswered: BTreeMap<Outcome, u32>,
+    /// For a failure mode: the index in `cores` of the first core it contains.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub core: Option<usize>,
+}
+
+fn unit_interval() -> [f64; 2] {
+    [0.0, 1.0]
 }
 
 impl SetRow {
@@ -64,12 +75,44 @@ impl SetRow {
         SetRow {
             concepts: domain.set_names(s.set).into_iter().map(String::from).collect(),
             fr: s.fr(),
+            ci95: s.ci95(),
             wrong: s.wrong,
             answered: s.answered(),
             observations: s.observations(),
             unanswered: s.unanswered.clone(),
+            core: None,
         }
     }
+}
+
+/// A minimal failure mode: every observation of it (search and shrink phases), how many failure
+/// modes of the search contain it, and what it was shrunk from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CoreRow {
+    #[serde(flatten)]
+    pub set: SetRow,
+    /// Failure modes of the search (`failure_modes`) that contain this core, itself included.
+    pub supersets: usize,
+    /// Whether every one-smaller valid subset was tested and passes (false: the shrink budget
+    /// ran out first).
+    pub minimal: bool,
+    /// The failure mode it was shrunk from.
+    pub shrunk_from: Vec<String>,
+}
+
+/// The shrink phase in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShrinkSummary {
+    /// Inferences it was given (`--shrink`) and spent.
+    pub budget: u64,
+    pub inferences: u64,
+    /// Most observations per set in its sequential test.
+    pub max_samples: u32,
+    /// Subsets it evaluated that the search had not.
+    pub new_sets: usize,
+    /// Failure modes of the search that did not fail when re-tested (with all their
+    /// observations).
+    pub refuted: Vec<SetRow>,
 }
 
 /// `summary.json`: a pure function of the configuration and the observations.
@@ -82,11 +125,19 @@ pub struct Summary {
     /// Valid sets in the search space.
     pub space: usize,
     pub metrics: Metrics,
-    /// Failure modes, highest failure rate first.
+    /// Distinct minimal failure modes from the shrink phase, highest failure rate first (empty
+    /// when shrinking was off).
+    #[serde(default)]
+    pub cores: Vec<CoreRow>,
+    /// Failure modes of the search (its observations only), highest failure rate first.
     pub failure_modes: Vec<SetRow>,
-    /// Every evaluated set, in evaluation order.
+    /// Every set the search evaluated, in evaluation order, with the search's observations.
     pub sets: Vec<SetRow>,
-    /// Tokens and money of the run's observations (its model's usage and configured prices).
+    /// The shrink phase (absent when it was off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shrink: Option<ShrinkSummary>,
+    /// Tokens and money of the run's observations, every phase (its model's usage and
+    /// configured prices).
     #[serde(default)]
     pub spend: Spend,
 }
@@ -94,7 +145,10 @@ pub struct Summary {
 /// What a finished run did in this process.
 pub struct RunReport {
     pub summary: Summary,
+    /// The search's evaluated sets (before the shrink phase).
     pub history: Vec<SetStats>,
+    /// The shrink phase's cores and refuted failure modes (empty when it was off).
+    pub found: Found,
     /// Observations served from the journal (a resumed run).
     pub replayed: u64,
     pub dropped_torn_line: bool,
@@ -122,7 +176,7 @@ fn progress_bar(enabled: bool, len: u64) -> indicatif::ProgressBar {
     bar
 }
 
-/// Run (or resume) a search into `setup.out`.
+/// Run (or resume) a search into `setup.out`, then its shrink phase (`params.shrink` > 0).
 pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, String> {
     let params = &config.params;
     params.validate()?;
@@ -135,22 +189,57 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         renderer: setup.renderer.clone(),
         journal: journal.clone(),
         seed: params.seed,
-        samples: params.samples,
         threshold: params.threshold,
         concurrency: setup.concurrency,
         phase: Phase::Search,
     })?;
-    eval.progress = progress_bar(setup.progress, params.max_sets() as u64 * u64::from(params.samples));
-    let history = crate::search::run(params, space, &mut eval).await;
+    eval.progress = progress_bar(setup.progress, params.budget + params.shrink);
+    let result = search_and_shrink(params, space, &mut eval).await;
     eval.progress.finish_and_clear();
-    let history = history?;
-    let summary = summarize(&setup.domain, config, space.sets.len(), &history, eval.spend.clone());
+    let (history, found, shrink) = result?;
+    let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
+    summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
+        budget: params.shrink,
+        inferences,
+        max_samples: params.shrink_rule().max_samples,
+        new_sets,
+        refuted: found.refuted.iter().map(|s| SetRow::new(&setup.domain, s)).collect(),
+    });
     journal.write_json("summary.json", &summary)?;
-    Ok(RunReport { summary, history, replayed: eval.replayed, dropped_torn_line })
+    Ok(RunReport { summary, history, found, replayed: eval.replayed, dropped_torn_line })
 }
 
-pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[SetStats], spend: Spend) -> Summary {
+/// The search, then the shrink phase: the search's history, the shrink's findings, and (when it
+/// ran) the shrink's inferences and the subsets it evaluated beyond the search.
+async fn search_and_shrink(
+    params: &Params,
+    space: &Space,
+    eval: &mut Evaluator,
+) -> Result<(Vec<SetStats>, Found, Option<(u64, usize)>), String> {
+    let history = crate::search::run(params, space, eval).await?;
+    if params.shrink == 0 {
+        return Ok((history, Found::default(), None));
+    }
+    eval.phase = Phase::Shrink;
+    let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink, history.clone());
+    let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
+    let shrink = (driver.spent(), driver.history.len() - history.len());
+    Ok((history, found, Some(shrink)))
+}
+
+pub fn summarize(
+    domain: &Domain,
+    config: &RunConfig,
+    space: usize,
+    history: &[SetStats],
+    found: &Found,
+    spend: Spend,
+) -> Summary {
     let p = &config.params;
+    let modes: Vec<&SetStats> = ranked(history).into_iter().filter(|s| s.is_failure_mode(p.threshold)).collect();
+    let core_sets: Vec<ConceptSet> = found.cores.iter().map(|c| c.stats.set).collect();
+    let (family, supersets) = shrink::families(&modes.iter().map(|s| s.set).collect::<Vec<_>>(), &core_sets);
+    let names = |set: ConceptSet| domain.set_names(set).into_iter().map(String::from).collect();
     Summary {
         domain: config.domain.clone(),
         model: config.model.clone(),
@@ -158,12 +247,20 @@ pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[S
         threshold: p.threshold,
         space,
         metrics: metrics(history, p.threshold),
-        failure_modes: ranked(history)
-            .into_iter()
-            .filter(|s| s.is_failure_mode(p.threshold))
-            .map(|s| SetRow::new(domain, s))
+        cores: found
+            .cores
+            .iter()
+            .zip(supersets)
+            .map(|(c, supersets)| CoreRow {
+                set: SetRow::new(domain, &c.stats),
+                supersets,
+                minimal: c.minimal,
+                shrunk_from: names(c.root),
+            })
             .collect(),
+        failure_modes: modes.iter().zip(family).map(|(s, core)| SetRow { core, ..SetRow::new(domain, s) }).collect(),
         sets: history.iter().map(|s| SetRow::new(domain, s)).collect(),
+        shrink: None,
         spend,
     }
 }
@@ -173,6 +270,10 @@ pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[S
 pub struct Validation {
     pub top: usize,
     pub samples: u32,
+    /// Sequential validation: the most observations a set could get (absent: exactly
+    /// `samples`). The interval is tested against the run's threshold τ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_samples: Option<u32>,
     pub sets: Vec<ValidatedSet>,
     /// Mean and sample standard deviation of the validated failure rates.
     pub mean_fr: f64,
@@ -222,18 +323,24 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), String> {
     Ok((config, summary))
 }
 
-/// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each,
-/// journaled in the same run folder (so validation resumes too).
+/// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each —
+/// with `max_samples`, sequentially: a set whose interval still straddles the run's τ gets more,
+/// up to `max_samples` — journaled in the same run folder (so validation resumes too).
 pub async fn validate(
     setup: &Setup,
     config: &RunConfig,
     summary: &Summary,
     top: usize,
     samples: u32,
+    max_samples: Option<u32>,
 ) -> Result<Validation, String> {
     if samples == 0 {
         return Err("invalid `--samples`: must be at least 1".into());
     }
+    if let Some(max) = max_samples.filter(|&m| m < samples) {
+        return Err(format!("invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"));
+    }
+    let rule = Rule { samples, max_samples: max_samples.unwrap_or(samples), threshold: config.params.threshold };
     let history = summary
         .sets
         .iter()
@@ -256,14 +363,15 @@ pub async fn validate(
         renderer: setup.renderer.clone(),
         journal: journal.clone(),
         seed: config.params.seed,
-        samples,
         threshold: CONSISTENT_FR,
         concurrency: setup.concurrency,
         phase: Phase::Validate,
     })?;
-    eval.progress = progress_bar(setup.progress, chosen.len() as u64 * u64::from(samples));
+    let most = chosen.len() as u64 * u64::from(rule.max_samples);
+    eval.progress = progress_bar(setup.progress, most);
     let sets: Vec<ConceptSet> = chosen.iter().map(|s| s.set).collect();
-    let result = crate::search::Evaluate::evaluate(&mut eval, &sets).await;
+    // A budget of M per set: every chosen set can reach M, none more.
+    let result = Driver::new(&mut eval, rule, most).evaluate(&sets).await;
     eval.progress.finish_and_clear();
     let validated = result?;
     let frs: Vec<f64> = validated.iter().filter_map(SetStats::fr).collect();
@@ -271,6 +379,7 @@ pub async fn validate(
     let v = Validation {
         top,
         samples,
+        max_samples: max_samples.filter(|_| rule.is_sequential()),
         consistent: frs.iter().filter(|&&f| f >= CONSISTENT_FR).count(),
         sets: chosen
             .iter()

@@ -5,11 +5,13 @@
 //! A round: a few Gibbs sweeps of the surrogate on every evaluated set (warm-started from the
 //! previous round), `batch` Thompson draws, and for each the unexplored valid set with the highest
 //! drawn failure rate among the *open* sets — those that hold no confirmed core. When a picked
-//! set fails, it is shrunk at once: drop one concept at a time, least relevant first (by the
-//! surrogate's posterior mean), keep a subset that still fails, and stop at a set whose every
+//! open set fails, it is shrunk at once by [`super::shrink::shrink`] under the shrink phase's
+//! sequential rule ([`Params::shrink_rule`]): re-tested (a failure that does not hold up is
+//! refuted and only feeds the surrogate), then reduced one concept at a time to a set whose every
 //! one-smaller valid subset passes. That set is a confirmed core: its supersets leave the open
 //! sets (exclusion), and the surrogate gets an indicator feature for it (conditioning), so its
-//! effect is not smeared over the pairs it contains.
+//! effect is not smeared over the pairs it contains. The shrink spends the search's budget: the
+//! run as a whole stays within `--budget`.
 //!
 //! When a draw finds no open set with a drawn failure rate of at least τ — it believes every
 //! family has been found — every other such draw picks the best unexplored superset of a
@@ -25,6 +27,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::ir::ConceptSet;
 
+use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
 use super::{Driver, Evaluate, Params, SetStats, Space};
 
@@ -170,13 +173,6 @@ pub struct Searcher<'s> {
     idle: u64,
 }
 
-/// What one round proposes: the sets to evaluate, and the posterior mean as a function of sets
-/// (to order the concepts when a failing pick is shrunk).
-pub struct Proposal {
-    pub picks: Vec<ConceptSet>,
-    pub mean: Draw,
-}
-
 impl<'s> Searcher<'s> {
     pub fn new(params: &Params, space: &'s Space) -> Searcher<'s> {
         let (order, prior) = params.surrogate.parts();
@@ -207,7 +203,7 @@ impl<'s> Searcher<'s> {
 
     /// One round: Gibbs sweeps on every evaluated set, `batch` Thompson draws, and each draw's
     /// pick among all unexplored valid sets.
-    pub fn propose(&mut self, history: &[SetStats]) -> Proposal {
+    pub fn propose(&mut self, history: &[SetStats]) -> Vec<ConceptSet> {
         let data = data(history);
         let conditional = self.gibbs.sweep(&self.basis, &data, SWEEPS, &mut self.rng);
         let tau = self.params.threshold;
@@ -238,7 +234,7 @@ impl<'s> Searcher<'s> {
                 picks.push(set);
             }
         }
-        Proposal { picks, mean: Draw::new(&self.basis, &conditional.mean()) }
+        picks
     }
 }
 
@@ -252,68 +248,38 @@ fn data(history: &[SetStats]) -> Data {
     data
 }
 
-fn fails(stats: &SetStats, params: &Params) -> bool {
-    stats.is_failure_mode(params.threshold)
-}
-
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
     let mut searcher = Searcher::new(params, space);
-    for s in &driver.history {
-        searcher.explored(s.set);
-    }
-    while driver.remaining() > 0 {
-        let Proposal { picks, mean } = searcher.propose(&driver.history);
+    let mut marked = 0;
+    let mark = |searcher: &mut Searcher<'_>, history: &[SetStats], marked: &mut usize| {
+        for s in &history[*marked..] {
+            searcher.explored(s.set);
+        }
+        *marked = history.len();
+    };
+    while driver.can_start() {
+        let picks = searcher.propose(&driver.history);
         if picks.is_empty() {
             break;
         }
         let stats = driver.evaluate(&picks).await?;
-        for s in &stats {
-            searcher.explored(s.set);
-        }
+        mark(&mut searcher, &driver.history, &mut marked);
         for s in stats {
-            if fails(&s, params) && !searcher.is_covered(s.set) && driver.remaining() > 0 {
-                let core = shrink(params, space, driver, &mut searcher, &mean, s.set).await?;
-                searcher.confirm(core);
+            if !s.is_failure_mode(params.threshold) || searcher.is_covered(s.set) || !driver.can_start() {
+                continue;
+            }
+            // Confirm and shrink under the shrink phase's sequential rule: a core is only as good
+            // as the evidence that its parts pass, and m observations mistake a 0.35 set for a
+            // failure one time in four.
+            let search_rule = driver.rule();
+            driver.set_rule(params.shrink_rule());
+            let shrunk = shrink::shrink(driver, space, s.set).await;
+            driver.set_rule(search_rule);
+            mark(&mut searcher, &driver.history, &mut marked);
+            if let Shrunk::Core(core) = shrunk? {
+                searcher.confirm(core.stats.set);
             }
         }
     }
     Ok(())
-}
-
-/// Shrink a failing set to a core: drop the concept the surrogate finds least relevant whose
-/// removal keeps the set failing, until every valid one-smaller subset passes (or the budget
-/// runs out: the smallest failing set reached is then the core).
-async fn shrink<E: Evaluate>(
-    params: &Params,
-    space: &Space,
-    driver: &mut Driver<'_, E>,
-    searcher: &mut Searcher<'_>,
-    mean: &Draw,
-    set: ConceptSet,
-) -> Result<ConceptSet, String> {
-    let mut current = set;
-    'outer: loop {
-        // The relevance of a concept: how much the posterior mean drops without it.
-        let full = mean.score(current);
-        let mut order: Vec<(ConceptSet, f64)> = current
-            .iter()
-            .map(|c| current.without(c))
-            .filter(|s| !s.is_empty() && space.contains(*s))
-            .map(|s| (s, full - mean.score(s)))
-            .collect();
-        order.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        for (sub, _) in order {
-            if driver.remaining() == 0 && !driver.seen(sub) {
-                break 'outer;
-            }
-            let stats = driver.evaluate(&[sub]).await?;
-            searcher.explored(sub);
-            if stats.first().is_some_and(|s| fails(s, params)) {
-                current = sub;
-                continue 'outer;
-            }
-        }
-        break;
-    }
-    Ok(current)
 }
