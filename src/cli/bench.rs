@@ -440,3 +440,40 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::ConceptId;
+    use crate::ir::testkit::lattice;
+    use crate::outcome::Outcome;
+
+    fn set(ids: &[u32]) -> ConceptSet {
+        ConceptSet::from_ids(ids.iter().map(|&i| ConceptId(i)))
+    }
+
+    fn stats(ids: &[u32], wrong: u32) -> SetStats {
+        let mut s = SetStats::new(set(ids));
+        (0..5).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
+        s
+    }
+
+    #[test]
+    fn a_core_is_a_failure_whose_every_valid_one_smaller_subset_was_seen_passing() {
+        // Concepts 0 and 1 exclude each other, so {0, 1, …} is not in the space.
+        let space = Space::new(lattice(5, 3), 5);
+        let history = vec![
+            stats(&[2], 1),
+            stats(&[3], 0),
+            stats(&[2, 3], 5),    // a core: {2} and {3} pass
+            stats(&[2, 3, 4], 5), // holds the core: {2, 3} fails
+            stats(&[0, 4], 4),    // {0} was never evaluated: not a core
+            stats(&[1], 3),       // a singleton that fails is a core
+            stats(&[4], 2),
+            stats(&[2, 4], 1),
+        ];
+        let mut cores = reported_cores(&history, &space, 0.6);
+        cores.sort();
+        assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
+    }
+}
