@@ -9,8 +9,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use sha2::{Digest, Sha256};
-
+use crate::diag::terminal_safe;
+use crate::hash::sha256_hex;
 use crate::ir::{ConceptSet, Domain};
 use crate::outcome::{Answer, Outcome};
 use crate::render::RendererOptions;
@@ -81,7 +81,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let render_opts = RendererOptions {
         size: None,
         cache_dir: args.cache_dir.as_ref().map(|d| d.join("images")),
-        base_url: args.model_opts.base_url.clone(),
+        base_url: args.model_opts.renderer_base_url.clone(),
     };
     let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
         None => None,
@@ -91,8 +91,8 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         }
     };
     let image_hash = match &image {
-        Some(png) => hex::encode(Sha256::digest(png)),
-        None => hex::encode(Sha256::digest(serde_json::to_vec(&scene).map_err(|e| e.to_string())?)),
+        Some(png) => sha256_hex(png),
+        None => sha256_hex(&serde_json::to_vec(&scene).map_err(|e| e.to_string())?),
     };
     let model_opts = args.model_opts.options(args.cache_dir.as_ref().map(|d| d.join("replies")));
     let model = build_model(&args.model, domain, &model_opts)?;
@@ -108,7 +108,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let reply = model.ask(&query).await;
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     if reply.answer == Answer::ApiError {
-        return Err(format!("`{}` failed: {}", model.id(), reply.raw));
+        return Err(format!("`{}` failed: {}", model.id(), terminal_safe(&reply.raw)));
     }
     Ok(report(&model.id(), &query.prompt, &options, &reply, verdict.expected, rule))
 }
@@ -120,7 +120,8 @@ fn option_label(i: u32, options: &[String]) -> String {
 
 /// The human-readable result of one question.
 fn report(model: &str, prompt_text: &str, options: &[String], reply: &Reply, expected: u32, rule: &str) -> String {
-    let indent = |s: &str| s.trim().lines().collect::<Vec<_>>().join("\n           ");
+    // Reply and thinking are the model's text: escaped before they reach the terminal.
+    let indent = |s: &str| terminal_safe(s.trim()).lines().collect::<Vec<_>>().join("\n           ");
     let parsed = match reply.answer {
         Answer::Option(i) => option_label(i, options),
         other => serde_json::to_value(other).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default(),

@@ -59,6 +59,9 @@ pub struct SearchArgs {
     /// Largest concept set searched
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
     pub max_size: usize,
+    /// Most valid concept sets searched over; a larger lattice is refused with the ways out
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
     /// Model calls in flight at once
     #[arg(long, default_value_t = 8)]
     pub concurrency: usize,
@@ -78,12 +81,17 @@ pub struct SearchArgs {
     pub json: bool,
 }
 
-/// Flags that configure model clients (shared with `validate`).
+/// Flags that configure the model and image-generation clients (shared with `validate` and
+/// `ask`).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
-    /// Override the provider endpoint
+    /// Override the model provider's endpoint (the model only; never the renderer's)
     #[arg(long)]
     pub base_url: Option<String>,
+    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
+    /// `OPENAI_BASE_URL`)
+    #[arg(long)]
+    pub renderer_base_url: Option<String>,
     /// Per-model settings (TOML)
     #[arg(long)]
     pub model_config: Option<PathBuf>,
@@ -154,7 +162,17 @@ pub fn run(args: SearchArgs) -> ExitCode {
         params,
     };
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = Lattice::enumerate(&domain, config.params.max_size);
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let lattice = match lattice {
+        Ok(l) => l,
+        Err(too_large) => {
+            eprintln!("{}", too_large.plain());
+            return ExitCode::from(1);
+        }
+    };
     let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(
@@ -225,7 +243,11 @@ pub(crate) fn build_parts(
     let model = build_model(model, domain, &flags.options(Some(out.join("cache"))))?;
     let renderer = build_renderer(
         renderer,
-        &RendererOptions { size: None, cache_dir: Some(out.join("image-cache")), base_url: flags.base_url.clone() },
+        &RendererOptions {
+            size: None,
+            cache_dir: Some(out.join("image-cache")),
+            base_url: flags.renderer_base_url.clone(),
+        },
     )?;
     Ok((model, renderer))
 }

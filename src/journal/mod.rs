@@ -18,7 +18,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::ir::Domain;
 use crate::outcome::{Answer, Outcome, Usage};
@@ -77,21 +76,11 @@ struct Writer {
     unsynced: usize,
 }
 
-/// SHA-256 hex of bytes.
-pub fn sha256(bytes: &[u8]) -> String {
-    hex::encode(Sha256::digest(bytes))
-}
-
 /// SHA-256 over the texts of a domain's source files in load order, identifying what a run
 /// searched. Names are left out: the same file reached by a relative or an absolute path is the
 /// same domain.
 pub fn domain_hash(domain: &Domain) -> String {
-    let mut h = Sha256::new();
-    for f in &domain.files {
-        h.update((f.text.len() as u64).to_le_bytes());
-        h.update(f.text.as_bytes());
-    }
-    hex::encode(h.finalize())
+    crate::hash::parts_hex(domain.files.iter().map(|f| f.text.as_bytes()))
 }
 
 fn io_err(what: &str, path: &Path, e: std::io::Error) -> String {
@@ -191,7 +180,7 @@ impl Journal {
 
     /// Store an image under its content hash (no-op when present); returns the hash.
     pub fn store_image(&self, png: &[u8]) -> Result<String, String> {
-        let hash = sha256(png);
+        let hash = crate::hash::sha256_hex(png);
         let path = self.dir.join("images").join(format!("{hash}.png"));
         if !path.exists() {
             write_atomic(&path, png)?;
@@ -335,7 +324,7 @@ mod tests {
         let run = dir.path().join("r");
         let j = Journal::open(&run, &serde_json::json!({})).unwrap();
         let h = j.store_image(b"png bytes").unwrap();
-        assert_eq!(h, sha256(b"png bytes"));
+        assert_eq!(h, crate::hash::sha256_hex(b"png bytes"));
         assert_eq!(std::fs::read(run.join("images").join(format!("{h}.png"))).unwrap(), b"png bytes");
     }
 }

@@ -9,8 +9,9 @@ use std::sync::Arc;
 
 use tokio::sync::Semaphore;
 
+use crate::hash::sha256_hex;
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, Phase, Record, sha256};
+use crate::journal::{Journal, Phase, Record};
 use crate::render::Renderer;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -311,7 +312,7 @@ async fn observe(
             let hash = shared.journal.store_image(&png)?;
             (Some(Arc::new(png)), hash)
         }
-        None => (None, sha256(&serde_json::to_vec(&scene).expect("scenes serialise"))),
+        None => (None, sha256_hex(&serde_json::to_vec(&scene).expect("scenes serialise"))),
     };
     let query = Query {
         image,
@@ -333,7 +334,7 @@ async fn observe(
         obs,
         seed,
         image: image_hash,
-        prompt: sha256(prompt.as_bytes()),
+        prompt: sha256_hex(prompt.as_bytes()),
         raw: reply.raw,
         parsed: match reply.answer {
             Answer::Option(o) => Some(o),
