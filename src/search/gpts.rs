@@ -48,7 +48,8 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
             let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
             // More draws than unexplored sets or than the budget pays for only repeat argmaxes:
             // each costs a pass over the lattice, so a huge `--batch` would spin.
-            let draws = params.batch.min(left).min(driver.remaining());
+            let affordable = driver.remaining() / u64::from(params.samples.max(1));
+            let draws = params.batch.min(left).min(usize::try_from(affordable).unwrap_or(usize::MAX));
             let mut picks: Vec<ConceptSet> = Vec::with_capacity(draws);
             for _ in 0..draws {
                 let draw = model.draw(&mut rng);
