@@ -135,6 +135,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
         max_size: args.max_size,
         max_samples: args.max_samples,
         shrink: args.shrink.unwrap_or(Params::default_shrink(args.budget)),
+        ..Params::default()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
