@@ -314,6 +314,12 @@ fn algorithm_text(run: &Run) -> String {
             grouped(p.beam_budget),
             p.batch
         ),
+        Algo::Interact => format!(
+            "interact (Thompson sampling with a {} surrogate, {} per round; supersets of a core: {})",
+            super::snake(p.surrogate),
+            p.batch,
+            super::snake(p.supersets)
+        ),
     }
 }
 
