@@ -315,7 +315,7 @@ fn algorithm_text(run: &Run) -> String {
             p.batch
         ),
         Algo::Interact => format!(
-            "interact (Thompson sampling with a {} surrogate, {} per round; supersets of a core: {})",
+            "interact ({} interaction-aware surrogate, {} per round; confirmed cores shrunk at once; supersets of a core: {})",
             super::snake(p.surrogate),
             p.batch,
             super::snake(p.supersets)
