@@ -11,21 +11,14 @@ use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
 
-/// SHA-256 (hex) of the domain's source files, in load order. Each file contributes its name
-/// and text, length-prefixed so that moving text between files changes the hash.
+/// The domain's identity as hex ([`Domain::identity`]): the same digest seeds the scene stream
+/// and identifies the domain of a run folder.
 pub fn domain_hash(domain: &Domain) -> String {
-    hex::encode(domain_digest(domain))
+    domain.identity().to_string()
 }
 
 pub(crate) fn domain_digest(domain: &Domain) -> [u8; 32] {
-    let mut h = Sha256::new();
-    for f in &domain.files {
-        for part in [f.name.as_bytes(), f.text.as_bytes()] {
-            h.update((part.len() as u64).to_le_bytes());
-            h.update(part);
-        }
-    }
-    h.finalize().into()
+    domain.identity().0
 }
 
 /// The scene stream of `(domain, set, seed)`.
