@@ -25,14 +25,36 @@ pub struct Rendered {
     pub cached: bool,
 }
 
+/// Why a scene has no image.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct RenderError(pub String);
+#[error("{message}")]
+pub struct RenderError {
+    pub message: String,
+    /// The image generator refused this scene (a safety filter, a text-only reply): an outcome
+    /// of the observation (`image_blocked`), not a failure of the run.
+    pub blocked: bool,
+}
+
+impl RenderError {
+    pub fn new(message: impl Into<String>) -> RenderError {
+        RenderError { message: message.into(), blocked: false }
+    }
+
+    pub fn blocked(message: impl Into<String>) -> RenderError {
+        RenderError { message: message.into(), blocked: true }
+    }
+}
 
 /// Turns a scene (and its image prompt, for image-generation renderers) into an image.
 pub trait Renderer: Send + Sync {
     fn id(&self) -> String;
     fn render<'a>(&'a self, scene: &'a Scene, prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>>;
+    /// Whether `render` computes on the calling thread instead of waiting on I/O (the builtin
+    /// renderer). The run then calls it from dedicated render threads, never from an async
+    /// worker.
+    fn blocking(&self) -> bool {
+        false
+    }
 }
 
 /// Options for building a renderer.
@@ -51,7 +73,7 @@ pub struct RendererOptions {
 pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::sync::Arc<dyn Renderer>>, String> {
     match spec {
         "none" => Ok(None),
-        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.0)?))),
+        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.message)?))),
         s if s.starts_with("imagegen:") => imagegen::build(s, opts).map(Some),
         other => Err(format!(
             "unknown renderer `{other}`: expected `none`, `builtin`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`"

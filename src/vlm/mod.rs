@@ -68,6 +68,16 @@ pub trait Model: Send + Sync {
     fn spend(&self) -> Option<cost::Spend> {
         None
     }
+    /// Requests this model lets be in flight at once (its resolved `concurrency` setting);
+    /// `None` for models without a limit of their own (`sim`).
+    fn concurrency(&self) -> Option<usize> {
+        None
+    }
+    /// The base URL the model's requests go to (never a key); `None` for local models (`sim`).
+    /// Recorded in a run's `config.json` so a resume against another endpoint is refused.
+    fn endpoint(&self) -> Option<String> {
+        None
+    }
 }
 
 pub mod anthropic;

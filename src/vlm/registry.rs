@@ -18,8 +18,11 @@ pub struct ModelOptions {
     pub thinking: Option<String>,
     /// `--no-cache`.
     pub no_cache: bool,
-    /// Where the response cache lives (a run folder's `cache/` or a user cache dir).
+    /// Where the response cache lives (the shared user cache by default).
     pub cache_dir: Option<PathBuf>,
+    /// `--concurrency`: overrides the model config's `concurrency` (one setting for the run's
+    /// observations and the provider's request gate).
+    pub concurrency: Option<usize>,
 }
 
 pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
@@ -39,7 +42,10 @@ pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<A
 pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
     let (provider, rest) =
         spec.split_once(':').ok_or_else(|| format!("invalid model `{spec}`: expected PROVIDER:NAME"))?;
-    let settings = settings_for(spec, opts.config.as_deref(), opts.thinking.as_deref())?;
+    let mut settings = settings_for(spec, opts.config.as_deref(), opts.thinking.as_deref())?;
+    if let Some(c) = opts.concurrency {
+        settings.concurrency = c.max(1);
+    }
     let base = opts.base_url.as_deref();
     let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
     Ok(match provider {
