@@ -87,10 +87,12 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
         let (mut b, _) = search("b", &five, &cache2);
         let b = text(&b.output().unwrap());
         // No model flags: all of them come from a's config.json.
-        let validate = text(&revelio(&["validate", a_out.to_str().unwrap(), "--top", "2", "--samples", "2"])
-            .args(["--cache-dir", cache2.to_str().unwrap()])
-            .output()
-            .unwrap());
+        let validate = text(
+            &revelio(&["validate", a_out.to_str().unwrap(), "--top", "2", "--samples", "2"])
+                .args(["--cache-dir", cache2.to_str().unwrap()])
+                .output()
+                .unwrap(),
+        );
         (a, b, validate)
     })
     .await
@@ -101,7 +103,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     assert!(eb.contains(" · concurrency 5 · "), "--concurrency wins: {eb}");
     assert_eq!(cv, 0, "validate reuses the recorded base URL and model config: {ev}");
     assert!(vout.contains("validated FR"), "{vout}");
-    let a_config: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("a/config.json")).unwrap()).unwrap();
+    let a_config: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("a/config.json")).unwrap()).unwrap();
     assert_eq!(a_config["endpoint"], json!(server.uri()));
     assert_eq!(a_config["model_settings"]["base_url"], json!(server.uri()));
 
@@ -112,8 +115,19 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let again = tokio::task::spawn_blocking(move || {
         let w: Vec<&str> = w.iter().map(String::as_str).collect();
         let mut cmd = revelio(&[
-            "search", "domains/driving.rev", "--model", "openai:vlm-test", "--renderer", "none", "--algo", "beam",
-            "--budget", "30", "--samples", "3", "--out",
+            "search",
+            "domains/driving.rev",
+            "--model",
+            "openai:vlm-test",
+            "--renderer",
+            "none",
+            "--algo",
+            "beam",
+            "--budget",
+            "30",
+            "--samples",
+            "3",
+            "--out",
         ]);
         cmd.arg(d.join("again")).args(&w).args(["--cache-dir", c.to_str().unwrap()]);
         text(&cmd.output().unwrap())
@@ -136,8 +150,20 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
             .iter()
             .map(|name| {
                 let mut cmd = revelio(&[
-                    "search", "domains/driving.rev", "--model", "openai:vlm-test", "--renderer", "none", "--algo",
-                    "random", "--budget", "60", "--samples", "3", "--json", "--out",
+                    "search",
+                    "domains/driving.rev",
+                    "--model",
+                    "openai:vlm-test",
+                    "--renderer",
+                    "none",
+                    "--algo",
+                    "random",
+                    "--budget",
+                    "60",
+                    "--samples",
+                    "3",
+                    "--json",
+                    "--out",
                 ]);
                 cmd.arg(d.join(name)).args(&w).args(["--cache-dir", shared.to_str().unwrap()]);
                 cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap()
@@ -247,7 +273,8 @@ fn usage_errors_exit_2_everywhere() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let run = |args: &[&str]| text(&revelio(args).output().unwrap());
-    let base = ["search", "domains/driving.rev", "--model", "sim:examples/sim/driving_paper.toml", "--renderer", "none"];
+    let base =
+        ["search", "domains/driving.rev", "--model", "sim:examples/sim/driving_paper.toml", "--renderer", "none"];
     let (code, _, err) = run(&[&base[..], &["--concurrency", "0"]].concat());
     assert_eq!(code, 2, "{err}");
     let o = out.to_str().unwrap();

@@ -22,6 +22,7 @@ const KEY: &str = "sk-revelio-CANARY-5e1f0c9d";
 const AWS_SECRET: &str = "aws-secret-CANARY-77ab19";
 const AWS_TOKEN: &str = "aws-token-CANARY-c0ffee";
 
+#[allow(unsafe_code)]
 fn init_env() {
     static ENV: Once = Once::new();
     ENV.call_once(|| {

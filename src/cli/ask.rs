@@ -82,7 +82,10 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     let prompt_text = prompt::build(&task.question, &task.options);
     match o.reply {
-        None => Err((1, format!("the image generator blocked this scene, so `{}` was not asked: {}", model.id(), o.record.raw))),
+        None => Err((
+            1,
+            format!("the image generator blocked this scene, so `{}` was not asked: {}", model.id(), o.record.raw),
+        )),
         Some(reply) if reply.answer == Answer::ApiError => Err((1, format!("`{}` failed: {}", model.id(), reply.raw))),
         Some(reply) => Ok(report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule)),
     }
@@ -193,7 +196,10 @@ mod tests {
         const KEY: &str = "sk-ask-CANARY-3f9e61";
         // SAFETY: no other test in this crate reads or writes `OPENAI_API_KEY`, and Rust's own
         // environment accessors are serialised.
-        unsafe { std::env::set_var("OPENAI_API_KEY", KEY) };
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("OPENAI_API_KEY", KEY)
+        };
         let domain = crate::lattice::testkit::driving();
         let set = domain.parse_set(&["debris_near"]).unwrap();
         let dir = tempfile::tempdir().unwrap();

@@ -189,8 +189,7 @@ fn bench_one(
     planted: &[crate::ir::ConceptSet],
 ) -> Result<[Option<f64>; 5], String> {
     let spec = format!("sim:{}", args.profile.display());
-    let config =
-        RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
+    let config = RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
     let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), None, out);
     setup.concurrency = args.concurrency as usize;
     let started = Instant::now();

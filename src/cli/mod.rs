@@ -12,6 +12,7 @@ pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod search;
 pub mod validate;
@@ -44,6 +45,7 @@ pub enum Command {
     /// Render one scene of a concept set, ask a model once, and show the verdict
     Ask(ask::AskArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
+    #[cfg(feature = "render")]
     Render(render::RenderArgs),
 }
 
@@ -66,6 +68,7 @@ pub fn main() -> ExitCode {
         Command::Validate(a) => validate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
+        #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
     }
 }

@@ -10,9 +10,9 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::lattice::Lattice;
+use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup, Summary};
-use crate::run::RunError;
 use crate::run::setup::{self, ModelSettings, Parts};
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
 

@@ -60,12 +60,17 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     let settings = args.model_opts.settings().or(&config.model_settings);
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
-    let Parts { model, renderer, concurrency } =
-        match setup::build_parts(&domain, &config.model_spec, &config.renderer, &settings, cache.as_deref(), concurrency)
-        {
-            Ok(p) => p,
-            Err(e) => return setup_error(e),
-        };
+    let Parts { model, renderer, concurrency } = match setup::build_parts(
+        &domain,
+        &config.model_spec,
+        &config.renderer,
+        &settings,
+        cache.as_deref(),
+        concurrency,
+    ) {
+        Ok(p) => p,
+        Err(e) => return setup_error(e),
+    };
     if model.id() != config.model {
         return setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() });
     }
@@ -86,8 +91,9 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
     } else {
-        print_validation(&mut out, &v)
-            .and_then(|()| writeln!(out, "written to {}", args.run_dir.join(runner::validation_file(v.top, v.samples)).display()))
+        print_validation(&mut out, &v).and_then(|()| {
+            writeln!(out, "written to {}", args.run_dir.join(runner::validation_file(v.top, v.samples)).display())
+        })
     };
     if let Err(e) = written
         && e.kind() != std::io::ErrorKind::BrokenPipe

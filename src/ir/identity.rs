@@ -105,8 +105,16 @@ mod tests {
         let spellings = [
             [("domains/driving.rev", "domain d"), ("std/core.rev", "core"), ("domains/lib/props.rev", "props")],
             [("./domains/driving.rev", "domain d"), ("std/core.rev", "core"), ("domains/lib/props.rev", "props")],
-            [("/home/u/x/domains/driving.rev", "domain d"), ("std/core.rev", "core"), ("/home/u/x/domains/lib/props.rev", "props")],
-            [("domains/../domains/driving.rev", "domain d"), ("std/core.rev", "core"), ("domains/lib/./props.rev", "props")],
+            [
+                ("/home/u/x/domains/driving.rev", "domain d"),
+                ("std/core.rev", "core"),
+                ("/home/u/x/domains/lib/props.rev", "props"),
+            ],
+            [
+                ("domains/../domains/driving.rev", "domain d"),
+                ("std/core.rev", "core"),
+                ("domains/lib/./props.rev", "props"),
+            ],
         ];
         let ids: Vec<DomainId> = spellings.iter().map(|f| with_files(f).identity()).collect();
         assert!(ids.windows(2).all(|w| w[0] == w[1]), "{ids:?}");

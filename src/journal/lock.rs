@@ -35,7 +35,8 @@ impl RunLock {
                 let mut holder = String::new();
                 let _ = file.read_to_string(&mut holder);
                 let holder = holder.trim();
-                let holder = if holder.is_empty() { "it has not written its pid yet".to_string() } else { holder.to_string() };
+                let holder =
+                    if holder.is_empty() { "it has not written its pid yet".to_string() } else { holder.to_string() };
                 return Err(JournalError::Locked { dir: dir.to_path_buf(), holder });
             }
             Err(TryLockError::Error(e)) => return Err(io("lock", e)),

@@ -153,10 +153,10 @@ impl Journal {
         // Another process may have started this run between the check above and the lock.
         let config = if config_path.exists() {
             let text = std::fs::read_to_string(&config_path).map_err(io("read", &config_path))?;
-            Some(serde_json::from_str(&text).map_err(|e| JournalError::BadConfig {
-                dir: dir.to_path_buf(),
-                message: e.to_string(),
-            })?)
+            Some(
+                serde_json::from_str(&text)
+                    .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?,
+            )
         } else {
             None
         };

@@ -8,10 +8,15 @@ use std::pin::Pin;
 use std::time::Duration;
 
 pub mod cache;
+#[cfg(feature = "net")]
 pub mod gemini;
+#[cfg(feature = "net")]
 pub mod http;
+#[cfg(feature = "net")]
 pub mod json;
+#[cfg(feature = "net")]
 pub mod openai;
+#[cfg(feature = "net")]
 pub mod secret;
 
 pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;

@@ -39,7 +39,9 @@ impl std::fmt::Debug for BuiltinRenderer {
 /// Check an image size from the user.
 pub fn check_size(w: u32, h: u32) -> Result<(), RenderError> {
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
-        return Err(RenderError::new(format!("image size `{w}x{h}` is out of range: each side must be 1..={MAX_SIDE}")));
+        return Err(RenderError::new(format!(
+            "image size `{w}x{h}` is out of range: each side must be 1..={MAX_SIDE}"
+        )));
     }
     Ok(())
 }

@@ -171,7 +171,9 @@ impl ImageGen {
                 let msg = json_at::str_at(&v, &["error", "message"])
                     .map_or_else(|| snippet(&resp.body), |m| snippet(m.as_bytes()));
                 if matches!(code, "content_policy_violation" | "moderation_blocked") {
-                    return Verdict::Done(Err(format!("the prompt was blocked by the provider's safety system: {msg}")));
+                    return Verdict::Done(Err(format!(
+                        "the prompt was blocked by the provider's safety system: {msg}"
+                    )));
                 }
                 (if code.is_empty() { msg } else { format!("{msg} ({code})") }, code == "insufficient_quota", None)
             }
@@ -255,8 +257,9 @@ impl Renderer for ImageGen {
             }
             let called = self.transport.call(|| Ok(self.request(prompt)), |r| self.judge(r)).await;
             let secrets = self.secrets();
-            let fail =
-                |m: String| RenderError::new(redact(format!("image generation with `{}` failed: {m}", self.id), &secrets));
+            let fail = |m: String| {
+                RenderError::new(redact(format!("image generation with `{}` failed: {m}", self.id), &secrets))
+            };
             let bytes = match called.result {
                 Ok(Ok(bytes)) => bytes,
                 Ok(Err(refused)) => {

@@ -113,6 +113,9 @@ impl ApiErrorWatch {
     }
 }
 
+/// A finished observation and where its outcome goes: (request, index within the request).
+type Placed = (usize, usize, Observation);
+
 /// A journaled observation served again on resume.
 #[derive(Debug, Clone, Copy)]
 struct Replayed {
@@ -245,8 +248,7 @@ impl Evaluator {
     ) -> Result<Vec<Vec<Outcome>>, RunError> {
         let mut out: Vec<Vec<Option<Outcome>>> = requests.iter().map(|(_, r)| vec![None; r.len()]).collect();
         let halt = Arc::new(AtomicBool::new(false));
-        let mut tasks: tokio::task::JoinSet<Result<Option<(usize, usize, Observation)>, ObserveError>> =
-            tokio::task::JoinSet::new();
+        let mut tasks: tokio::task::JoinSet<Result<Option<Placed>, ObserveError>> = tokio::task::JoinSet::new();
         for (i, (set, range)) in requests.iter().enumerate() {
             let task = Arc::new(self.observer.task(*set)?);
             for index in range.clone() {

@@ -22,7 +22,7 @@ mod tests;
 
 use std::path::PathBuf;
 
-pub use observe::{ObsKey, Observation, Observer, ObserveError, Stimulus, Task, World};
+pub use observe::{ObsKey, Observation, ObserveError, Observer, Stimulus, Task, World};
 pub use stop::{Stop, StopReason};
 
 use crate::journal::JournalError;

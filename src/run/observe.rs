@@ -161,7 +161,8 @@ impl Observer {
         // Exactly the text `revelio emit prompt` prints for this scene.
         let image_prompt = crate::emit::prompt(&self.domain, &scene)
             .map_err(|e| ObserveError::Scene { set: self.names(set), message: e.to_string() })?;
-        let mut stimulus = Stimulus { set, seed, scene, image_prompt, image: None, image_hash: String::new(), blocked: None };
+        let mut stimulus =
+            Stimulus { set, seed, scene, image_prompt, image: None, image_hash: String::new(), blocked: None };
         match &self.renderer {
             None => stimulus.image_hash = sha256(&serde_json::to_vec(&stimulus.scene).expect("scenes serialise")),
             Some(r) => match r.render(&stimulus.scene, &stimulus.image_prompt).await {
@@ -194,7 +195,14 @@ impl Observer {
     }
 
     /// The outcome and journal line of a reply (`None`: the image was blocked, nobody asked).
-    pub fn record(&self, key: ObsKey, stimulus: &Stimulus, task: &Task, query: &Query, reply: Option<Reply>) -> Observation {
+    pub fn record(
+        &self,
+        key: ObsKey,
+        stimulus: &Stimulus,
+        task: &Task,
+        query: &Query,
+        reply: Option<Reply>,
+    ) -> Observation {
         let (outcome, raw) = match (&reply, &stimulus.blocked) {
             (Some(r), _) => (Outcome::from_answer(r.answer, task.expected), r.raw.clone()),
             (None, blocked) => (Outcome::ImageBlocked, blocked.clone().unwrap_or_default()),

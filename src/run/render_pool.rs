@@ -73,10 +73,11 @@ impl Renderer for RenderPool {
             let (tx, rx) = tokio::sync::oneshot::channel();
             let (inner, scene, prompt) = (self.inner.clone(), scene.clone(), prompt.to_string());
             let job: Job = Box::new(move || {
-                let drawn = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    block_on(inner.render(&scene, &prompt))
-                }))
-                .unwrap_or_else(|_| Err(RenderError::new("the renderer panicked while drawing this scene".to_string())));
+                let drawn =
+                    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| block_on(inner.render(&scene, &prompt))))
+                        .unwrap_or_else(|_| {
+                            Err(RenderError::new("the renderer panicked while drawing this scene".to_string()))
+                        });
                 let _ = tx.send(drawn);
             });
             self.jobs.send(job).map_err(|_| RenderError::new("the render threads could not be started".to_string()))?;

@@ -113,7 +113,11 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Res
         return Err(ResumeError::Differs { dir: dir.to_path_buf(), diffs });
     }
     if new.params.budget < was.params.budget {
-        return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), was: was.params.budget, now: new.params.budget });
+        return Err(ResumeError::BudgetLowered {
+            dir: dir.to_path_buf(),
+            was: was.params.budget,
+            now: new.params.budget,
+        });
     }
     Ok(())
 }
@@ -145,8 +149,11 @@ pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
     if !path.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path)
-        .map_err(|source| JournalError::Io { action: "read", path: path.clone(), source })?;
+    let text = std::fs::read_to_string(&path).map_err(|source| JournalError::Io {
+        action: "read",
+        path: path.clone(),
+        source,
+    })?;
     let value: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
     let found = value.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
@@ -214,7 +221,14 @@ impl Setup {
         }
     }
 
-    fn evaluator(&self, journal: Arc<Journal>, seed: u64, samples: u32, threshold: f64, phase: Phase) -> Result<Evaluator, RunError> {
+    fn evaluator(
+        &self,
+        journal: Arc<Journal>,
+        seed: u64,
+        samples: u32,
+        threshold: f64,
+        phase: Phase,
+    ) -> Result<Evaluator, RunError> {
         Evaluator::new(EvaluatorConfig {
             observer: Arc::new(Observer::new(self.domain.clone(), self.world.clone(), self.renderer.clone())),
             model: self.model.clone(),
@@ -419,8 +433,10 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
             dir.display()
         ))
     })?;
-    let summary: Summary = serde_json::from_str(&text)
-        .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: format!("invalid `summary.json`: {e}") })?;
+    let summary: Summary = serde_json::from_str(&text).map_err(|e| JournalError::BadConfig {
+        dir: dir.to_path_buf(),
+        message: format!("invalid `summary.json`: {e}"),
+    })?;
     Ok((config, summary))
 }
 

@@ -122,7 +122,11 @@ pub fn build_parts(
     let model = build_model(model_spec, domain, &options).map_err(SetupError::Model)?;
     let renderer = build_renderer(
         renderer_spec,
-        &RendererOptions { size: None, cache_dir: cache.map(|c| c.join("images")), base_url: settings.base_url.clone() },
+        &RendererOptions {
+            size: None,
+            cache_dir: cache.map(|c| c.join("images")),
+            base_url: settings.base_url.clone(),
+        },
     )
     .map_err(|e| if known_renderer(renderer_spec) { SetupError::Renderer(e) } else { SetupError::RendererSpec(e) })?;
     let concurrency = effective_concurrency(concurrency, model.as_ref());

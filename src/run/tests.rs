@@ -197,7 +197,9 @@ impl crate::render::Renderer for Recorder {
             let name = std::thread::current().name().unwrap_or("").to_string();
             self.log.render_threads.lock().unwrap().push(name);
             if self.block.as_ref().is_some_and(|b| scene.concepts.contains(b)) {
-                return Err(crate::render::RenderError::blocked("the image was blocked by the provider (IMAGE_SAFETY)"));
+                return Err(crate::render::RenderError::blocked(
+                    "the image was blocked by the provider (IMAGE_SAFETY)",
+                ));
             }
             Ok(crate::render::Rendered { png: format!("png of {}", scene.seed).into_bytes(), cached: false })
         })
@@ -240,11 +242,13 @@ fn ask_observes_exactly_what_a_search_sends() {
     let sim = || SimModel { profile: Profile::parse("name = \"t\"\nbase_error = 0.3\n", "t.toml", &d).unwrap() };
     let model = Arc::new(Asked { sim: sim(), log: log.clone() });
     let renderer = Arc::new(Recorder { log: log.clone(), block: None, blocking: false });
-    let (space, _) = runner::search_space(crate::lattice::Lattice::enumerate(&d, 3).sets, d.concepts.len(), world.as_ref());
+    let (space, _) =
+        runner::search_space(crate::lattice::Lattice::enumerate(&d, 3).sets, d.concepts.len(), world.as_ref());
     let mut s = Setup::new(Arc::new(d.clone()), world.clone(), model.clone(), Some(renderer.clone()), dir.path());
     s.concurrency = 4;
     let params = Params { algo: Algo::Random, budget: 20, beam_budget: 10, ..Params::default() };
-    let cfg = RunConfig::new(&d, Path::new("/d.rev"), "sim:t.toml", model.as_ref(), Default::default(), "recorder", params);
+    let cfg =
+        RunConfig::new(&d, Path::new("/d.rev"), "sim:t.toml", model.as_ref(), Default::default(), "recorder", params);
     block_on(runner::search(&s, &cfg, &space)).unwrap();
     let searched_prompts = log.image_prompts.lock().unwrap().clone();
     let searched = log.prompts.lock().unwrap().clone();
@@ -401,7 +405,8 @@ fn progress_goes_to_plain_lines_when_there_is_no_terminal() {
     let dir = tempfile::tempdir().unwrap();
     let (mut s, space) = setup(dir.path(), 3);
     let lines = Arc::new(std::sync::Mutex::new(Vec::new()));
-    s.progress = crate::run::progress::ProgressTo::Lines { every: std::time::Duration::from_millis(20), to: lines.clone() };
+    s.progress =
+        crate::run::progress::ProgressTo::Lines { every: std::time::Duration::from_millis(20), to: lines.clone() };
     block_on(runner::search(&s, &config(&s, Algo::Beam), &space)).unwrap();
     let text = String::from_utf8(lines.lock().unwrap().clone()).unwrap();
     let last = text.lines().last().unwrap_or_default();

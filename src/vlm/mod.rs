@@ -80,17 +80,26 @@ pub trait Model: Send + Sync {
     }
 }
 
+// The HTTP clients need the `net` feature; the `sim` model, prompts, parsing, settings and the
+// reply cache do not.
+#[cfg(feature = "net")]
 pub mod anthropic;
+#[cfg(feature = "net")]
 pub mod api;
+#[cfg(feature = "net")]
 pub mod bedrock;
 pub mod cache;
 pub mod config;
 pub mod cost;
+#[cfg(feature = "net")]
 pub mod gemini;
+#[cfg(feature = "net")]
 pub mod image;
+#[cfg(feature = "net")]
 pub mod openai;
 pub mod parse;
 pub mod prompt;
 pub mod registry;
+#[cfg(feature = "net")]
 pub mod sigv4;
 pub mod sim;

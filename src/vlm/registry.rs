@@ -4,8 +4,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::ir::Domain;
+use crate::vlm::Model;
+#[cfg(feature = "net")]
 use crate::vlm::config::settings_for;
-use crate::vlm::{Model, anthropic, bedrock, gemini, openai};
+#[cfg(feature = "net")]
+use crate::vlm::{anthropic, bedrock, gemini, openai};
 
 /// Options that apply to building any model (from CLI flags and the environment).
 #[derive(Debug, Clone, Default)]
@@ -39,6 +42,15 @@ pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<A
 }
 
 /// Build an API model (`openai:`, `anthropic:`, `gemini:`, `bedrock:`); needs no domain.
+#[cfg(not(feature = "net"))]
+pub fn build_api_model(spec: &str, _: &ModelOptions) -> Result<Arc<dyn Model>, String> {
+    Err(format!(
+        "model `{spec}` is not in this build of revelio (built without the `net` feature); use a `sim:` model or a default build"
+    ))
+}
+
+/// Build an API model (`openai:`, `anthropic:`, `gemini:`, `bedrock:`); needs no domain.
+#[cfg(feature = "net")]
 pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
     let (provider, rest) =
         spec.split_once(':').ok_or_else(|| format!("invalid model `{spec}`: expected PROVIDER:NAME"))?;
