@@ -288,3 +288,63 @@ fn usage_errors_exit_2_everywhere() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("is not a run folder (it has no config.json)"), "{err}");
 }
+
+/// Issue 12: a run in which every model call failed exited 0 with "no failure modes found".
+/// Against an endpoint that refuses every request, the run stops after `--max-api-errors` calls
+/// in a row with the last error (exit 1, resumable); with the stop turned off it finishes and
+/// still exits 1, saying what share of the observations failed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_whose_model_calls_all_fail_exits_1() {
+    let server = MockServer::start().await;
+    // 400 is not transient: no retries, so the test stays fast.
+    Mock::given(method("POST"))
+        .respond_with(ResponseTemplate::new(400).set_body_string("{\"error\": {\"message\": \"model not loaded\"}}"))
+        .mount(&server)
+        .await;
+    let dir = tempfile::tempdir().unwrap();
+    let (uri, d) = (server.uri(), dir.path().to_path_buf());
+    let outcome = tokio::task::spawn_blocking(move || {
+        let run = |out: &str, extra: &[&str]| {
+            let mut cmd = revelio(&[
+                "search",
+                "domains/driving.rev",
+                "--model",
+                "openai:vlm-test",
+                "--renderer",
+                "none",
+                "--algo",
+                "random",
+                "--budget",
+                "40",
+                "--samples",
+                "2",
+                "--concurrency",
+                "2",
+                "--no-cache",
+                "--base-url",
+                &uri,
+            ]);
+            cmd.args(extra).arg("--out").arg(d.join(out));
+            text(&cmd.output().unwrap())
+        };
+        (run("stops", &[]), run("finishes", &["--max-api-errors", "0"]))
+    })
+    .await
+    .unwrap();
+    let ((code, _, err), (code_all, out_all, err_all)) = outcome;
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("error: stopped after 10 model calls in a row failed; the last: "), "{err}");
+    assert!(err.contains("model not loaded"), "the last error is shown: {err}");
+    assert!(err.contains("the same command resumes it"), "{err}");
+    let stopped = journal(&dir.path().join("stops"));
+    assert!((10..=12).contains(&stopped.len()), "the calls in flight are journaled: {}", stopped.len());
+    assert!(stopped.iter().all(|l| l["outcome"] == json!("api_error")));
+
+    assert_eq!(code_all, 1, "{err_all}");
+    assert!(out_all.contains("not answered (excluded from FR): 40 api_error"), "{out_all}");
+    assert!(
+        err_all.contains("error: 100% of the observations (40 of 40) are failed model calls (`api_error`)"),
+        "{err_all}"
+    );
+    assert_eq!(journal(&dir.path().join("finishes")).len(), 40);
+}
