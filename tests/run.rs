@@ -139,7 +139,37 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let lines = journal(&dir.path().join("again"));
     assert_eq!(lines.len(), 30);
     assert!(lines.iter().all(|l| l["cached"] == json!(true)));
-    let _ = cache2;
+
+    // Another algorithm, same model and seed: GPTS's beam phase (15 of its 30 inferences) is the
+    // beam run's first 5 sets, and only the rest is paid for.
+    let before = server.received_requests().await.unwrap().len();
+    let (d, w) = (dir.path().to_path_buf(), with_config.map(String::from));
+    let gpts = tokio::task::spawn_blocking(move || {
+        let w: Vec<&str> = w.iter().map(String::as_str).collect();
+        let mut cmd = revelio(&[
+            "search",
+            "domains/driving.rev",
+            "--model",
+            "openai:vlm-test",
+            "--renderer",
+            "none",
+            "--algo",
+            "gpts",
+            "--budget",
+            "30",
+            "--samples",
+            "3",
+            "--out",
+        ]);
+        cmd.arg(d.join("gpts")).args(&w).args(["--cache-dir", cache2.to_str().unwrap()]);
+        text(&cmd.output().unwrap())
+    })
+    .await
+    .unwrap();
+    assert_eq!(gpts.0, 0, "{}", gpts.2);
+    let lines = journal(&dir.path().join("gpts"));
+    assert_eq!(lines.iter().filter(|l| l["cached"] == json!(true)).count(), 15, "the beam phase is shared");
+    assert_eq!(server.received_requests().await.unwrap().len(), before + 15, "only the GP rounds are paid for");
 
     // Two processes filling one fresh cache at once: both finish with the same answers.
     let shared = dir.path().join("shared-cache");
