@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use revelio::check;
 use revelio::fmt::format;
 use revelio::syntax::{self, lexer};
 
@@ -109,7 +108,7 @@ fn formatting_is_idempotent_and_keeps_tokens_and_comments() {
 /// What a file compiles to, through `revelio describe --json` and the whole IR (spans and file
 /// texts removed: they move when the layout changes).
 fn meaning(path: &Path, text: &str) -> (String, String) {
-    let c = check::compile(&path.display().to_string(), text, &|p| std::fs::read_to_string(p).ok());
+    let c = revelio::source::compile_text(path, text, &|_| None);
     let d = c.domain.unwrap_or_else(|| panic!("{} does not compile: {:?}", name(path), c.diagnostics));
     let describe = revelio::cli::describe::to_json(&d).to_string();
     let mut ir = serde_json::to_value(&d).unwrap();

@@ -14,6 +14,7 @@ pub mod fmt;
 pub mod lattice;
 pub mod lsp;
 pub mod oracle;
+pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod search;

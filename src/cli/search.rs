@@ -53,6 +53,9 @@ pub struct SearchArgs {
     /// Largest concept set searched
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
     pub max_size: usize,
+    /// Most valid concept sets searched over; a larger lattice is refused with the ways out
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
     #[command(flatten)]
     pub run: RunFlags,
     /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
@@ -83,13 +86,17 @@ pub struct RunFlags {
     pub max_api_errors: u32,
 }
 
-/// Flags that configure model clients (shared with `validate` and `ask`). On an existing run
-/// folder, the ones not given are taken from its `config.json`.
+/// Flags that configure the model and image-generation clients (shared with `validate` and
+/// `ask`). On an existing run folder, the ones not given are taken from its `config.json`.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
-    /// Override the provider endpoint
+    /// Override the model provider's endpoint (the model only; never the renderer's)
     #[arg(long)]
     pub base_url: Option<String>,
+    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
+    /// `OPENAI_BASE_URL`)
+    #[arg(long)]
+    pub renderer_base_url: Option<String>,
     /// Per-model settings (TOML)
     #[arg(long)]
     pub model_config: Option<PathBuf>,
@@ -110,6 +117,7 @@ impl ModelFlags {
     pub fn settings(&self) -> ModelSettings {
         ModelSettings {
             base_url: self.base_url.clone(),
+            renderer_base_url: self.renderer_base_url.clone(),
             model_config: self.model_config.as_deref().map(setup::absolute),
             thinking: self.thinking.clone(),
         }
@@ -173,7 +181,17 @@ pub fn run(args: SearchArgs) -> ExitCode {
         };
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = Lattice::enumerate(&domain, config.params.max_size);
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let lattice = match lattice {
+        Ok(l) => l,
+        Err(too_large) => {
+            eprintln!("{}", too_large.plain());
+            return ExitCode::from(1);
+        }
+    };
     let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(

@@ -26,7 +26,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::outcome::{Answer, Outcome, Usage};
 
@@ -127,11 +126,6 @@ struct Writer {
     unsynced: usize,
 }
 
-/// SHA-256 hex of bytes.
-pub fn sha256(bytes: &[u8]) -> String {
-    hex::encode(Sha256::digest(bytes))
-}
-
 /// Write a file atomically (temporary file, then rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), JournalError> {
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
@@ -225,7 +219,7 @@ impl Journal {
 
     /// Store an image under its content hash (no-op when present); returns the hash.
     pub fn store_image(&self, png: &[u8]) -> Result<String, JournalError> {
-        let hash = sha256(png);
+        let hash = crate::hash::sha256_hex(png);
         let path = self.dir.join("images").join(format!("{hash}.png"));
         if !path.exists() {
             write_atomic(&path, png)?;
@@ -360,7 +354,7 @@ mod tests {
         let run = dir.path().join("r");
         let j = Journal::open(&run).unwrap();
         let h = j.store_image(b"png bytes").unwrap();
-        assert_eq!(h, sha256(b"png bytes"));
+        assert_eq!(h, crate::hash::sha256_hex(b"png bytes"));
         assert_eq!(std::fs::read(run.join("images").join(format!("{h}.png"))).unwrap(), b"png bytes");
     }
 

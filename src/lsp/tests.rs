@@ -200,3 +200,36 @@ fn every_feature_survives_broken_text_at_every_kind_of_position() {
         assert!(round < 40);
     }
 }
+
+/// Opening a domain in an editor reads what `revelio check` reads and nothing more: not a file
+/// outside the domain's folder, not one by absolute path, not one that is open in another buffer
+/// outside the folder (issue 12, item 1: the editor used to show `/proc/self/environ`).
+#[test]
+fn use_in_an_open_document_reads_only_what_check_would() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("d")).unwrap();
+    let outside = dir.path().join("outside.rev");
+    std::fs::write(&outside, "tag OutsideCanary\n").unwrap();
+    let inside = dir.path().join("d/lib.rev");
+    let entry = dir.path().join("d/domain.rev");
+    let name = entry.to_string_lossy().into_owned();
+    let mut open = HashMap::new();
+    open.insert(outside.to_string_lossy().into_owned(), "tag OpenCanary\n".to_string());
+    open.insert(inside.to_string_lossy().into_owned(), "tag Inside\n".to_string());
+    for (path, says) in [
+        ("/proc/self/environ", "is an absolute path"),
+        ("/etc/shadow", "is an absolute path"),
+        ("../outside.rev", "is outside the domain's folder"),
+    ] {
+        let a = Analysis::new(&name, &format!("use \"{path}\"\ntag T\n"), &open);
+        let d = &a.compiled.diagnostics;
+        assert!(d.iter().any(|d| d.code == "R0013" && d.message.contains(says)), "{path}: {d:?}");
+        let loaded: Vec<&str> = a.file_names().filter(|n| !n.starts_with("std/")).collect();
+        assert_eq!(loaded, [name.as_str()], "{path}: only the document itself is loaded");
+        assert!(!a.compiled.files.iter().any(|f| f.text.contains("Canary") || f.text.contains("root:")));
+    }
+    // An unsaved buffer inside the folder stands in for its file.
+    let a = Analysis::new(&name, "use \"lib.rev\"\ntag T\n", &open);
+    assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
+    assert!(a.file_names().any(|n| n.ends_with("d/lib.rev")));
+}

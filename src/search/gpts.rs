@@ -47,8 +47,11 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
             let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
-            let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
-            for _ in 0..params.batch {
+            // More draws than unexplored sets or than the budget pays for only repeat argmaxes:
+            // each costs a pass over the lattice, so a huge `--batch` would spin.
+            let draws = params.batch.min(left).min(driver.remaining());
+            let mut picks: Vec<ConceptSet> = Vec::with_capacity(draws);
+            for _ in 0..draws {
                 let draw = model.draw(&mut rng);
                 if let Some(best) = argmax(&explored, space, &draw).filter(|b| !picks.contains(b)) {
                     picks.push(best);
