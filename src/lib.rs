@@ -4,9 +4,11 @@
 //! [`diag`], [`hash`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
 //! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`], [`source`] → [`render`] → [`vlm`] →
-//! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
-//! and GPU live in `net`, `source`, `render`, `vlm`, `journal`, `run` and `cli`.
+//! [`journal`] → [`run`] → [`analysis`] → [`report`] → [`fmt`] → [`lsp`] → [`cli`]. The core
+//! (`diag` … `search`) does no I/O; files, network and GPU live in `net`, `source`, `render`,
+//! `vlm`, `journal`, `run`, `report` and `cli`.
 
+pub mod analysis;
 pub mod anchor;
 pub mod check;
 pub mod cli;
@@ -25,6 +27,7 @@ pub mod net;
 pub mod oracle;
 pub mod outcome;
 pub mod render;
+pub mod report;
 pub mod run;
 pub mod sample;
 pub mod scene;

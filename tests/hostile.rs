@@ -636,6 +636,8 @@ fn the_journal_keeps_a_bounded_prefix_of_long_replies() {
             "6",
             "--samples",
             "1",
+            "--shrink",
+            "0",
             "--out",
             s(&out),
             "--json",

@@ -6,8 +6,8 @@
 //! The floors, bottom first (README "Architecture" draws the same line): `diag` (spans,
 //! diagnostics, codes, suggestions), `hash` and `outcome` → `ir` → `syntax` → `check` → `anchor`,
 //! `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure algorithms) →
-//! `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt` → `lsp` → `cli`
-//! (the language server formats through `fmt`).
+//! `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis` → `report` → `fmt` → `lsp` →
+//! `cli` (the language server formats through `fmt`).
 //! `ir` is the compiler's output but plain data: it sits below the front end that builds it.
 
 use std::collections::BTreeMap;
@@ -36,10 +36,10 @@ const FLOORS: &[(&str, u32)] = &[
     ("journal", 13),
     ("run", 14),
     ("analysis", 15),
-    ("report", 15),
-    ("fmt", 16),
-    ("lsp", 17),
-    ("cli", 18),
+    ("report", 16),
+    ("fmt", 17),
+    ("lsp", 18),
+    ("cli", 19),
 ];
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.

@@ -42,6 +42,9 @@ pub const SYNC_EVERY: usize = 64;
 pub enum Phase {
     Search,
     Validate,
+    /// Shrinking failure modes to cores after the search (more observations of search sets
+    /// continue their indices; subsets start at 0).
+    Shrink,
 }
 
 /// One observation, as one journal line.
@@ -80,6 +83,8 @@ pub enum JournalError {
     Io { action: &'static str, path: PathBuf, source: std::io::Error },
     #[error("cannot resume: line {line} of `{}` is corrupt: {message}", path.display())]
     Corrupt { path: PathBuf, line: usize, message: String },
+    #[error("cannot read the journal: line {line} of `{}` is corrupt: {message}", path.display())]
+    CorruptRead { path: PathBuf, line: usize, message: String },
     #[error(
         "run folder `{}` is in use by another revelio process ({holder}); wait for it to finish or choose another `--out` folder",
         dir.display()
@@ -243,6 +248,18 @@ fn holds_other_files(dir: &Path) -> Result<bool, JournalError> {
     }
     let mut entries = std::fs::read_dir(dir).map_err(io("read", dir))?;
     Ok(entries.any(|e| e.map_or(true, |e| e.file_name() != lock::LOCK_FILE)))
+}
+
+/// Read a run folder's journal without opening it for appending or locking the folder (reports
+/// read finished runs). A torn last line is skipped, as [`Journal::open`] would drop it.
+pub fn read(dir: &Path) -> Result<Vec<Record>, JournalError> {
+    let path = dir.join("journal.jsonl");
+    let text = std::fs::read(&path).map_err(io("read", &path))?;
+    match parse_journal(&text, &path) {
+        Ok((records, _)) => Ok(records),
+        Err(JournalError::Corrupt { path, line, message }) => Err(JournalError::CorruptRead { path, line, message }),
+        Err(e) => Err(e),
+    }
 }
 
 /// Parse journal bytes; returns the records and the length of the valid prefix. Only the last
