@@ -249,6 +249,30 @@ fn statements_go_one_per_line_and_settings_fill_lines() {
 }
 
 #[test]
+fn relations_regions_pitch_and_two_entity_conditions_are_laid_out() {
+    let input = "relation near \"is near\"{distance 0m .. 1.5m\n}\n\
+                 relation on \"is on\" {\n on_top }\n\
+                 kind Tree:Extra{in verge ,far_kerb}\n\
+                 kind Car{in far_kerb\n d: length = 1m\n}\n\
+                 look Tree{box size(1m,1m,1m) pitch 10deg yaw 5deg}\n\
+                 rules priority{rule r{when exists a:Car where exists b:Car where a near b and a.d<b.d expect q.a}}\n";
+    let want = "relation near \"is near\" { distance 0m..1.5m }\n\
+                relation on \"is on\" { on_top }\n\
+                kind Tree: Extra { in verge, far_kerb }\n\
+                kind Car {\n  in far_kerb\n  d: length = 1m\n}\n\
+                look Tree {\n  box size (1m, 1m, 1m) pitch 10deg yaw 5deg\n}\n\
+                rules priority {\n  rule r {\n    when exists a: Car where exists b: Car where a near b and a.d < b.d\n    expect q.a\n  }\n}\n";
+    let out = layout(input);
+    assert_eq!(out, want);
+    assert_eq!(layout(&out), out, "formatting twice changes nothing");
+    // Many placements fill lines, like a preset's settings.
+    let long = "relation beside \"is right beside the thing it stands next to\" { distance 0m..1.5m  ahead -0.5m..0.5m  left 0.2m..1.5m }";
+    let out = layout(long);
+    assert!(out.lines().count() > 1 && out.lines().all(|l| l.chars().count() <= revelio::fmt::MAX_WIDTH), "{out}");
+    assert_eq!(layout(&out), out);
+}
+
+#[test]
 fn comments_stay_where_they_were() {
     // Trailing comments stay trailing; own-line ones stay on their own line, indented like the
     // code; blank lines collapse to one and go away after `{` and before `}`.

@@ -169,6 +169,12 @@ fn every_code_is_documented_once() {
     for code in &emitted {
         assert!(revelio::diag::codes::info(code).is_some(), "emitted code {code} is not in CODES");
     }
+    // README's code table lists every code too.
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    for c in CODES {
+        let row = format!("| {} | {} |", c.code, c.name);
+        assert_eq!(readme.matches(&row).count(), 1, "README.md needs exactly one row starting `{row}`");
+    }
     let unused: Vec<&str> = CODES.iter().map(|c| c.code).filter(|c| !emitted.contains(c)).collect();
     // R0003, R0004 and R0044 need inputs too large for the corpus, and R0070 a lattice; they have
     // tests of their own (`tests/hostile.rs`, `src/check`, `src/source`, `src/lattice`).
@@ -191,7 +197,7 @@ fn render(path: &str, json: bool) -> String {
 
 #[test]
 fn snapshots_of_rendered_diagnostics() {
-    for name in ["syntax_many", "names", "types"] {
+    for name in ["syntax_many", "names", "types", "relations"] {
         let path = format!("tests/corpus/bad/{name}.rev");
         insta::assert_snapshot!(format!("{name}_human"), render(&path, false));
         insta::assert_snapshot!(format!("{name}_json"), render(&path, true));

@@ -12,8 +12,12 @@ mod concepts;
 mod expr;
 mod lower;
 mod names;
+mod relations;
 mod rules;
+mod scene;
 mod shapes;
+mod types;
+mod values;
 
 use std::collections::{HashMap, HashSet};
 

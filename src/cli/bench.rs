@@ -5,7 +5,10 @@
 //! fraction of the profile's planted failure modes recovered, and Revelio's own time per
 //! inference. With `--max-samples` every algorithm runs twice at the same budget: with the
 //! paper's fixed m and with sequential sampling up to M. With `--shrink` every run shrinks its
-//! failure modes to cores, and the cores and their precision are reported too.
+//! failure modes to cores. Every run reports its cores — the shrink phase's, or without one the
+//! evaluated failure modes whose every valid one-smaller subset was evaluated and passes (what
+//! `--algo interact` confirms as it searches) — with their precision, the share of planted modes
+//! some core holds (recovered) and the share reported exactly as a core (exact).
 //! `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
 //! latencies (see `src/lsp/bench.rs`).
 use std::io::Write;
@@ -16,11 +19,13 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::ir::ConceptSet;
 use crate::ir::Domain;
 use crate::lattice::Lattice;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
 use crate::run::setup::ModelSettings;
+use crate::search::interact::{Supersets, Surrogate};
 use crate::search::interval::mean_ci95;
 use crate::search::metrics::mean_sd;
 use crate::search::{Algo, Params, SetStats, Space};
@@ -85,6 +90,15 @@ pub struct SearchBenchArgs {
     pub beam_width: usize,
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
+    /// Algorithms to run, comma-separated [default: all]
+    #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
+    pub algos: Vec<Algo>,
+    /// Interact: the surrogate (horseshoe, ridge, linear)
+    #[arg(long, default_value = "horseshoe")]
+    pub surrogate: Surrogate,
+    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
+    #[arg(long, default_value = "fallback")]
+    pub supersets: Supersets,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -155,11 +169,14 @@ pub struct AlgoResult {
     pub precision: Stat,
     /// Fraction of planted modes (error ≥ τ) recovered.
     pub recovered: Stat,
-    /// Cores per run and the share whose true error is ≥ τ (with `--shrink`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cores: Option<Stat>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub core_precision: Option<Stat>,
+    /// Cores per run (the shrink phase's, or without one the failure modes whose every valid
+    /// one-smaller subset was evaluated and passes) and the share whose true error is ≥ τ.
+    pub cores: Stat,
+    pub core_precision: Stat,
+    /// Share of planted modes that some core with observed FR ≥ τ contains.
+    pub core_recovered: Stat,
+    /// Share of planted modes reported exactly as a core.
+    pub exact: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
 }
@@ -175,6 +192,8 @@ struct RunFigures {
     recovered: Option<f64>,
     cores: f64,
     core_precision: Option<f64>,
+    core_recovered: Option<f64>,
+    exact: Option<f64>,
     us: f64,
 }
 
@@ -205,6 +224,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         beam_width: args.beam_width,
         beam_budget: args.budget / 2,
         shrink: args.shrink,
+        surrogate: args.surrogate,
+        supersets: args.supersets,
         ..Params::default()
     };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
@@ -225,7 +246,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     let mut results = Vec::new();
-    for algo in Algo::ALL {
+    let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
+    for algo in algos {
         for mode in &modes {
             let mut rows: Vec<RunFigures> = Vec::new();
             for seed in 0..args.seeds {
@@ -254,8 +276,10 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                 false_modes: col(&|r| Some(r.false_modes), count),
                 precision: col(&|r| r.precision, share),
                 recovered: col(&|r| r.recovered, share),
-                cores: (args.shrink > 0).then(|| col(&|r| Some(r.cores), count)),
-                core_precision: (args.shrink > 0).then(|| col(&|r| r.core_precision, share)),
+                cores: col(&|r| Some(r.cores), count),
+                core_precision: col(&|r| r.core_precision, share),
+                core_recovered: col(&|r| r.core_recovered, share),
+                exact: col(&|r| r.exact, share),
                 us_per_inference: col(&|r| Some(r.us), count),
             });
         }
@@ -297,7 +321,12 @@ fn bench_one(
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
     let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.threshold)).map(|s| s.set).collect();
-    let cores: Vec<_> = r.found.cores.iter().map(|c| c.stats.set).collect();
+    let cores: Vec<_> = if r.summary.shrink.is_some() {
+        r.found.cores.iter().map(|c| c.stats.set).collect()
+    } else {
+        reported_cores(&r.history, space, args.threshold)
+    };
+    let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
     let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
     Ok(RunFigures {
         pfm: m.pfm,
@@ -309,6 +338,9 @@ fn bench_one(
         recovered: recovered(&r.history, planted, args.threshold),
         cores: cores.len() as f64,
         core_precision: precision(truth, &cores, args.threshold),
+        // Every core failed when it was confirmed (the shrink keeps failing subsets only).
+        core_recovered: share(planted.iter().filter(|p| cores.iter().any(|c| p.is_subset_of(*c))).count()),
+        exact: share(planted.iter().filter(|p| cores.contains(p)).count()),
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
     })
 }
@@ -321,6 +353,24 @@ pub fn true_modes(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f6
 /// The share of `sets` that truly fail (`None` for no sets).
 pub fn precision(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
     (!sets.is_empty()).then(|| true_modes(truth, sets, threshold) as f64 / sets.len() as f64)
+}
+
+/// The cores a run without a shrink phase reports: evaluated failure modes whose every valid
+/// one-smaller subset was evaluated and passes.
+pub fn reported_cores(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
+    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
+    history
+        .iter()
+        .filter(|s| s.is_failure_mode(threshold))
+        .filter(|s| {
+            s.set
+                .iter()
+                .map(|c| s.set.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
+        })
+        .map(|s| s.set)
+        .collect()
 }
 
 /// Fraction of planted modes contained in some evaluated set with observed FR ≥ τ (`None` when
@@ -352,7 +402,8 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     )?;
     writeln!(
         w,
-        "mean [95% interval over seeds]; FMs: failure modes reported, false: true error < τ, precision: share ≥ τ"
+        "mean [95% interval over seeds]; FMs: failure modes reported, false: true error < τ, precision: share ≥ τ; \
+         planted found: held by a failure mode; recovered: held by a core; exact: reported as a core"
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
         if s.n == 0 {
@@ -361,22 +412,32 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             format!("{:.*} [{:.*}–{:.*}]", digits, s.mean * scale, digits, s.ci95[0] * scale, digits, s.ci95[1] * scale)
         }
     };
-    let mut header = format!(
-        "{:<10} {:>18} {:>18} {:>17} {:>18} {:>18} {:>18} {:>18}",
-        "algo", "PFM %", "MFR %", "Div", "FMs", "false FMs", "precision %", "planted found %"
-    );
-    if args.shrink > 0 {
-        header += &format!(" {:>15} {:>18}", "cores", "core precision %");
-    }
-    writeln!(w, "{header}  µs/inference")?;
+    let planted_col = |s: &Stat| if planted == 0 { "-".to_string() } else { f(s, 100.0, 0) };
+    writeln!(
+        w,
+        "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  µs/inference",
+        "algo",
+        "PFM %",
+        "MFR %",
+        "Div",
+        "FMs",
+        "false FMs",
+        "precision %",
+        "planted found %",
+        "cores",
+        "core precision %",
+        "recovered %",
+        "exact %"
+    )?;
     for r in results {
         let name = if r.max_samples > args.samples {
             format!("{} ≤{}", r.algo.name(), r.max_samples)
         } else {
             r.algo.name().into()
         };
-        let mut line = format!(
-            "{:<10} {:>18} {:>18} {:>17} {:>18} {:>18} {:>18} {:>18}",
+        writeln!(
+            w,
+            "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
             name,
             f(&r.pfm, 1.0, 1),
             f(&r.mfr, 1.0, 1),
@@ -384,22 +445,59 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             f(&r.failure_modes, 1.0, 1),
             f(&r.false_modes, 1.0, 1),
             f(&r.precision, 100.0, 0),
-            if planted == 0 { "-".into() } else { f(&r.recovered, 100.0, 0) },
-        );
-        if let (Some(c), Some(p)) = (&r.cores, &r.core_precision) {
-            line += &format!(" {:>15} {:>18}", f(c, 1.0, 1), f(p, 100.0, 0));
-        }
-        writeln!(w, "{line}  {:.0}", r.us_per_inference.mean)?;
-    }
-    let pfm =
-        |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.samples).map_or(0.0, |r| r.pfm.mean);
-    if pfm(Algo::Random) > 0.0 {
-        writeln!(
-            w,
-            "PFM vs random (fixed m): beam {:.1}×, gpts {:.1}×",
-            pfm(Algo::Beam) / pfm(Algo::Random),
-            pfm(Algo::Gpts) / pfm(Algo::Random)
+            planted_col(&r.recovered),
+            f(&r.cores, 1.0, 1),
+            f(&r.core_precision, 100.0, 0),
+            planted_col(&r.core_recovered),
+            planted_col(&r.exact),
+            r.us_per_inference.mean
         )?;
     }
+    let pfm = |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.samples).map(|r| r.pfm.mean);
+    if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
+        let ratios: Vec<String> = Algo::ALL
+            .iter()
+            .filter(|a| **a != Algo::Random)
+            .filter_map(|a| pfm(*a).map(|p| format!("{} {:.1}×", a.name(), p / random)))
+            .collect();
+        writeln!(w, "PFM vs random (fixed m): {}", ratios.join(", "))?;
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::ConceptId;
+    use crate::ir::testkit::lattice;
+    use crate::outcome::Outcome;
+
+    fn set(ids: &[u32]) -> ConceptSet {
+        ConceptSet::from_ids(ids.iter().map(|&i| ConceptId(i)))
+    }
+
+    fn stats(ids: &[u32], wrong: u32) -> SetStats {
+        let mut s = SetStats::new(set(ids));
+        (0..5).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
+        s
+    }
+
+    #[test]
+    fn a_core_is_a_failure_whose_every_valid_one_smaller_subset_was_seen_passing() {
+        // Concepts 0 and 1 exclude each other, so {0, 1, …} is not in the space.
+        let space = Space::new(lattice(5, 3), 5);
+        let history = vec![
+            stats(&[2], 1),
+            stats(&[3], 0),
+            stats(&[2, 3], 5),    // a core: {2} and {3} pass
+            stats(&[2, 3, 4], 5), // holds the core: {2, 3} fails
+            stats(&[0, 4], 4),    // {0} was never evaluated: not a core
+            stats(&[1], 3),       // a singleton that fails is a core
+            stats(&[4], 2),
+            stats(&[2, 4], 1),
+        ];
+        let mut cores = reported_cores(&history, &space, 0.6);
+        cores.sort();
+        assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
+    }
 }

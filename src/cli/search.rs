@@ -173,6 +173,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
         shrink: args.shrink.unwrap_or_else(|| {
             Params::default_shrink(args.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
         }),
+        ..Params::default()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");

@@ -45,6 +45,9 @@ codes! {
     TOO_MANY_CONCEPTS = "R0044", "too-many-concepts", "more concepts than a concept set can hold (128)";
     PARTIAL_TARGET = "R0045", "partial-target-attribute", "(warning) a modifier sets an attribute that some of its target kinds lack";
     DUPLICATE_LOOK = "R0046", "duplicate-look", "a kind with both `shape { … }` and a `look`, or two `look`s";
+    RELATION_PLACEMENT = "R0047", "relation-placement", "a relation whose placement is missing, unknown or contradictory";
+    UNPLACEABLE_RELATION = "R0048", "unplaceable-relation", "an `add` whose relation can never hold: its region is out of reach of its target, or the entities are placed relative to each other in a cycle";
+    REGION_NOT_ALLOWED = "R0049", "region-not-allowed", "an entity added to or moved into a region its kind may not stand in";
     EMPTY_MEMBER = "R0050", "empty-member", "a constraint wildcard or category that matches no concept";
     UNKNOWN_CONSTRAINT = "R0051", "unknown-constraint", "a constraint that is not `exclusive`, `at_most`, `requires` or `forbids`";
     CONSTRAINT_ARITY = "R0052", "constraint-arity", "a constraint with the wrong number of members or a missing count";

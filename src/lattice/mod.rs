@@ -414,6 +414,14 @@ mod tests {
         b.modifier("lost", filter(&[other], &[]), &[]);
         b.constraint("never_x", ConstraintRule::AtMost { members: ConceptSet::single(x), max: 0 });
         out.push(b.build());
+        // Entities placed relative to entities of other concepts (`near owner`, `behind barrier`,
+        // `on stool`): a set needs the concept that adds the target.
+        for (name, text) in [
+            ("walk_the_dog.rev", include_str!("../../tests/corpus/good/walk_the_dog.rev")),
+            ("indoor.rev", include_str!("../../domains/indoor.rev")),
+        ] {
+            out.push(crate::check::compile_source(name, text).unwrap_or_else(|e| panic!("{name}: {e:?}")));
+        }
         out
     }
 

@@ -188,13 +188,13 @@ impl Survey {
 
     fn rule_lints(&self, domain: &Domain, max_size: usize, out: &mut Vec<Diagnostic>) {
         for (i, rule) in domain.rules.iter().enumerate() {
-            // A rule whose condition is only ever unknown is reported by R0102 alone.
-            let only_unknown = !self.applies[i] && self.undetermined[i].is_some();
-            if !self.selected[i] && !only_unknown {
+            // An undetermined rule is reported by R0102 alone: until its condition is decided,
+            // whether it is shadowed (and what reordering would help) is not known either.
+            if !self.selected[i] && self.undetermined[i].is_none() {
                 out.push(self.never_selected(domain, i, max_size));
             }
             if let Some(ex) = self.undetermined[i] {
-                out.push(undetermined(domain, i, ex));
+                out.push(undetermined(domain, i, ex, self.never_selected_note(domain, i)));
             }
             let ties = self.ties[i].by_rule();
             for (k, &(winner, ex)) in ties.iter().enumerate() {
@@ -225,6 +225,23 @@ impl Survey {
                 });
             }
         }
+    }
+
+    /// For an undetermined rule that is also never selected: the rule selected instead where
+    /// its condition holds, as a note for R0102.
+    fn never_selected_note(&self, domain: &Domain, i: usize) -> Option<Label> {
+        if self.selected[i] {
+            return None;
+        }
+        let (winner, ex) = self.shadowed_by[i].by_rule().into_iter().max_by_key(|(_, e)| e.count)?;
+        Some(Label {
+            span: domain.rules[winner].span,
+            message: format!(
+                "where `{}` holds it is never selected: this rule is, e.g. for {}",
+                domain.rules[i].name,
+                set_text(domain, ex.set)
+            ),
+        })
     }
 
     fn never_selected(&self, domain: &Domain, i: usize, max_size: usize) -> Diagnostic {
@@ -334,7 +351,7 @@ fn others(count: usize) -> String {
     }
 }
 
-fn undetermined(domain: &Domain, i: usize, ex: Example) -> Diagnostic {
+fn undetermined(domain: &Domain, i: usize, ex: Example, shadowed: Option<Label>) -> Diagnostic {
     let rule = &domain.rules[i];
     let oracle = Oracle::new(domain);
     // Re-judge the example to name the straddling attribute.
@@ -354,7 +371,7 @@ fn undetermined(domain: &Domain, i: usize, ex: Example) -> Diagnostic {
         ),
         span: Some(rule.span),
         label: cause,
-        related: vec![],
+        related: shadowed.into_iter().collect(),
         help: Some(
             "split the concept's range at the rule's threshold, or move the threshold outside the range, so that \
              every image of the set gets the same answer"

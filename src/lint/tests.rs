@@ -184,6 +184,37 @@ fn lints_are_deterministic() {
 }
 
 #[test]
+fn an_undetermined_rule_is_not_also_called_shadowed() {
+    let mut b = Dom::new(Selection::Priority);
+    let k = b.kind("Box", &[], &[("distance", range(3.0, 6.0))]);
+    b.concept("parcel", &[("parcel", k, "lane", &[])]);
+    let crate_near = b.concept("crate_near", &[("crate", k, "lane", &[("distance", range(1.0, 2.0))])]);
+    b.concept("empty_road", &[]);
+    let q = b.question("drive", &["stop", "go"]);
+    b.rule("crate_seen", q, 0, Some(Expr::Has(crate_near)), &[]);
+    // True only with the crate (where `crate_seen` wins), unknown with the parcel alone.
+    let close = exists(filter(&[k], &[]), Some(attr_cmp("distance", CmpOp::Le, num(4.0))));
+    b.rule("close", q, 0, Some(close), &[]);
+    b.rule("open", q, 1, None, &[]);
+    let d = b.build();
+    let diags = lint_domain(&d);
+    let codes: Vec<&str> = diags.iter().map(|x| x.code).collect();
+    // Before, R0101 also advised moving `close` before `crate_seen`, which leaves it undetermined.
+    assert_eq!(codes, ["R0102"], "{diags:#?}");
+    assert_eq!(diags[0].span, Some(span_of_rule_at(&d, "close")));
+    assert_eq!(diags[0].related.len(), 1);
+    assert_eq!(diags[0].related[0].span, d.rules[0].span);
+    assert_eq!(
+        diags[0].related[0].message,
+        "where `close` holds it is never selected: this rule is, e.g. for {`crate_near`}"
+    );
+}
+
+fn span_of_rule_at(d: &Domain, name: &str) -> crate::ir::Span {
+    d.rules.iter().find(|r| r.name == name).unwrap().span
+}
+
+#[test]
 fn forty_thousand_rules_lint_in_memory_linear_in_rules() {
     // Rule × rule tables were 2 × 1.6 × 10^9 entries here (over 100 GB: the process aborted);
     // the tallies are per rule.

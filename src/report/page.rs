@@ -310,6 +310,7 @@ fn algorithm_text(run: &Run) -> String {
             grouped(p.beam_budget),
             p.batch
         ),
+        Algo::Interact => "interact (interaction-aware surrogate; confirmed cores shrunk at once)".into(),
     }
 }
 

@@ -43,27 +43,34 @@ pub(super) fn journal_lines(dir: &std::path::Path) -> Vec<String> {
 #[test]
 fn same_seed_same_journal_and_summary() {
     let dir = tempfile::tempdir().unwrap();
-    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
+    for algo in Algo::ALL {
         let (a, b) = (dir.path().join(format!("{algo:?}a")), dir.path().join(format!("{algo:?}b")));
         let (sa, space) = setup(&a, 8);
         let ra = block_on(runner::search(&sa, &config(&sa, algo), &space)).unwrap();
         let (sb, space) = setup(&b, 3);
         let rb = block_on(runner::search(&sb, &config(&sb, algo), &space)).unwrap();
         assert_eq!(ra.summary, rb.summary);
-        assert_eq!(ra.summary.metrics.inferences, 200);
+        // Interact confirms cores sequentially (batches of 1–6 observations): the budget may
+        // end less than m short of 200, never past it.
+        let spent = ra.summary.metrics.inferences;
+        if algo == Algo::Interact {
+            assert!((196..=200).contains(&spent), "{spent}")
+        } else {
+            assert_eq!(spent, 200)
+        }
         assert_eq!(journal_lines(&a), journal_lines(&b));
-        assert_eq!(journal_lines(&a).len(), 200);
+        assert_eq!(journal_lines(&a).len() as u64, spent);
         assert_eq!(std::fs::read(a.join("summary.json")).unwrap(), std::fs::read(b.join("summary.json")).unwrap());
     }
 }
 
-#[test]
-fn resume_after_a_crash_at_any_point_gives_the_same_summary() {
+/// A run killed at any byte of its journal resumes to the uninterrupted run's summary.
+fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
     use rand::{RngExt, SeedableRng};
     let dir = tempfile::tempdir().unwrap();
     let full = dir.path().join("full");
     let (s, space) = setup(&full, 8);
-    let cfg = config(&s, Algo::Gpts);
+    let cfg = config(&s, algo);
     let reference = block_on(runner::search(&s, &cfg, &space)).unwrap().summary;
     let journal = std::fs::read(full.join("journal.jsonl")).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -82,6 +89,16 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary() {
         assert_eq!(r.dropped_torn_line, cut > 0 && journal[cut - 1] != b'\n');
         assert_eq!(journal_lines(&run), journal_lines(&full));
     }
+}
+
+#[test]
+fn gpts_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts);
+}
+
+#[test]
+fn interact_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact);
 }
 
 #[test]

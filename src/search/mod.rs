@@ -22,12 +22,14 @@
 pub mod beam;
 pub mod gp;
 pub mod gpts;
+pub mod interact;
 pub mod interval;
 pub mod metrics;
 pub mod random;
 pub mod sequential;
 pub mod shrink;
 pub mod space;
+pub mod surrogate;
 
 use std::collections::{HashMap, HashSet};
 use std::future::Future;
@@ -46,17 +48,19 @@ pub enum Algo {
     Random,
     Beam,
     Gpts,
+    Interact,
 }
 
 impl Algo {
     /// Every algorithm, in the order help texts and benchmarks list them.
-    pub const ALL: [Algo; 3] = [Algo::Random, Algo::Beam, Algo::Gpts];
+    pub const ALL: [Algo; 4] = [Algo::Random, Algo::Beam, Algo::Gpts, Algo::Interact];
 
     pub fn name(self) -> &'static str {
         match self {
             Algo::Random => "random",
             Algo::Beam => "beam",
             Algo::Gpts => "gpts",
+            Algo::Interact => "interact",
         }
     }
 }
@@ -99,6 +103,12 @@ pub struct Params {
     pub seed: u64,
     /// Largest set size in the lattice.
     pub max_size: usize,
+    /// Interact: the surrogate.
+    #[serde(default)]
+    pub surrogate: interact::Surrogate,
+    /// Interact: what happens to the supersets of a confirmed core.
+    #[serde(default)]
+    pub supersets: interact::Supersets,
     /// Sequential sampling: the most observations a set can get (`None`: exactly `samples`, the
     /// paper's fixed count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -138,6 +148,8 @@ impl Default for Params {
             batch: 1,
             seed: 0,
             max_size: 5,
+            surrogate: interact::Surrogate::default(),
+            supersets: interact::Supersets::default(),
             max_samples: None,
             shrink: 0,
         }
@@ -400,6 +412,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> R
         Algo::Random => random::run(params, space, &mut driver).await?,
         Algo::Beam => beam::run(params, space, &mut driver).await?,
         Algo::Gpts => gpts::run(params, space, &mut driver).await?,
+        Algo::Interact => interact::run(params, space, &mut driver).await?,
     }
     Ok(driver.history)
 }

@@ -137,6 +137,46 @@ fn params_are_validated() {
     assert_eq!(e(Params { budget: 3, ..ok }), "invalid `--budget`: 3 inferences cannot evaluate one set of 5 samples");
 }
 
+/// Two planted pairs and a planted triple whose parts never fail: every observation of a set
+/// holding one is wrong; a set of four holding none fails its first observation only (below
+/// τ = 0.6).
+fn three_modes(s: ConceptSet) -> u32 {
+    let modes = [bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+    if modes.iter().any(|m| m.is_subset_of(s)) { u32::MAX } else { u32::from(s.len() == 4) }
+}
+
+/// Failing sets whose every valid one-smaller subset was evaluated and passes.
+fn minimal_failures(h: &[SetStats], space: &Space) -> Vec<ConceptSet> {
+    let fr: std::collections::HashMap<ConceptSet, &SetStats> = h.iter().map(|s| (s.set, s)).collect();
+    h.iter()
+        .filter(|s| s.is_failure_mode(0.6))
+        .filter(|s| {
+            s.set
+                .iter()
+                .map(|c| s.set.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .all(|sub| fr.get(&sub).is_some_and(|t| !t.is_failure_mode(0.6)))
+        })
+        .map(|s| s.set)
+        .collect()
+}
+
+#[test]
+fn interact_reports_two_pairs_and_a_triple_exactly() {
+    let space = Space::new(lattice(12, 4), 12);
+    for seed in 0..3 {
+        let p = Params { algo: Algo::Interact, budget: 1000, seed, ..Params::default() };
+        let mut e = FnEval { f: three_modes, asked: vec![] };
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let mut cores = minimal_failures(&h, &space);
+        cores.sort();
+        let mut planted = vec![bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+        planted.sort();
+        assert_eq!(cores, planted, "seed {seed}");
+        assert_eq!(h, block_on(run(&p, &space, &mut FnEval { f: three_modes, asked: vec![] })).unwrap());
+    }
+}
 /// The sim model's law without its I/O: observation `obs` of `set` is wrong with chance
 /// `profile.error_for(set)`, drawn from a ChaCha stream keyed by (seed, set, obs), as the sim
 /// keys its draws by observation. Records every ask.
