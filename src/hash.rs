@@ -25,6 +25,18 @@ pub fn parts<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> [u8; 32] {
     h.finalize().into()
 }
 
+/// [`parts`] after a fixed domain-separation `tag` (hashed as is, not length-prefixed), so that
+/// digests of different kinds never coincide.
+pub fn tagged_parts<'a>(tag: &[u8], parts: impl IntoIterator<Item = &'a [u8]>) -> [u8; 32] {
+    let mut h = Sha256::new();
+    h.update(tag);
+    for p in parts {
+        h.update((p.len() as u64).to_le_bytes());
+        h.update(p);
+    }
+    h.finalize().into()
+}
+
 /// [`parts`] as 64 lowercase hex digits.
 pub fn parts_hex<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> String {
     hex::encode(self::parts(parts))

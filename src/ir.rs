@@ -10,8 +10,11 @@
 
 use serde::{Deserialize, Serialize};
 
+mod identity;
 #[cfg(test)]
 pub(crate) mod testkit;
+
+pub use identity::DomainId;
 
 /// Maximum number of concepts a domain may declare (the width of a [`ConceptSet`]).
 pub const MAX_CONCEPTS: usize = 128;

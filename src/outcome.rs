@@ -37,6 +37,9 @@ pub enum Outcome {
     Blocked,
     Truncated,
     ApiError,
+    /// The image generator refused to draw the scene (a safety filter, a text-only reply): no
+    /// model was asked, so it is neither an answer nor a failed call.
+    ImageBlocked,
 }
 
 impl Outcome {

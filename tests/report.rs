@@ -132,7 +132,7 @@ fn a_broken_run_folder_gets_a_clear_error() {
         Command::new(env!("CARGO_BIN_EXE_revelio")).args(["report", tmp.path().to_str().unwrap()]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: cannot read `") && err.contains("a finished run folder?"), "{err}");
+    assert!(err.starts_with("error: `") && err.contains("` is not a run folder (it has no config.json)"), "{err}");
 }
 
 /// A Chromium found on the PATH.

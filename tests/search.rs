@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use revelio::ir::Domain;
 use revelio::lattice::Lattice;
-use revelio::run::eval::{DomainWorld, World};
+use revelio::run::observe::{DomainWorld, World};
 use revelio::run::runner::{self, RunConfig, Setup};
 use revelio::search::{Algo, Params};
 use revelio::vlm::Model;
@@ -51,24 +51,12 @@ fn run(d: &Domain, file: &str, algo: Algo, budget: u64, out: &Path) -> runner::R
     let model: Arc<dyn Model> = Arc::new(SimModel { profile: profile(file, d) });
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(d));
     let (space, _) = runner::search_space(Lattice::enumerate(d, 5).sets, d.concepts.len(), world.as_ref());
-    let config = RunConfig {
-        domain_file: d.files[0].name.clone(),
-        domain: d.name.clone(),
-        domain_hash: revelio::journal::domain_hash(d),
-        model_spec: format!("sim:{file}"),
-        model: model.id(),
-        renderer: "none".into(),
-        params: Params { algo, budget, beam_budget: budget / 2, ..Params::default() },
-    };
-    let setup = Setup {
-        domain: Arc::new(d.clone()),
-        world,
-        model,
-        renderer: None,
-        concurrency: 8,
-        out: out.to_path_buf(),
-        progress: false,
-    };
+    let params = Params { algo, budget, beam_budget: budget / 2, ..Params::default() };
+    let spec = format!("sim:{file}");
+    let config =
+        RunConfig::new(d, Path::new(&d.files[0].name), &spec, model.as_ref(), Default::default(), "none", params);
+    let mut setup = Setup::new(Arc::new(d.clone()), world, model, None, out);
+    setup.concurrency = 8;
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap();
     let r = rt.block_on(runner::search(&setup, &config, &space)).unwrap();
     assert!(r.history.iter().all(|s| space.contains(s.set)));
@@ -166,17 +154,21 @@ fn search_command_resumes_refuses_other_configs_and_validates() {
     let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(printed, serde_json::from_slice::<serde_json::Value>(&summary).unwrap());
 
-    // A different budget is refused, naming the field.
-    let mut other = base.to_vec();
-    other[7] = "200";
-    let (code, _, err) = revelio(&other);
+    // A higher budget extends the run; another seed is a different run and is refused.
+    let mut more = base.to_vec();
+    more[7] = "200";
+    let (code, _, err) = revelio(&more);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("100 observations replayed"), "{err}");
+    more.extend(["--seed", "3"]);
+    let (code, _, err) = revelio(&more);
     assert_eq!(code, 1);
-    assert!(err.contains("`params.budget` was 100, now 200"), "{err}");
+    assert!(err.contains("`params.seed` was 0, now 3"), "{err}");
 
     let (code, report, err) = revelio(&["validate", out, "--top", "3", "--samples", "4"]);
     assert_eq!(code, 0, "{err}");
     assert!(report.contains("validated FR"), "{report}");
-    assert!(Path::new(out).join("validation.json").exists());
+    assert!(Path::new(out).join("validation-top3-samples4.json").exists());
 }
 
 #[test]
@@ -253,4 +245,39 @@ fn sequential_search_with_cores_end_to_end() {
     let (code, report, err) = revelio(&["validate", out, "--top", "3", "--samples", "5", "--max-samples", "20"]);
     assert_eq!(code, 0, "{err}");
     assert!(report.contains("5–20 samples (sequential)"), "{report}");
+}
+
+/// Bug 1 of issue 13: the scene stream hashed the domain file's path as typed. Every spelling of
+/// the path now gives the same scenes, and a run started with one resumes with another.
+#[test]
+fn the_spelling_of_the_domain_path_does_not_change_the_scenes() {
+    let abs = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
+    let scenes: Vec<String> = ["domains/driving.rev", "./domains/driving.rev", "domains/../domains/driving.rev", &abs]
+        .iter()
+        .map(|p| {
+            let (code, out, err) = revelio(&["emit", "scene", p, "debris_far", "weather_foggy", "--seed", "7"]);
+            assert_eq!(code, 0, "{err}");
+            out
+        })
+        .collect();
+    assert!(scenes.windows(2).all(|w| w[0] == w[1]), "{scenes:#?}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let out = out.to_str().unwrap();
+    let args = |file: &'static str| {
+        vec!["search", file, "--model", "sim:examples/sim/driving_paper.toml", "--renderer", "none", "--algo", "random"]
+    };
+    let mut first = args("domains/driving.rev");
+    first.extend(["--budget", "20", "--out", out]);
+    assert_eq!(revelio(&first).0, 0);
+    let mut other = args("./domains/../domains/driving.rev");
+    other.extend(["--budget", "20", "--out", out]);
+    let (code, _, err) = revelio(&other);
+    assert_eq!(code, 0, "{err}");
+    // Everything the first run observed — its 20 search inferences and its shrink phase's — is
+    // replayed, nothing asked again.
+    let lines = std::fs::read_to_string(dir.path().join("run/journal.jsonl")).unwrap().lines().count();
+    assert!(lines > 20, "the shrink phase ran too");
+    assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
 }

@@ -22,6 +22,7 @@ const KEY: &str = "sk-revelio-CANARY-5e1f0c9d";
 const AWS_SECRET: &str = "aws-secret-CANARY-77ab19";
 const AWS_TOKEN: &str = "aws-token-CANARY-c0ffee";
 
+#[allow(unsafe_code)]
 fn init_env() {
     static ENV: Once = Once::new();
     ENV.call_once(|| {
@@ -91,6 +92,7 @@ fn model(spec: &str, server: &MockServer, extra: &str, thinking: Option<&str>, c
         thinking: thinking.map(str::to_string),
         no_cache: !cache,
         cache_dir: Some(dir.path().join("cache")),
+        concurrency: None,
     };
     Setup { model: build_api_model(spec, &opts).unwrap(), dir }
 }
@@ -671,7 +673,7 @@ async fn imagegen_gemini_and_openai() {
     )
     .await;
     let err = renderer("imagegen:gemini:g", &server, dir.path()).render(&scene(), prompt).await.unwrap_err();
-    assert!(err.0.contains("blocked by the provider (IMAGE_SAFETY)"), "{}", err.0);
+    assert!(err.blocked && err.message.contains("blocked by the provider (IMAGE_SAFETY)"), "{err:?}");
     assert_eq!(server.received_requests().await.unwrap().len(), 1);
 
     // OpenAI images API: b64_json output; a moderation block is reported as such.
@@ -687,7 +689,7 @@ async fn imagegen_gemini_and_openai() {
     let got = r.render(&scene(), "tag:ok; a road").await.unwrap();
     assert!(!got.cached);
     let err = r.render(&scene(), "tag:bad; a road").await.unwrap_err();
-    assert!(err.0.contains("blocked by the provider's safety system"), "{}", err.0);
+    assert!(err.blocked && err.message.contains("blocked by the provider's safety system"), "{err:?}");
     let b = body_of(&server.received_requests().await.unwrap()[0]);
     assert_eq!(
         (b["model"].as_str(), b["size"].as_str(), b["n"].as_u64()),
@@ -723,7 +725,7 @@ fn the_example_config_builds_every_model_it_names() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fault_injection_search_loses_nothing() {
     use revelio::lattice::Lattice;
-    use revelio::run::eval::{DomainWorld, World};
+    use revelio::run::observe::{DomainWorld, World};
     use revelio::run::runner::{self, RunConfig};
     use revelio::search::{Algo, Params};
 
@@ -734,25 +736,12 @@ async fn fault_injection_search_loses_nothing() {
     let d = revelio::check::compile_source(&path, &std::fs::read_to_string(&path).unwrap()).unwrap();
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&d));
     let (space, _) = runner::search_space(Lattice::enumerate(&d, 5).sets, d.concepts.len(), world.as_ref());
-    let config = RunConfig {
-        domain_file: path.clone(),
-        domain: d.name.clone(),
-        domain_hash: revelio::journal::domain_hash(&d),
-        model_spec: "openai:vlm-test".into(),
-        model: s.model.id(),
-        renderer: "none".into(),
-        params: Params { algo: Algo::Gpts, budget: 1000, beam_budget: 500, ..Params::default() },
-    };
+    let params = Params { algo: Algo::Gpts, budget: 1000, beam_budget: 500, ..Params::default() };
+    let config =
+        RunConfig::new(&d, Path::new(&path), "openai:vlm-test", s.model.as_ref(), Default::default(), "none", params);
     let out = s.dir.path().join("run");
-    let setup = runner::Setup {
-        domain: Arc::new(d.clone()),
-        world,
-        model: s.model.clone(),
-        renderer: None,
-        concurrency: 32,
-        out: out.clone(),
-        progress: false,
-    };
+    let mut setup = runner::Setup::new(Arc::new(d.clone()), world, s.model.clone(), None, out.clone());
+    setup.concurrency = 32;
     let report = runner::search(&setup, &config, &space).await.unwrap();
 
     let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
@@ -786,6 +775,8 @@ async fn keys_never_reach_any_output_of_a_run() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("run");
         let (out_s, uri, domain) = (out.to_string_lossy().into_owned(), server.uri(), domain.clone());
+        // The shared reply cache goes into the test's folder, where the leak check reads it too.
+        let cache = dir.path().join("cache").to_string_lossy().into_owned();
         let outputs = tokio::task::spawn_blocking(move || {
             let run = |args: &[&str]| {
                 let o = std::process::Command::new(env!("CARGO_BIN_EXE_revelio")).args(args).output().unwrap();
@@ -810,10 +801,23 @@ async fn keys_never_reach_any_output_of_a_run() {
                 "2",
                 "--concurrency",
                 "4",
+                "--cache-dir",
+                &cache,
                 "--out",
                 &out_s,
             ]));
-            outputs.extend(run(&["validate", &out_s, "--top", "2", "--samples", "2", "--base-url", &uri]));
+            outputs.extend(run(&[
+                "validate",
+                &out_s,
+                "--top",
+                "2",
+                "--samples",
+                "2",
+                "--base-url",
+                &uri,
+                "--cache-dir",
+                &cache,
+            ]));
             outputs
         })
         .await
@@ -822,9 +826,12 @@ async fn keys_never_reach_any_output_of_a_run() {
             server.received_requests().await.unwrap().iter().map(|r| format!("{:?}", r.headers)).collect();
         assert!(sent.contains(KEY) || sent.contains(AWS_TOKEN), "{spec}: no credentials were sent");
         let mut outputs = outputs;
-        let files = walk(&out);
+        let files = walk(dir.path());
         assert!(
-            files.iter().any(|f| f.ends_with("journal.jsonl")) && files.iter().any(|f| f.ends_with("validation.json"))
+            files.iter().any(|f| f.ends_with("journal.jsonl"))
+                && files.iter().any(|f| f.ends_with("validation-top2-samples2.json"))
+                && files.iter().any(|f| f.starts_with(dir.path().join("cache"))),
+            "{files:?}"
         );
         for f in files {
             outputs.push(String::from_utf8_lossy(&std::fs::read(&f).unwrap()).into_owned());

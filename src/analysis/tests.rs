@@ -30,7 +30,7 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         prompt: String::new(),
         raw: String::new(),
         parsed: None,
-        answer: Answer::Unparsed,
+        answer: Some(Answer::Unparsed),
         expected: 0,
         outcome,
         usage: Usage::default(),

@@ -10,12 +10,12 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::diag::terminal_safe;
-use crate::hash::sha256_hex;
 use crate::ir::{ConceptSet, Domain};
+use crate::journal::Phase;
 use crate::outcome::{Answer, Outcome};
-use crate::render::RendererOptions;
-use crate::vlm::registry::build_model;
-use crate::vlm::{Query, Reply, Truth, prompt};
+use crate::run::observe::{DomainWorld, ObsKey, Observer};
+use crate::run::setup::{self, Parts};
+use crate::vlm::{Reply, prompt};
 
 #[derive(clap::Args, Debug)]
 pub struct AskArgs {
@@ -27,7 +27,7 @@ pub struct AskArgs {
     /// The model, e.g. `gemini:gemini-3-flash-preview`, `openai:Qwen/Qwen3-VL-8B-Instruct`.
     #[arg(long, short)]
     pub model: String,
-    /// Scene sampling seed.
+    /// Scene seed: the `seed` of a journal line shows that observation's scene and prompt again.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// `builtin`, `none`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`.
@@ -35,9 +35,6 @@ pub struct AskArgs {
     pub renderer: String,
     #[command(flatten)]
     pub model_opts: super::search::ModelFlags,
-    /// Response and image cache folder; without it nothing is cached.
-    #[arg(long)]
-    pub cache_dir: Option<PathBuf>,
 }
 
 pub fn run(args: AskArgs) -> ExitCode {
@@ -64,53 +61,41 @@ pub fn run(args: AskArgs) -> ExitCode {
             print!("{report}");
             ExitCode::SUCCESS
         }
-        Err(e) => {
+        Err((code, e)) => {
             eprintln!("error: {e}");
-            ExitCode::from(1)
+            ExitCode::from(code)
         }
     }
 }
 
-async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, String> {
-    let verdict = crate::oracle::evaluate(domain, set).map_err(|e| e.to_string())?;
-    let question = domain.questions.get(verdict.question.index()).ok_or_else(|| {
-        format!("the oracle named question {} that the domain does not have", verdict.question.index())
-    })?;
-    let options: Vec<String> = question.options.iter().map(|o| o.text.clone()).collect();
-    let scene = crate::sample::sample(domain, set, args.seed).map_err(|e| e.to_string())?;
-    let render_opts = RendererOptions {
-        size: None,
-        cache_dir: args.cache_dir.as_ref().map(|d| d.join("images")),
-        base_url: args.model_opts.renderer_base_url.clone(),
-    };
-    let image = match crate::render::build_renderer(&args.renderer, &render_opts)? {
-        None => None,
-        Some(r) => {
-            let image_prompt = crate::emit::prompt(domain, &scene).map_err(|e| e.to_string())?;
-            Some(r.render(&scene, &image_prompt).await.map_err(|e| e.to_string())?.png)
-        }
-    };
-    let image_hash = match &image {
-        Some(png) => sha256_hex(png),
-        None => sha256_hex(&serde_json::to_vec(&scene).map_err(|e| e.to_string())?),
-    };
-    let model_opts = args.model_opts.options(args.cache_dir.as_ref().map(|d| d.join("replies")));
-    let model = build_model(&args.model, domain, &model_opts)?;
-    let concepts: Vec<String> =
-        set.iter().filter_map(|id| domain.concepts.get(id.index())).map(|c| c.name.clone()).collect();
-    let query = Query {
-        image: image.map(Arc::new),
-        image_hash,
-        prompt: prompt::build(&question.text, &options),
-        options: options.clone(),
-        truth: Some(Truth { set, concepts, expected: verdict.expected, key: args.seed }),
-    };
-    let reply = model.ask(&query).await;
+/// One observation through the pipeline a search uses (no journal); the report, or the exit
+/// code and message.
+async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, (u8, String)> {
+    let verdict = crate::oracle::evaluate(domain, set).map_err(|e| (1, e.to_string()))?;
+    let cache = args.model_opts.cache();
+    let Parts { model, renderer, .. } =
+        setup::build_parts(domain, &args.model, &args.renderer, &args.model_opts.settings(), cache.as_deref(), None)
+            .map_err(|e| (e.exit_code(), e.to_string()))?;
+    let observer = Observer::new(Arc::new(domain.clone()), Arc::new(DomainWorld::new(domain)), renderer);
+    let task = observer.task(set).map_err(|e| (1, e.to_string()))?;
+    let key = ObsKey { phase: Phase::Search, set, index: 0 };
+    let o = observer.observe_task(model.as_ref(), key, args.seed, &task, None).await.map_err(|e| (1, e.to_string()))?;
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
-    if reply.answer == Answer::ApiError {
-        return Err(format!("`{}` failed: {}", model.id(), terminal_safe(&reply.raw)));
+    let prompt_text = prompt::build(&task.question, &task.options);
+    match o.reply {
+        None => Err((
+            1,
+            format!(
+                "the image generator blocked this scene, so `{}` was not asked: {}",
+                model.id(),
+                terminal_safe(&o.record.raw)
+            ),
+        )),
+        Some(reply) if reply.answer == Answer::ApiError => {
+            Err((1, format!("`{}` failed: {}", model.id(), terminal_safe(&reply.raw))))
+        }
+        Some(reply) => Ok(report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule)),
     }
-    Ok(report(&model.id(), &query.prompt, &options, &reply, verdict.expected, rule))
 }
 
 fn option_label(i: u32, options: &[String]) -> String {
@@ -206,8 +191,11 @@ mod tests {
             model: "openai:glm-4.6v-flash".into(),
             seed: 3,
             renderer: "none".into(),
-            model_opts: super::super::search::ModelFlags { base_url: Some(base), ..Default::default() },
-            cache_dir: Some(cache.to_path_buf()),
+            model_opts: super::super::search::ModelFlags {
+                base_url: Some(base),
+                cache_dir: Some(cache.to_path_buf()),
+                ..Default::default()
+            },
         }
     }
 
@@ -216,7 +204,10 @@ mod tests {
         const KEY: &str = "sk-ask-CANARY-3f9e61";
         // SAFETY: no other test in this crate reads or writes `OPENAI_API_KEY`, and Rust's own
         // environment accessors are serialised.
-        unsafe { std::env::set_var("OPENAI_API_KEY", KEY) };
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("OPENAI_API_KEY", KEY)
+        };
         let domain = crate::lattice::testkit::driving();
         let set = domain.parse_set(&["debris_near"]).unwrap();
         let dir = tempfile::tempdir().unwrap();
@@ -227,7 +218,7 @@ mod tests {
             let mut a = args(server.uri(), dir.path());
             // The 200 reply was cached; the error case must reach the server.
             a.model_opts.no_cache = status == 401;
-            let result = ask(&domain, set, &a).await;
+            let result = ask(&domain, set, &a).await.map_err(|(_, e)| e);
             let sent = &server.received_requests().await.unwrap()[0];
             assert_eq!(sent.headers.get("authorization").unwrap(), &format!("Bearer {KEY}"));
             match (status, result) {

@@ -21,10 +21,10 @@ use serde::Serialize;
 
 use crate::ir::ConceptSet;
 use crate::ir::Domain;
-use crate::journal::domain_hash;
 use crate::lattice::Lattice;
-use crate::run::eval::{DomainWorld, World};
+use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
+use crate::run::setup::ModelSettings;
 use crate::search::interact::{Supersets, Surrogate};
 use crate::search::interval::mean_ci95;
 use crate::search::metrics::mean_sd;
@@ -32,7 +32,7 @@ use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::{Profile, SimModel};
 
-use super::search::{absolute, runtime};
+use super::search::runtime;
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -88,8 +88,8 @@ pub struct SearchBenchArgs {
     pub lambda: f64,
     #[arg(long, default_value_t = 5)]
     pub beam_width: usize,
-    #[arg(long, default_value_t = 8)]
-    pub concurrency: usize,
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
+    pub concurrency: u32,
     /// Algorithms to run, comma-separated [default: all]
     #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
     pub algos: Vec<Algo>,
@@ -312,26 +312,12 @@ fn bench_one(
     planted: &[crate::ir::ConceptSet],
     truth: &Profile,
 ) -> Result<RunFigures, String> {
-    let config = RunConfig {
-        domain_file: absolute(&args.domain),
-        domain: domain.name.clone(),
-        domain_hash: domain_hash(domain),
-        model_spec: format!("sim:{}", args.profile.display()),
-        model: model.id(),
-        renderer: "none".into(),
-        params,
-    };
-    let setup = Setup {
-        domain: domain.clone(),
-        world: world.clone(),
-        model: model.clone(),
-        renderer: None,
-        concurrency: args.concurrency,
-        out,
-        progress: false,
-    };
+    let spec = format!("sim:{}", args.profile.display());
+    let config = RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
+    let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), None, out);
+    setup.concurrency = args.concurrency as usize;
     let started = Instant::now();
-    let r = runtime().block_on(runner::search(&setup, &config, space))?;
+    let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
     let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.threshold)).map(|s| s.set).collect();

@@ -15,6 +15,7 @@ pub mod lattice;
 pub mod lsp;
 pub mod oracle;
 pub mod progress;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod report;
 pub mod search;
@@ -52,6 +53,7 @@ pub enum Command {
     /// Render one scene of a concept set, ask a model once, and show the verdict
     Ask(ask::AskArgs),
     /// Draw a concept set with the builtin renderer (or a contact sheet)
+    #[cfg(feature = "render")]
     Render(render::RenderArgs),
     /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
     Report(report::ReportArgs),
@@ -78,6 +80,7 @@ pub fn main() -> ExitCode {
         Command::Validate(a) => validate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
+        #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
         Command::Report(a) => report::run(a),
     }

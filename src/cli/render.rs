@@ -43,7 +43,7 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("invalid size `{s}`: expected WIDTHxHEIGHT, e.g. `640x360`");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h) = (w.trim().parse::<u32>().map_err(|_| bad())?, h.trim().parse::<u32>().map_err(|_| bad())?);
-    crate::render::builtin::check_size(w, h).map_err(|e| e.0)?;
+    crate::render::builtin::check_size(w, h).map_err(|e| e.message)?;
     Ok((w, h))
 }
 
@@ -81,7 +81,7 @@ pub fn run(args: RenderArgs) -> ExitCode {
     // Sheets are kept and shared, so they get the slower, smaller encoding.
     let encode = if as_sheet { encode_png_small } else { encode_png };
     match draw(&domain, &renderer, &jobs, as_sheet) {
-        Ok(img) => match encode(&img).map_err(|e| e.0).and_then(|png| {
+        Ok(img) => match encode(&img).map_err(|e| e.message).and_then(|png| {
             std::fs::write(&args.output, png).map_err(|e| format!("cannot write `{}`: {e}", args.output.display()))
         }) {
             Ok(()) => {
@@ -158,7 +158,7 @@ pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet:
         // No concept: the baseline every concept is seen against (outside the lattice).
         let scene = if job.set.is_empty() { sampler.backdrop(job.seed) } else { sampler.sample(job.set, job.seed) }
             .map_err(|e| format!("cannot sample `{}` with seed {}: {e}", job.caption, job.seed))?;
-        let mut img = renderer.render_rgba(&scene).map_err(|e| e.0)?;
+        let mut img = renderer.render_rgba(&scene).map_err(|e| e.message)?;
         if as_sheet {
             sheet::caption(&mut img, &job.caption);
         }

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use crate::ir::Domain;
-use crate::journal::domain_hash;
 
 #[derive(clap::Args, Debug)]
 pub struct ReportArgs {
@@ -49,7 +48,7 @@ fn run_domain(file: &str, hash: &str) -> Option<Domain> {
         return None;
     }
     let domain = crate::cli::load_domain(path).ok()?;
-    if domain_hash(&domain) != hash {
+    if domain.identity().to_string() != hash {
         eprintln!("note: `{file}` changed since the run; the report leaves out the oracle's explanations");
         return None;
     }

@@ -1,19 +1,20 @@
 //! `revelio search FILE --model M …`: search a domain for failure modes of a model, into a
 //! resumable run folder; prints the top failure modes (or `--json`).
+//!
+//! Exit codes: 0 done, 1 an error in the domain or the run (or a run whose share of failed model
+//! calls reaches 10 %), 2 a usage error, 130 interrupted by Ctrl-C (the calls in flight are
+//! journaled; the same command resumes).
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use crate::ir::Domain;
-use crate::journal::domain_hash;
 use crate::lattice::Lattice;
-use crate::render::{Renderer, RendererOptions, build_renderer};
-use crate::run::eval::{DomainWorld, World};
+use crate::run::RunError;
+use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup, Summary};
+use crate::run::setup::{self, ModelSettings, Parts};
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
-use crate::vlm::Model;
-use crate::vlm::registry::{ModelOptions, build_model};
 
 #[derive(clap::Args, Debug)]
 pub struct SearchArgs {
@@ -24,7 +25,8 @@ pub struct SearchArgs {
     pub model: String,
     #[arg(long, default_value = "gpts", value_parser = algo_parser())]
     pub algo: Algo,
-    /// Inference budget (sets evaluated = budget / samples)
+    /// Inference budget (sets evaluated = budget / samples); raise it on an existing run folder
+    /// to extend the run
     #[arg(long, default_value_t = 1000)]
     pub budget: u64,
     /// Observations per concept set (m)
@@ -35,7 +37,7 @@ pub struct SearchArgs {
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
     /// Inferences for shrinking failure modes to minimal cores after the search, on top of the
-    /// budget; 0 turns it off [default: budget / 4]
+    /// budget; 0 turns it off [default: budget / 4; on a resumed run at least the recorded value]
     #[arg(long, value_name = "B")]
     pub shrink: Option<u64>,
     /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
@@ -48,7 +50,7 @@ pub struct SearchArgs {
     /// Beam diversity weight λ in FR − λ·max Jaccard
     #[arg(long, default_value_t = DEFAULT_LAMBDA)]
     pub lambda: f64,
-    /// GPTS: inferences for the beam phase [default: budget / 2]
+    /// GPTS: inferences for the beam phase [default: budget / 2; on a resumed run, the recorded value]
     #[arg(long)]
     pub beam_budget: Option<u64>,
     /// GPTS: Thompson draws per round, evaluated in parallel
@@ -62,9 +64,8 @@ pub struct SearchArgs {
     /// Most valid concept sets searched over; a larger lattice is refused with the ways out
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
     pub max_sets: u64,
-    /// Model calls in flight at once
-    #[arg(long, default_value_t = 8)]
-    pub concurrency: usize,
+    #[command(flatten)]
+    pub run: RunFlags,
     /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -81,8 +82,20 @@ pub struct SearchArgs {
     pub json: bool,
 }
 
+/// Flags that shape how a run calls the model (shared with `validate`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RunFlags {
+    /// Model calls (and observations) in flight at once [default: the model config's
+    /// `concurrency`, else 16]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub concurrency: Option<u32>,
+    /// Stop the run after this many model calls in a row fail (0: never)
+    #[arg(long, default_value_t = crate::run::MAX_API_ERRORS)]
+    pub max_api_errors: u32,
+}
+
 /// Flags that configure the model and image-generation clients (shared with `validate` and
-/// `ask`).
+/// `ask`). On an existing run folder, the ones not given are taken from its `config.json`.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
     /// Override the model provider's endpoint (the model only; never the renderer's)
@@ -98,21 +111,29 @@ pub struct ModelFlags {
     /// Thinking level: minimal, low, medium, high
     #[arg(long)]
     pub thinking: Option<String>,
-    /// Do not use the response cache
+    /// The reply and image cache shared by all runs [default: $XDG_CACHE_HOME/revelio, else
+    /// ~/.cache/revelio]
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+    /// Do not use the reply and image cache
     #[arg(long)]
     pub no_cache: bool,
 }
 
 impl ModelFlags {
-    /// The registry's options, with replies cached under `cache_dir` (none: no cache).
-    pub fn options(&self, cache_dir: Option<PathBuf>) -> ModelOptions {
-        ModelOptions {
+    /// The model settings these flags give (to be completed from a run folder's record).
+    pub fn settings(&self) -> ModelSettings {
+        ModelSettings {
             base_url: self.base_url.clone(),
-            config: self.model_config.clone(),
+            renderer_base_url: self.renderer_base_url.clone(),
+            model_config: self.model_config.as_deref().map(setup::absolute),
             thinking: self.thinking.clone(),
-            no_cache: self.no_cache,
-            cache_dir,
         }
+    }
+
+    /// The cache root these flags choose (`None`: no cache).
+    pub fn cache(&self) -> Option<PathBuf> {
+        setup::cache_root(self.cache_dir.as_deref(), self.no_cache)
     }
 }
 
@@ -120,6 +141,16 @@ pub fn run(args: SearchArgs) -> ExitCode {
     let domain = match crate::cli::load_domain(&args.file) {
         Ok(d) => d,
         Err(code) => return code,
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
+    // What an existing run folder recorded: its beam budget (so a raised `--budget` extends the
+    // run rather than moving the GPTS phase boundary), its shrink budget and its model flags.
+    let previous = match runner::read_config(&out) {
+        Ok(p) => p,
+        Err(e) => return fail(&e),
     };
     let params = Params {
         algo: args.algo,
@@ -129,38 +160,40 @@ pub fn run(args: SearchArgs) -> ExitCode {
         beam_width: args.beam_width,
         max_depth: args.max_depth,
         lambda: args.lambda,
-        beam_budget: args.beam_budget.unwrap_or(args.budget / 2),
+        beam_budget: args
+            .beam_budget
+            .or(previous.as_ref().map(|p| p.params.beam_budget))
+            .unwrap_or(args.budget / 2)
+            .min(args.budget),
         batch: args.batch,
         seed: args.seed,
         max_size: args.max_size,
         max_samples: args.max_samples,
-        shrink: args.shrink.unwrap_or(Params::default_shrink(args.budget)),
+        // Never below the recorded one, so that raising `--budget` alone extends a run.
+        shrink: args.shrink.unwrap_or_else(|| {
+            Params::default_shrink(args.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
+        }),
         ..Params::default()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
-    let (model, renderer) = match build_parts(&domain, &args.model, &args.renderer, &args.model_opts, &out) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
+    let settings = match &previous {
+        Some(p) => args.model_opts.settings().or(&p.model_settings),
+        None => args.model_opts.settings(),
     };
-    let config = RunConfig {
-        domain_file: absolute(&args.file),
-        domain: domain.name.clone(),
-        domain_hash: domain_hash(&domain),
-        model_spec: args.model.clone(),
-        model: model.id(),
-        renderer: args.renderer.clone(),
-        params,
-    };
+    let cache = args.model_opts.cache();
+    let concurrency = args.run.concurrency.map(|c| c as usize);
+    let Parts { model, renderer, concurrency } =
+        match setup::build_parts(&domain, &args.model, &args.renderer, &settings, cache.as_deref(), concurrency) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(e.exit_code());
+            }
+        };
+    let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = {
         let mut work = super::progress::Work::new();
@@ -183,22 +216,16 @@ pub fn run(args: SearchArgs) -> ExitCode {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
         return ExitCode::from(1);
     }
-    let setup = Setup {
-        domain: Arc::new(domain),
-        world,
-        model,
-        renderer,
-        concurrency: args.concurrency,
-        out: out.clone(),
-        progress: !args.json,
-    };
+    let mut setup = Setup::new(Arc::new(domain), world, model, renderer, out.clone());
+    setup.concurrency = concurrency;
+    setup.progress = runner::cli_progress(args.json);
+    setup.max_api_errors = args.run.max_api_errors;
     let started = std::time::Instant::now();
-    let report = match runtime().block_on(runner::search(&setup, &config, &space)) {
+    let rt = runtime();
+    watch_ctrl_c(&rt, &setup.stop);
+    let report = match rt.block_on(runner::search(&setup, &config, &space)) {
         Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(1);
-        }
+        Err(e) => return fail_run(&e, &out),
     };
     if report.dropped_torn_line {
         eprintln!("note: dropped a torn last line of the journal (the previous run was killed mid-write)");
@@ -218,13 +245,42 @@ pub fn run(args: SearchArgs) -> ExitCode {
         super::report::refresh(&out, &setup.domain, args.json);
     }
     match written {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         Err(e) => {
             eprintln!("error: cannot write the summary: {e}");
-            ExitCode::from(1)
+            return ExitCode::from(1);
         }
     }
+    let (errors, all) = report.summary.api_errors();
+    match runner::api_error_warning(errors, all) {
+        Some(w) => {
+            eprintln!("error: {w}");
+            ExitCode::from(1)
+        }
+        None => ExitCode::SUCCESS,
+    }
+}
+
+fn fail(e: &RunError) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(e.exit_code())
+}
+
+/// Report a run that ended early; a stopped run says how to go on.
+pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
+    eprintln!("error: {e}");
+    if e.resumable() {
+        eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
+    }
+    ExitCode::from(e.exit_code())
+}
+
+/// First Ctrl-C: stop starting model calls, journal the ones in flight, exit 130. Second: exit
+/// 130 at once (the journal is safe at any byte).
+pub(crate) fn watch_ctrl_c(rt: &tokio::runtime::Runtime, stop: &crate::run::Stop) {
+    let _guard = rt.enter();
+    stop.on_ctrl_c(|| std::process::exit(130));
 }
 
 /// `--algo`: the search algorithms by name, listed in `--help`.
@@ -232,31 +288,6 @@ pub(crate) fn algo_parser() -> impl clap::builder::TypedValueParser<Value = Algo
     use clap::builder::TypedValueParser as _;
     clap::builder::PossibleValuesParser::new(Algo::ALL.map(Algo::name))
         .map(|name| name.parse::<Algo>().expect("the parser only lets listed names through"))
-}
-
-pub(crate) type Parts = (Arc<dyn Model>, Option<Arc<dyn Renderer>>);
-
-pub(crate) fn build_parts(
-    domain: &Domain,
-    model: &str,
-    renderer: &str,
-    flags: &ModelFlags,
-    out: &Path,
-) -> Result<Parts, String> {
-    let model = build_model(model, domain, &flags.options(Some(out.join("cache"))))?;
-    let renderer = build_renderer(
-        renderer,
-        &RendererOptions {
-            size: None,
-            cache_dir: Some(out.join("image-cache")),
-            base_url: flags.renderer_base_url.clone(),
-        },
-    )?;
-    Ok((model, renderer))
-}
-
-pub(crate) fn absolute(p: &Path) -> String {
-    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string()
 }
 
 pub(crate) fn runtime() -> tokio::runtime::Runtime {

@@ -1,33 +1,42 @@
-//! `revelio validate RUN_DIR --top 10 --samples 20`: re-evaluate a run's top sets with fresh
-//! scenes (paper section 4), journaled in the run folder; reports mean ± sd FR and how many
-//! reach FR ≥ 0.8.
+//! `revelio validate RUN_DIR --top 10 --samples 20 [--max-samples M]`: re-evaluate a run's top
+//! sets with fresh scenes (paper section 4) — sequentially with `--max-samples`: a set whose
+//! 95 % interval still straddles the run's τ gets more, up to M — journaled in the run folder;
+//! reports each validated FR with its interval, mean ± sd FR and how many reach FR ≥ 0.8, then
+//! refreshes the run report.
+//!
+//! The sets are taken in the order of the search's table. The model is rebuilt from the settings
+//! recorded in `config.json` (model flags given here override them, as long as the model stays
+//! the same). Each setting writes its own file, `validation-top{K}-samples{m}.json` (with
+//! `-max{M}` before `.json` when sequential), so validating again with other options never
+//! overwrites an earlier result; the observations themselves are shared through the journal (the
+//! first 20 of `--samples 40` are those of `--samples 20`). Exit codes as for `search`.
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use crate::journal::domain_hash;
-use crate::run::eval::{DomainWorld, World};
+use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
+use crate::run::setup::{self, Parts, SetupError};
 
-use super::search::{ModelFlags, build_parts, fr_ci_text, runtime};
+use super::search::{ModelFlags, RunFlags, fail_run, fr_ci_text, runtime, watch_ctrl_c};
 
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
     /// A finished `revelio search` run folder
     pub run_dir: PathBuf,
-    /// Sets to validate (highest failure rate first)
-    #[arg(long, default_value_t = 10)]
-    pub top: usize,
+    /// Sets to validate (in the order of the search's table)
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..))]
+    pub top: u64,
     /// Fresh observations per set
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
     pub samples: u32,
     /// Sequential validation: a set whose 95 % interval still straddles the run's τ gets more
     /// observations, up to M [default: --samples]
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
-    #[arg(long, default_value_t = 8)]
-    pub concurrency: usize,
+    #[command(flatten)]
+    pub run: RunFlags,
     #[command(flatten)]
     pub model_opts: ModelFlags,
     /// Print JSON
@@ -40,71 +49,85 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         Ok(x) => x,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return ExitCode::from(e.exit_code());
         }
     };
     let domain = match crate::cli::load_domain(std::path::Path::new(&config.domain_file)) {
         Ok(d) => d,
         Err(code) => return code,
     };
-    if domain_hash(&domain) != config.domain_hash {
-        eprintln!(
-            "error: `{}` changed since the run in `{}`; validation needs the domain the search used",
-            config.domain_file,
-            args.run_dir.display()
-        );
-        return ExitCode::from(1);
-    }
-    let (model, renderer) =
-        match build_parts(&domain, &config.model_spec, &config.renderer, &args.model_opts, &args.run_dir) {
-            Ok(p) => p,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(2);
-            }
-        };
-    if model.id() != config.model {
-        eprintln!(
-            "error: the model now resolves to `{}`, but the run used `{}`; pass the same model flags as the search",
-            model.id(),
-            config.model
-        );
-        return ExitCode::from(2);
-    }
-    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let setup = Setup {
-        domain: Arc::new(domain),
-        world,
-        model,
-        renderer,
-        concurrency: args.concurrency,
-        out: args.run_dir.clone(),
-        progress: !args.json,
+    let setup_error = |e: SetupError| {
+        eprintln!("error: {e}");
+        ExitCode::from(e.exit_code())
     };
-    let v =
-        match runtime().block_on(runner::validate(&setup, &config, &summary, args.top, args.samples, args.max_samples))
-        {
-            Ok(v) => v,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(1);
-            }
-        };
+    if domain.identity().to_string() != config.domain_hash {
+        return setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: args.run_dir.clone() });
+    }
+    let settings = args.model_opts.settings().or(&config.model_settings);
+    let cache = args.model_opts.cache();
+    let concurrency = args.run.concurrency.map(|c| c as usize);
+    let Parts { model, renderer, concurrency } = match setup::build_parts(
+        &domain,
+        &config.model_spec,
+        &config.renderer,
+        &settings,
+        cache.as_deref(),
+        concurrency,
+    ) {
+        Ok(p) => p,
+        Err(e) => return setup_error(e),
+    };
+    if model.id() != config.model {
+        return setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() });
+    }
+    let mut config = config;
+    config.model_settings = settings;
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
+    let mut setup = Setup::new(Arc::new(domain), world, model, renderer, args.run_dir.clone());
+    setup.concurrency = concurrency;
+    setup.progress = runner::cli_progress(args.json);
+    setup.max_api_errors = args.run.max_api_errors;
+    let rt = runtime();
+    watch_ctrl_c(&rt, &setup.stop);
+    let v = match rt.block_on(runner::validate(
+        &setup,
+        &config,
+        &summary,
+        args.top as usize,
+        args.samples,
+        args.max_samples,
+    )) {
+        Ok(v) => v,
+        Err(e) => return fail_run(&e, &args.run_dir),
+    };
     let mut out = std::io::stdout().lock();
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
     } else {
-        print_validation(&mut out, &v)
+        print_validation(&mut out, &v).and_then(|()| {
+            writeln!(
+                out,
+                "written to {}",
+                args.run_dir.join(runner::validation_file(v.top, v.samples, v.max_samples)).display()
+            )
+        })
     };
     if written.is_ok() {
         super::report::refresh(&args.run_dir, &setup.domain, args.json);
     }
-    match written {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            eprintln!("error: cannot write the report: {e}");
+    if let Err(e) = written
+        && e.kind() != std::io::ErrorKind::BrokenPipe
+    {
+        eprintln!("error: cannot write the report: {e}");
+        return ExitCode::from(1);
+    }
+    let (errors, all) = v.api_errors();
+    match runner::api_error_warning(errors, all) {
+        Some(w) => {
+            eprintln!("error: {w}");
             ExitCode::from(1)
         }
-        _ => ExitCode::SUCCESS,
+        None => ExitCode::SUCCESS,
     }
 }
 

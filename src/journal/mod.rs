@@ -1,9 +1,15 @@
 //! The run folder: `config.json` (the resolved configuration), the append-only `journal.jsonl`
-//! (one line per observation), content-addressed `images/<sha256>.png`, and `summary.json`.
+//! (one line per observation), content-addressed `images/<sha256>.png`, `summary.json`, and the
+//! `lock` file that keeps a second process out.
 //!
-//! Resuming: opening an existing folder with the same configuration loads every finished
-//! observation; the search replays its decisions against them and only asks the model for the
-//! rest. A folder made with a different configuration is refused, naming the differing fields.
+//! Resuming: opening an existing folder loads every finished observation; the runner compares
+//! the folder's configuration with its own (see `run::runner`) and the search replays its
+//! decisions against the journal, asking the model only for the rest.
+//!
+//! One process at a time: [`Journal::open`] takes an exclusive lock on `lock` (an OS file lock,
+//! released when the process ends, however it ends) and writes its pid there, so a second
+//! process on the same folder is refused with an error that names the holder instead of paying
+//! for the same observations twice.
 //!
 //! Durability: each line is written with one `write` call on an append-mode file, so a killed
 //! process (even `kill -9`) leaves every finished line in the kernel's page cache and at most one
@@ -11,7 +17,9 @@
 //! fsynced every [`SYNC_EVERY`] lines and at the end of each search step, so a power loss costs at
 //! most that many observations (paid again on resume). `config.json`, images and `summary.json`
 //! are written to a temporary file and renamed, so they are either absent or complete.
-use std::collections::BTreeMap;
+
+mod lock;
+
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -19,13 +27,16 @@ use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 
-use crate::ir::Domain;
 use crate::outcome::{Answer, Outcome, Usage};
+
+pub use lock::RunLock;
 
 /// Lines between fsyncs of the journal.
 pub const SYNC_EVERY: usize = 64;
 
-/// Which part of a run an observation belongs to.
+/// Which part of a run an observation belongs to. Observations are addressed by (phase, set,
+/// observation index): each phase has its own scene stream, and a set's indices `0..n` in a phase
+/// can be extended to `n..m` later (sequential sampling) without touching the first `n`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Phase {
@@ -44,16 +55,20 @@ pub struct Record {
     pub set: Vec<String>,
     /// Observation index within the set (and phase).
     pub obs: u32,
-    /// The scene sampler's seed for this observation.
+    /// The scene sampler's seed for this observation (`revelio ask FILE SET --seed SEED` shows
+    /// the same scene and sends the same prompt).
     pub seed: u64,
-    /// SHA-256 of the image (or of the scene JSON with `--renderer none`).
+    /// SHA-256 of the image (or of the scene JSON with `--renderer none`); empty when the image
+    /// generator blocked the scene.
     pub image: String,
     /// SHA-256 of the prompt text.
     pub prompt: String,
+    /// The model's reply, the call's error message, or the image generator's block message.
     pub raw: String,
     /// The parsed option, when the reply named exactly one.
     pub parsed: Option<u32>,
-    pub answer: Answer,
+    /// How the model's reply ended; `None` when no model was asked (`image_blocked`).
+    pub answer: Option<Answer>,
     pub expected: u32,
     pub outcome: Outcome,
     pub usage: Usage,
@@ -61,14 +76,54 @@ pub struct Record {
     pub cached: bool,
 }
 
-/// A run folder's journal, open for appending.
+/// What can go wrong with a run folder.
+#[derive(Debug, thiserror::Error)]
+pub enum JournalError {
+    #[error("cannot {action} `{}`: {}", path.display(), io_message(source))]
+    Io { action: &'static str, path: PathBuf, source: std::io::Error },
+    #[error("cannot resume: line {line} of `{}` is corrupt: {message}", path.display())]
+    Corrupt { path: PathBuf, line: usize, message: String },
+    #[error("cannot read the journal: line {line} of `{}` is corrupt: {message}", path.display())]
+    CorruptRead { path: PathBuf, line: usize, message: String },
+    #[error(
+        "run folder `{}` is in use by another revelio process ({holder}); wait for it to finish or choose another `--out` folder",
+        dir.display()
+    )]
+    Locked { dir: PathBuf, holder: String },
+    #[error("`{}` is not empty and holds no run (no config.json); choose another `--out` folder", .0.display())]
+    NotARun(PathBuf),
+    #[error("cannot resume `{}`: config.json is not valid JSON: {message}", dir.display())]
+    BadConfig { dir: PathBuf, message: String },
+    #[error("cannot write `{name}`: {message}")]
+    Encode { name: String, message: String },
+}
+
+/// An I/O error as one lowercase clause.
+fn io_message(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_lowercase().chain(c).collect(),
+        None => s,
+    }
+}
+
+fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> JournalError {
+    let path = path.to_path_buf();
+    move |source| JournalError::Io { action, path, source }
+}
+
+/// A run folder's journal, open for appending, with the folder locked to this process.
 pub struct Journal {
     dir: PathBuf,
     file: Mutex<Writer>,
-    /// Observations finished before this process started.
+    /// `config.json` as found on opening (`None`: a new run folder).
+    config: Option<serde_json::Value>,
+    /// Observations finished before this process started; record `i` is on line `i + 1`.
     pub records: Vec<Record>,
     /// Whether `open` dropped a torn last line.
     pub dropped_torn_line: bool,
+    _lock: RunLock,
 }
 
 struct Writer {
@@ -76,76 +131,55 @@ struct Writer {
     unsynced: usize,
 }
 
-/// SHA-256 over the texts of a domain's source files in load order, identifying what a run
-/// searched. Names are left out: the same file reached by a relative or an absolute path is the
-/// same domain.
-pub fn domain_hash(domain: &Domain) -> String {
-    crate::hash::parts_hex(domain.files.iter().map(|f| f.text.as_bytes()))
-}
-
-fn io_err(what: &str, path: &Path, e: std::io::Error) -> String {
-    format!("cannot {what} `{}`: {}", path.display(), e.to_string().to_lowercase())
-}
-
 /// Write a file atomically (temporary file, then rename).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), JournalError> {
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(|e| io_err("write", &tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err("write", path, e))
+    std::fs::write(&tmp, bytes).map_err(io("write", &tmp))?;
+    std::fs::rename(&tmp, path).map_err(io("write", path))
 }
 
 impl Journal {
-    /// Open or create the run folder `dir` for a run with configuration `config` (any
-    /// serialisable value; compared field by field with the folder's `config.json`).
-    pub fn open<C: Serialize>(dir: &Path, config: &C) -> Result<Journal, String> {
-        let config =
-            serde_json::to_value(config).map_err(|e| format!("cannot serialise the run configuration: {e}"))?;
+    /// Open (or create) the run folder `dir`: lock it, read its `config.json` if any, and load the
+    /// journal. A folder that holds files but no run is refused, so a mistyped `--out` never
+    /// writes into someone's documents.
+    pub fn open(dir: &Path) -> Result<Journal, JournalError> {
         let config_path = dir.join("config.json");
-        if config_path.exists() {
-            let text = std::fs::read_to_string(&config_path).map_err(|e| io_err("read", &config_path, e))?;
-            let old: serde_json::Value = serde_json::from_str(&text)
-                .map_err(|e| format!("cannot resume `{}`: config.json is not valid JSON: {e}", dir.display()))?;
-            let diffs = differences(&old, &config);
-            if !diffs.is_empty() {
-                return Err(format!(
-                    "cannot resume `{}`: it holds a run with a different configuration ({}); use another `--out` folder or the same settings",
-                    dir.display(),
-                    diffs.join(", ")
-                ));
-            }
-        } else {
-            if dir.exists() && std::fs::read_dir(dir).map_err(|e| io_err("read", dir, e))?.next().is_some() {
-                return Err(format!(
-                    "`{}` is not empty and holds no run (no config.json); choose another `--out` folder",
-                    dir.display()
-                ));
-            }
-            std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err("create", dir, e))?;
-            let text = serde_json::to_string_pretty(&config).expect("JSON values serialise");
-            write_atomic(&config_path, text.as_bytes())?;
+        if !config_path.exists() && holds_other_files(dir)? {
+            return Err(JournalError::NotARun(dir.to_path_buf()));
         }
-        std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err("create", &dir.join("images"), e))?;
+        std::fs::create_dir_all(dir).map_err(io("create", dir))?;
+        let lock = RunLock::acquire(dir)?;
+        // Another process may have started this run between the check above and the lock.
+        let config = if config_path.exists() {
+            let text = std::fs::read_to_string(&config_path).map_err(io("read", &config_path))?;
+            Some(
+                serde_json::from_str(&text)
+                    .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?,
+            )
+        } else {
+            None
+        };
+        let images = dir.join("images");
+        std::fs::create_dir_all(&images).map_err(io("create", &images))?;
         let path = dir.join("journal.jsonl");
-        let mut file = OpenOptions::new()
-            .read(true)
-            .append(true)
-            .create(true)
-            .open(&path)
-            .map_err(|e| io_err("open", &path, e))?;
+        let mut file =
+            OpenOptions::new().read(true).append(true).create(true).open(&path).map_err(io("open", &path))?;
         let mut text = Vec::new();
-        file.read_to_end(&mut text).map_err(|e| io_err("read", &path, e))?;
-        let (records, good_len) = parse_journal(&text, &path).map_err(|e| format!("cannot resume: {e}"))?;
+        file.read_to_end(&mut text).map_err(io("read", &path))?;
+        let (records, good_len) = parse_journal(&text, &path)?;
         let dropped_torn_line = good_len < text.len();
         if dropped_torn_line {
-            file.set_len(good_len as u64).map_err(|e| io_err("truncate", &path, e))?;
-            file.sync_all().map_err(|e| io_err("sync", &path, e))?;
+            file.set_len(good_len as u64).map_err(io("truncate", &path))?;
+            file.sync_all().map_err(io("sync", &path))?;
         }
-        file.seek(SeekFrom::End(0)).map_err(|e| io_err("seek", &path, e))?;
+        file.seek(SeekFrom::End(0)).map_err(io("seek", &path))?;
         Ok(Journal {
             dir: dir.to_path_buf(),
             file: Mutex::new(Writer { file, unsynced: 0 }),
+            config,
             records,
             dropped_torn_line,
+            _lock: lock,
         })
     }
 
@@ -153,33 +187,43 @@ impl Journal {
         &self.dir
     }
 
+    /// The folder's `config.json` as it was when opened (`None`: a new run folder).
+    pub fn config(&self) -> Option<&serde_json::Value> {
+        self.config.as_ref()
+    }
+
+    /// Write `config.json` (a new run, or a resumed one whose budget grew).
+    pub fn write_config<C: Serialize>(&self, config: &C) -> Result<(), JournalError> {
+        self.write_json("config.json", config)
+    }
+
     /// Append one observation (one `write` call).
-    pub fn append(&self, record: &Record) -> Result<(), String> {
+    pub fn append(&self, record: &Record) -> Result<(), JournalError> {
         let mut line = serde_json::to_vec(record).expect("records serialise");
         line.push(b'\n');
         let path = self.dir.join("journal.jsonl");
         let mut w = self.file.lock().unwrap_or_else(|e| e.into_inner());
-        w.file.write_all(&line).map_err(|e| io_err("append to", &path, e))?;
+        w.file.write_all(&line).map_err(io("append to", &path))?;
         w.unsynced += 1;
         if w.unsynced >= SYNC_EVERY {
-            w.file.sync_data().map_err(|e| io_err("sync", &path, e))?;
+            w.file.sync_data().map_err(io("sync", &path))?;
             w.unsynced = 0;
         }
         Ok(())
     }
 
-    /// Flush the journal to disk (end of a search step).
-    pub fn sync(&self) -> Result<(), String> {
+    /// Flush the journal to disk (end of a search step, and before a stopped run exits).
+    pub fn sync(&self) -> Result<(), JournalError> {
         let mut w = self.file.lock().unwrap_or_else(|e| e.into_inner());
         if w.unsynced > 0 {
-            w.file.sync_data().map_err(|e| io_err("sync", &self.dir.join("journal.jsonl"), e))?;
+            w.file.sync_data().map_err(io("sync", &self.dir.join("journal.jsonl")))?;
             w.unsynced = 0;
         }
         Ok(())
     }
 
     /// Store an image under its content hash (no-op when present); returns the hash.
-    pub fn store_image(&self, png: &[u8]) -> Result<String, String> {
+    pub fn store_image(&self, png: &[u8]) -> Result<String, JournalError> {
         let hash = crate::hash::sha256_hex(png);
         let path = self.dir.join("images").join(format!("{hash}.png"));
         if !path.exists() {
@@ -189,24 +233,39 @@ impl Journal {
     }
 
     /// Write a JSON file into the run folder atomically.
-    pub fn write_json<T: Serialize>(&self, name: &str, value: &T) -> Result<(), String> {
-        let mut text = serde_json::to_string_pretty(value).map_err(|e| format!("cannot serialise `{name}`: {e}"))?;
+    pub fn write_json<T: Serialize>(&self, name: &str, value: &T) -> Result<(), JournalError> {
+        let mut text = serde_json::to_string_pretty(value)
+            .map_err(|e| JournalError::Encode { name: name.to_string(), message: e.to_string() })?;
         text.push('\n');
         write_atomic(&self.dir.join(name), text.as_bytes())
     }
 }
 
-/// Read a run folder's journal without opening it for appending (reports read finished runs).
-/// A torn last line is skipped, as [`Journal::open`] would drop it.
-pub fn read(dir: &Path) -> Result<Vec<Record>, String> {
+/// Whether `dir` exists and holds anything besides a lock file left by an earlier attempt.
+fn holds_other_files(dir: &Path) -> Result<bool, JournalError> {
+    if !dir.exists() {
+        return Ok(false);
+    }
+    let mut entries = std::fs::read_dir(dir).map_err(io("read", dir))?;
+    Ok(entries.any(|e| e.map_or(true, |e| e.file_name() != lock::LOCK_FILE)))
+}
+
+/// Read a run folder's journal without opening it for appending or locking the folder (reports
+/// read finished runs). A torn last line is skipped, as [`Journal::open`] would drop it.
+pub fn read(dir: &Path) -> Result<Vec<Record>, JournalError> {
     let path = dir.join("journal.jsonl");
-    let text = std::fs::read(&path).map_err(|e| io_err("read", &path, e))?;
-    Ok(parse_journal(&text, &path).map_err(|e| format!("cannot read the journal: {e}"))?.0)
+    let text = std::fs::read(&path).map_err(io("read", &path))?;
+    match parse_journal(&text, &path) {
+        Ok((records, _)) => Ok(records),
+        Err(JournalError::Corrupt { path, line, message }) => Err(JournalError::CorruptRead { path, line, message }),
+        Err(e) => Err(e),
+    }
 }
 
 /// Parse journal bytes; returns the records and the length of the valid prefix. Only the last
-/// line may be torn (no newline, or unparseable): it is dropped. A bad line before it is an error.
-fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), String> {
+/// line may be torn (no newline, or unparseable): it is dropped. A bad line before it is an error
+/// that names the line.
+fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), JournalError> {
     let mut records = Vec::new();
     let mut start = 0;
     let mut line_no = 0;
@@ -218,32 +277,13 @@ fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), Strin
         match serde_json::from_slice::<Record>(line) {
             Ok(r) => records.push(r),
             Err(_) if end == text.len() => break,
-            Err(e) => return Err(format!("line {line_no} of `{}` is corrupt: {e}", path.display())),
+            Err(e) => {
+                return Err(JournalError::Corrupt { path: path.to_path_buf(), line: line_no, message: e.to_string() });
+            }
         }
         start = end;
     }
     Ok((records, start))
-}
-
-/// Top-level fields (and nested ones, dotted) that differ between two configurations.
-fn differences(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> {
-    fn walk(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
-        match (a, b) {
-            (serde_json::Value::Object(x), serde_json::Value::Object(y)) => {
-                let keys: BTreeMap<&String, ()> = x.keys().chain(y.keys()).map(|k| (k, ())).collect();
-                for k in keys.keys() {
-                    let name = if prefix.is_empty() { (*k).clone() } else { format!("{prefix}.{k}") };
-                    let null = serde_json::Value::Null;
-                    walk(&name, x.get(*k).unwrap_or(&null), y.get(*k).unwrap_or(&null), out);
-                }
-            }
-            _ if a != b => out.push(format!("`{prefix}` was {a}, now {b}")),
-            _ => {}
-        }
-    }
-    let mut out = Vec::new();
-    walk("", old, new, &mut out);
-    out
 }
 
 #[cfg(test)]
@@ -260,7 +300,7 @@ mod tests {
             prompt: "p".into(),
             raw: "Answer: A".into(),
             parsed: Some(0),
-            answer: Answer::Option(0),
+            answer: Some(Answer::Option(0)),
             expected: 1,
             outcome: Outcome::Wrong,
             usage: Usage::default(),
@@ -273,8 +313,9 @@ mod tests {
     fn torn_last_line_is_dropped_and_appends_continue() {
         let dir = tempfile::tempdir().unwrap();
         let run = dir.path().join("run");
-        let cfg = serde_json::json!({"seed": 1});
-        let j = Journal::open(&run, &cfg).unwrap();
+        let j = Journal::open(&run).unwrap();
+        assert!(j.config().is_none());
+        j.write_config(&serde_json::json!({"seed": 1})).unwrap();
         for i in 0..3 {
             j.append(&record(i)).unwrap();
         }
@@ -284,55 +325,67 @@ mod tests {
         let full = std::fs::read(&path).unwrap();
         // Cut inside the third line.
         std::fs::write(&path, &full[..full.len() - 10]).unwrap();
-        let j = Journal::open(&run, &cfg).unwrap();
+        let j = Journal::open(&run).unwrap();
+        assert_eq!(j.config(), Some(&serde_json::json!({"seed": 1})));
         assert!(j.dropped_torn_line);
         assert_eq!(j.records, vec![record(0), record(1)]);
         j.append(&record(2)).unwrap();
         drop(j);
         assert_eq!(std::fs::read(&path).unwrap(), full);
-        let j = Journal::open(&run, &cfg).unwrap();
+        let j = Journal::open(&run).unwrap();
         assert!(!j.dropped_torn_line);
         assert_eq!(j.records.len(), 3);
     }
 
     #[test]
-    fn corrupt_middle_line_is_an_error() {
+    fn corrupt_middle_line_is_an_error_naming_the_line() {
         let dir = tempfile::tempdir().unwrap();
-        let cfg = serde_json::json!({});
-        drop(Journal::open(dir.path(), &cfg).unwrap());
+        let j = Journal::open(dir.path()).unwrap();
+        j.write_config(&serde_json::json!({})).unwrap();
+        drop(j);
         let line = serde_json::to_string(&record(0)).unwrap();
-        std::fs::write(dir.path().join("journal.jsonl"), format!("{line}\n{{oops\n{line}\n")).unwrap();
-        let e = Journal::open(dir.path(), &cfg).err().unwrap();
-        assert!(e.starts_with("cannot resume: line 2 of `"), "{e}");
+        std::fs::write(dir.path().join("journal.jsonl"), format!("{line}\n{line}\n{{oops\n{line}\n")).unwrap();
+        let e = Journal::open(dir.path()).err().unwrap();
+        assert!(matches!(e, JournalError::Corrupt { line: 3, .. }), "{e:?}");
+        assert!(e.to_string().starts_with("cannot resume: line 3 of `"), "{e}");
     }
 
     #[test]
-    fn different_configuration_is_refused_naming_fields() {
-        let dir = tempfile::tempdir().unwrap();
-        let a = serde_json::json!({"model": "sim:a", "params": {"budget": 1000, "seed": 0}});
-        drop(Journal::open(dir.path(), &a).unwrap());
-        let b = serde_json::json!({"model": "sim:b", "params": {"budget": 500, "seed": 0}});
-        let e = Journal::open(dir.path(), &b).err().unwrap();
-        assert_eq!(
-            e,
-            format!(
-                "cannot resume `{}`: it holds a run with a different configuration (`model` was \"sim:a\", now \"sim:b\", `params.budget` was 1000, now 500); use another `--out` folder or the same settings",
-                dir.path().display()
-            )
-        );
-        assert!(Journal::open(dir.path(), &a).is_ok());
+    fn journals_written_before_image_blocks_existed_still_read() {
+        // `answer` was a plain value before it could be absent; both spellings read.
+        let old = r#"{"phase":"search","set":["a"],"obs":0,"seed":1,"image":"i","prompt":"p","raw":"B","parsed":1,"answer":{"option":1},"expected":1,"outcome":"correct","usage":{"input_tokens":0,"output_tokens":0,"thinking_tokens":0,"cost_usd":0.0},"latency_ms":0,"cached":false}"#;
+        let r: Record = serde_json::from_str(old).unwrap();
+        assert_eq!(r.answer, Some(Answer::Option(1)));
     }
 
     #[test]
     fn non_run_folder_is_refused_and_images_are_content_addressed() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("notes.txt"), "x").unwrap();
-        let e = Journal::open(dir.path(), &serde_json::json!({})).err().unwrap();
-        assert!(e.ends_with("is not empty and holds no run (no config.json); choose another `--out` folder"), "{e}");
+        let e = Journal::open(dir.path()).err().unwrap();
+        assert!(
+            e.to_string().ends_with("is not empty and holds no run (no config.json); choose another `--out` folder"),
+            "{e}"
+        );
+        assert!(!dir.path().join(lock::LOCK_FILE).exists(), "a refused folder is left as it was");
         let run = dir.path().join("r");
-        let j = Journal::open(&run, &serde_json::json!({})).unwrap();
+        let j = Journal::open(&run).unwrap();
         let h = j.store_image(b"png bytes").unwrap();
         assert_eq!(h, crate::hash::sha256_hex(b"png bytes"));
         assert_eq!(std::fs::read(run.join("images").join(format!("{h}.png"))).unwrap(), b"png bytes");
+    }
+
+    #[test]
+    fn a_second_opener_is_refused_naming_the_holder() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = Journal::open(dir.path()).unwrap();
+        first.write_config(&serde_json::json!({})).unwrap();
+        let e = Journal::open(dir.path()).err().unwrap();
+        assert!(matches!(e, JournalError::Locked { .. }), "{e:?}");
+        let msg = e.to_string();
+        assert!(msg.contains(&format!("pid {}", std::process::id())), "{msg}");
+        assert!(msg.contains("is in use by another revelio process"), "{msg}");
+        drop(first);
+        assert!(Journal::open(dir.path()).is_ok(), "the lock goes with the journal");
     }
 }

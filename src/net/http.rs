@@ -70,8 +70,7 @@ pub struct Limits {
     pub stall: Duration,
 }
 
-/// Default [`Limits::max_body`] for model replies: a reply is a few kilobytes of JSON.
-pub const DEFAULT_MAX_BODY: usize = 4 << 20;
+pub use super::DEFAULT_MAX_BODY;
 
 /// Default [`Limits::stall`].
 pub const DEFAULT_STALL: Duration = Duration::from_secs(30);

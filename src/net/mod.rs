@@ -8,17 +8,28 @@ use std::pin::Pin;
 use std::time::Duration;
 
 pub mod cache;
+#[cfg(feature = "net")]
 pub mod gemini;
+#[cfg(feature = "net")]
 pub mod http;
+#[cfg(feature = "net")]
 pub mod json;
+#[cfg(feature = "net")]
 pub mod openai;
+#[cfg(feature = "net")]
 pub mod secret;
 
 pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
 
+/// Default `http::Limits::max_body` for model replies: a reply is a few kilobytes of JSON. Here
+/// rather than in `http` because the model config (built without the `net` feature too) names
+/// it as its default.
+pub const DEFAULT_MAX_BODY: usize = 4 << 20;
+
 /// A provider's API host as every client sees it: where its base URL and its key come from.
 /// A key is read only from the host's own variables and sent only to the base URL resolved
 /// here, so it never reaches another provider's host.
+#[cfg(feature = "net")]
 #[derive(Debug, Clone, Copy)]
 pub struct Host {
     pub provider: &'static str,
@@ -29,6 +40,7 @@ pub struct Host {
 }
 
 /// Where one client sends its requests, with what key.
+#[cfg(feature = "net")]
 #[derive(Debug, Clone)]
 pub struct Endpoint {
     /// Without a trailing slash.
@@ -36,6 +48,7 @@ pub struct Endpoint {
     pub key: Option<secret::Secret>,
 }
 
+#[cfg(feature = "net")]
 impl Host {
     /// The base URL (`flag`, then the host's variables, then `default`) and the key. The key is
     /// required on the provider's own host (`default`); a server elsewhere (a local model

@@ -16,7 +16,7 @@ pub const MAX_SIDE: u32 = 8192;
 /// The process-wide device: created on first use, shared by every renderer instance.
 fn shared_gpu() -> Result<Arc<Gpu>, RenderError> {
     static GPU: OnceLock<Result<Arc<Gpu>, String>> = OnceLock::new();
-    GPU.get_or_init(|| Gpu::new().map(Arc::new)).clone().map_err(RenderError)
+    GPU.get_or_init(|| Gpu::new().map(Arc::new)).clone().map_err(RenderError::new)
 }
 
 /// Summary of the adapter the builtin renderer uses (`revelio render --info`).
@@ -39,7 +39,9 @@ impl std::fmt::Debug for BuiltinRenderer {
 /// Check an image size from the user.
 pub fn check_size(w: u32, h: u32) -> Result<(), RenderError> {
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
-        return Err(RenderError(format!("image size `{w}x{h}` is out of range: each side must be 1..={MAX_SIDE}")));
+        return Err(RenderError::new(format!(
+            "image size `{w}x{h}` is out of range: each side must be 1..={MAX_SIDE}"
+        )));
     }
     Ok(())
 }
@@ -69,8 +71,8 @@ impl BuiltinRenderer {
         let mesh = mesh::build(scene, scene.camera.at);
         let frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
         let (_, streaks) = atmosphere::rain_streaks(frame.wet[2], w, h);
-        let pixels = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError)?;
-        RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RenderError("the rendered image has the wrong size".into()))
+        let pixels = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError::new)?;
+        RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RenderError::new("the rendered image has the wrong size"))
     }
 
     /// Render and encode as PNG.
@@ -94,7 +96,7 @@ fn encode_png_with(img: &RgbaImage, compression: image::codecs::png::Compression
     let mut out = Vec::with_capacity(img.as_raw().len() / 4);
     PngEncoder::new_with_quality(&mut out, compression, FilterType::Adaptive)
         .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgba8)
-        .map_err(|e| RenderError(format!("cannot encode the image as png: {e}")))?;
+        .map_err(|e| RenderError::new(format!("cannot encode the image as png: {e}")))?;
     Ok(out)
 }
 
@@ -107,9 +109,13 @@ impl Renderer for BuiltinRenderer {
     }
 
     fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
-        // Rendering is a few milliseconds of blocking work; callers that care run it on a
-        // blocking thread. The future is ready when polled.
+        // The future does all its work when first polled; `blocking` tells the run to poll it
+        // on a render thread.
         Box::pin(async move { Ok(Rendered { png: self.render_png(scene)?, cached: false }) })
+    }
+
+    fn blocking(&self) -> bool {
+        true
     }
 }
 
@@ -242,7 +248,7 @@ mod tests {
         let r = BuiltinRenderer::new(Some((160, 90))).unwrap();
         assert_eq!(r.render_rgba(&scene(vec![], clear())).unwrap().dimensions(), (160, 90));
         assert_eq!(r.id(), "builtin@160x90");
-        assert!(BuiltinRenderer::new(Some((0, 90))).unwrap_err().0.contains("`0x90` is out of range"));
+        assert!(BuiltinRenderer::new(Some((0, 90))).unwrap_err().message.contains("`0x90` is out of range"));
     }
 
     /// Golden image of the fixture street. Backends differ in a few edge pixels, so the check

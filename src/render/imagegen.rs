@@ -2,7 +2,7 @@
 //! `responseModalities: ["IMAGE"]`, the image as `inlineData`) and `imagegen:openai:MODEL`
 //! (`POST /images/generations`, `b64_json`). Fed by the scene's image prompt, with the VLM
 //! clients' resilience (`net::http`), a content-addressed image cache, and blocks and refusals
-//! reported as errors that say so.
+//! reported as blocked images (the observation's outcome `image_blocked`), never retried.
 
 use std::io::Cursor;
 use std::sync::Arc;
@@ -149,7 +149,9 @@ impl ImageGen {
         }
     }
 
-    fn judge(&self, resp: Response) -> Verdict<Vec<u8>> {
+    /// A refusal is a finished call (`Done(Err(reason))`): not retried, and reported as a
+    /// blocked image rather than a failed render.
+    fn judge(&self, resp: Response) -> Verdict<Result<Vec<u8>, String>> {
         if (200..300).contains(&resp.status) {
             let parsed = match &self.provider {
                 Provider::Gemini { .. } => gemini_image(&resp.body),
@@ -157,11 +159,11 @@ impl ImageGen {
             };
             return match parsed {
                 Ok(Some(b64)) => match base64::engine::general_purpose::STANDARD.decode(b64.trim()) {
-                    Ok(bytes) => Verdict::Done(bytes),
+                    Ok(bytes) => Verdict::Done(Ok(bytes)),
                     Err(e) => Verdict::Retry { reason: format!("malformed image data: {e}"), after: None },
                 },
                 Ok(None) => Verdict::Retry { reason: "malformed response: no image in it".into(), after: None },
-                Err(Refused(msg)) => Verdict::Fail(msg),
+                Err(Refused(msg)) => Verdict::Done(Err(msg)),
             };
         }
         let (message, permanent, after) = match &self.provider {
@@ -175,7 +177,9 @@ impl ImageGen {
                 let msg = json_at::str_at(&v, &["error", "message"])
                     .map_or_else(|| snippet(&resp.body), |m| snippet(m.as_bytes()));
                 if matches!(code, "content_policy_violation" | "moderation_blocked") {
-                    return Verdict::Fail(format!("the prompt was blocked by the provider's safety system: {msg}"));
+                    return Verdict::Done(Err(format!(
+                        "the prompt was blocked by the provider's safety system: {msg}"
+                    )));
                 }
                 (if code.is_empty() { msg } else { format!("{msg} ({code})") }, code == "insufficient_quota", None)
             }
@@ -252,7 +256,7 @@ impl Renderer for ImageGen {
     fn render<'a>(&'a self, _scene: &'a Scene, prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
         Box::pin(async move {
             if prompt.trim().is_empty() {
-                return Err(RenderError("cannot generate an image: the scene's image prompt is empty".into()));
+                return Err(RenderError::new("cannot generate an image: the scene's image prompt is empty"));
             }
             let k = parts_hex([&b"imagegen-v1"[..], self.id.as_bytes(), prompt.as_bytes()]);
             if let Some(png) = self.cache.as_ref().and_then(|c| c.get(&k)) {
@@ -260,9 +264,16 @@ impl Renderer for ImageGen {
             }
             let called = self.transport.call(|| Ok(self.request(prompt)), |r| self.judge(r)).await;
             let secrets = self.secrets();
-            let fail =
-                |m: String| RenderError(redact(format!("image generation with `{}` failed: {m}", self.id), &secrets));
-            let bytes = called.result.map_err(fail)?;
+            let fail = |m: String| {
+                RenderError::new(redact(format!("image generation with `{}` failed: {m}", self.id), &secrets))
+            };
+            let bytes = match called.result {
+                Ok(Ok(bytes)) => bytes,
+                Ok(Err(refused)) => {
+                    return Err(RenderError::blocked(redact(format!("`{}` refused: {refused}", self.id), &secrets)));
+                }
+                Err(e) => return Err(fail(e)),
+            };
             let png = self.to_png(&bytes).map_err(fail)?;
             if let Some(c) = &self.cache {
                 // A cache that cannot be written only costs a regeneration later.

@@ -1,20 +1,32 @@
 //! Renderers: Scene → image. `builtin` draws the scene's resolved shapes with wgpu (the
 //! embedded default, see `builtin`); image-generation renderers live in their own modules.
+//!
+//! The builtin renderer needs the `render` feature and the image generators the `net` feature;
+//! without them `build_renderer` names the feature a spec needs.
+#[cfg(feature = "net")]
 pub mod imagegen;
 
 use crate::net::BoxFuture;
 use crate::scene::Scene;
 
+#[cfg(feature = "render")]
 mod atmosphere;
+#[cfg(feature = "render")]
 pub mod builtin;
-#[cfg(test)]
+#[cfg(all(test, feature = "render"))]
 pub(crate) mod fixtures;
+#[cfg(feature = "render")]
 mod gpu;
+#[cfg(feature = "render")]
 pub mod mesh;
+#[cfg(feature = "render")]
 pub mod sheet;
 
+#[cfg(feature = "render")]
 pub use atmosphere::{Weather, project};
+#[cfg(feature = "render")]
 pub use builtin::{BuiltinRenderer, adapter_info, encode_png, encode_png_small};
+#[cfg(feature = "render")]
 pub use gpu::{AdapterSummary, DRIVER_PACKAGES};
 
 /// An encoded image.
@@ -25,14 +37,36 @@ pub struct Rendered {
     pub cached: bool,
 }
 
+/// Why a scene has no image.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct RenderError(pub String);
+#[error("{message}")]
+pub struct RenderError {
+    pub message: String,
+    /// The image generator refused this scene (a safety filter, a text-only reply): an outcome
+    /// of the observation (`image_blocked`), not a failure of the run.
+    pub blocked: bool,
+}
+
+impl RenderError {
+    pub fn new(message: impl Into<String>) -> RenderError {
+        RenderError { message: message.into(), blocked: false }
+    }
+
+    pub fn blocked(message: impl Into<String>) -> RenderError {
+        RenderError { message: message.into(), blocked: true }
+    }
+}
 
 /// Turns a scene (and its image prompt, for image-generation renderers) into an image.
 pub trait Renderer: Send + Sync {
     fn id(&self) -> String;
     fn render<'a>(&'a self, scene: &'a Scene, prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>>;
+    /// Whether `render` computes on the calling thread instead of waiting on I/O (the builtin
+    /// renderer). The run then calls it from dedicated render threads, never from an async
+    /// worker.
+    fn blocking(&self) -> bool {
+        false
+    }
 }
 
 /// Options for building a renderer.
@@ -50,12 +84,28 @@ pub struct RendererOptions {
 /// `--renderer` specs: `none` (no image; models see only the prompt), `builtin` (wgpu),
 /// `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`.
 pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::sync::Arc<dyn Renderer>>, String> {
+    #[cfg(not(any(feature = "render", feature = "net")))]
+    let _ = opts;
     match spec {
         "none" => Ok(None),
-        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.0)?))),
+        #[cfg(feature = "render")]
+        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.message)?))),
+        #[cfg(not(feature = "render"))]
+        "builtin" => Err(without_feature("builtin", "render")),
+        #[cfg(feature = "net")]
         s if s.starts_with("imagegen:") => imagegen::build(s, opts).map(Some),
+        #[cfg(not(feature = "net"))]
+        s if s.starts_with("imagegen:") => Err(without_feature(s, "net")),
         other => Err(format!(
             "unknown renderer `{other}`: expected `none`, `builtin`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`"
         )),
     }
+}
+
+/// The error for a renderer this build leaves out.
+#[cfg(any(not(feature = "render"), not(feature = "net")))]
+fn without_feature(spec: &str, feature: &str) -> String {
+    format!(
+        "renderer `{spec}` is not in this build of revelio (built without the `{feature}` feature); use `--renderer none` or a default build"
+    )
 }

@@ -81,7 +81,7 @@ fn write_thumbnail(src: &Path, dst: &Path) -> Result<Option<(u32, u32)>, String>
     small
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| format!("cannot encode a thumbnail of `{}`: {e}", src.display()))?;
-    crate::journal::write_atomic(dst, &png)?;
+    crate::journal::write_atomic(dst, &png).map_err(|e| e.to_string())?;
     Ok(Some((tw, th)))
 }
 

@@ -37,6 +37,8 @@ pub struct Run {
     pub summary: Summary,
     pub extras: Extras,
     pub validation: Option<Validation>,
+    /// The file `validation` was read from (the run's most recent validation).
+    pub validation_file: Option<String>,
     pub records: Vec<Record>,
     /// When `summary.json` was last written.
     pub finished: Option<SystemTime>,
@@ -108,16 +110,39 @@ fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<O
     serde_json::from_str(&text).map(Some).map_err(|e| format!("invalid `{name}` in `{}`: {e}", dir.display()))
 }
 
+/// The run's most recent validation file: `revelio validate` writes one per setting
+/// ([`runner::validation_file`]) and refreshes the report right after, so the report shows the
+/// validation just made. Ties in time go to the later name; `validation.json` is what runs from
+/// before one file per setting wrote.
+fn latest_validation(dir: &Path) -> Option<String> {
+    let entries = std::fs::read_dir(dir).ok()?;
+    entries
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_str()?.to_string();
+            let is_validation =
+                name == "validation.json" || (name.starts_with("validation-top") && name.ends_with(".json"));
+            let modified = e.metadata().and_then(|m| m.modified()).ok()?;
+            is_validation.then_some((modified, name))
+        })
+        .max()
+        .map(|(_, name)| name)
+}
+
 /// Read a finished run folder.
 pub fn load(dir: &Path) -> Result<Run, String> {
-    let (config, summary) = runner::load_run(dir)?;
+    let (config, summary) = runner::load_run(dir).map_err(|e| e.to_string())?;
     let extras: Extras = read_json(dir, "summary.json")?.unwrap_or_default();
     let raw: Option<serde_json::Value> = read_json(dir, "config.json")?;
     let params = raw.and_then(|v| v.get("params").and_then(|p| p.as_object().cloned())).unwrap_or_default();
-    let validation = read_json(dir, "validation.json")?;
-    let records = crate::journal::read(dir)?;
+    let validation_file = latest_validation(dir);
+    let validation = match &validation_file {
+        Some(name) => read_json(dir, name)?,
+        None => None,
+    };
+    let records = crate::journal::read(dir).map_err(|e| e.to_string())?;
     let finished = std::fs::metadata(dir.join("summary.json")).and_then(|m| m.modified()).ok();
-    Ok(Run { dir: dir.to_path_buf(), config, params, summary, extras, validation, records, finished })
+    Ok(Run { dir: dir.to_path_buf(), config, params, summary, extras, validation, validation_file, records, finished })
 }
 
 /// A core as the report shows it.
@@ -261,7 +286,9 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     let discovery = svg::discovery(&findings.discovery)?;
     let heatmap = svg::heatmap(&findings.pairs)?;
     let html = page::render(run, domain, &findings, &images, &discovery, &heatmap)?;
-    let put = |name: &str, text: &str| crate::journal::write_atomic(&out.join(name), text.as_bytes());
+    let put = |name: &str, text: &str| {
+        crate::journal::write_atomic(&out.join(name), text.as_bytes()).map_err(|e| e.to_string())
+    };
     put("discovery.svg", &discovery)?;
     put("heatmap.svg", &heatmap)?;
     put("failure_modes.csv", &csv::failure_modes(run, &findings))?;

@@ -121,7 +121,8 @@ pub struct IndexPage<'a> {
     pub outcome_rows: Vec<OutcomeRow>,
     pub files: Vec<(String, String)>,
     pub notes: Vec<String>,
-    pub validated: bool,
+    /// The validation file the page shows, if the run was validated.
+    pub validation_file: Option<String>,
     pub version: &'static str,
 }
 
@@ -187,7 +188,7 @@ fn option_label(q: Option<&Question>, i: u32) -> String {
 
 fn given_label(q: Option<&Question>, r: &Record) -> String {
     match r.answer {
-        Answer::Option(i) => option_label(q, i),
+        Some(Answer::Option(i)) => option_label(q, i),
         _ => outcome_name(r.outcome),
     }
 }
@@ -355,7 +356,13 @@ fn header(run: &Run) -> Vec<(String, String)> {
         ("Spend".into(), s.spend.line()),
     ];
     h.push(match &run.validation {
-        Some(v) => ("Validation".into(), format!("top {} × {} fresh samples; {}", v.top, v.samples, v.spend.line())),
+        Some(v) => {
+            let samples = match v.max_samples {
+                Some(max) => format!("{}–{max} fresh samples (sequential)", v.samples),
+                None => format!("{} fresh samples", v.samples),
+            };
+            ("Validation".into(), format!("top {} × {samples}; {}", v.top, v.spend.line()))
+        }
         None => ("Validation".into(), "not validated (revelio validate re-checks the top sets)".into()),
     });
     h
@@ -513,7 +520,7 @@ pub fn render(
             ("heatmap.svg".into(), "the pair failure-rate heatmap".into()),
         ],
         notes,
-        validated: run.validation.is_some(),
+        validation_file: run.validation.as_ref().and(run.validation_file.clone()),
         version: env!("CARGO_PKG_VERSION"),
     };
     let mut html = String::new();
@@ -592,7 +599,10 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     for n in &p.notes {
         writeln!(out, "<p class=\"note\">{}</p>", Esc(n))?;
     }
-    let validation = if p.validated { " and validation.json" } else { "" };
+    let validation = match &p.validation_file {
+        Some(file) => format!(" and {}", Esc(file)),
+        None => String::new(),
+    };
     writeln!(
         out,
         "<footer>Written by revelio {} from the run folder's config.json, summary.json, journal.jsonl{validation}. Static: no network, no scripts.</footer>\n</main>\n</body>\n</html>",

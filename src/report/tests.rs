@@ -42,15 +42,19 @@ fn fixture(renderer: &str) -> Fixture {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let config = RunConfig {
+        format: crate::run::runner::RUN_FORMAT,
         domain_file: "driving.rev".into(),
         domain: d.name.clone(),
-        domain_hash: crate::journal::domain_hash(&d),
+        domain_hash: d.identity().to_string(),
         model_spec: "sim:test.toml".into(),
         model: "sim:test@0".into(),
+        endpoint: None,
+        model_settings: Default::default(),
         renderer: renderer.into(),
         params: Params::default(),
     };
-    let journal = Journal::open(&dir, &config).unwrap();
+    let journal = Journal::open(&dir).unwrap();
+    journal.write_config(&config).unwrap();
     let mut history = Vec::new();
     let mut shade = 0u8;
     for Set(names, outcomes) in SETS {
@@ -82,7 +86,7 @@ fn fixture(renderer: &str) -> Fixture {
                     prompt: "p".into(),
                     raw,
                     parsed: None,
-                    answer,
+                    answer: Some(answer),
                     expected: 0,
                     outcome,
                     usage: Usage::default(),
@@ -121,7 +125,8 @@ fn validate(f: &Fixture, concepts: &[&str], wrong: u32, answered: u32) {
         consistent: 0,
         spend: Spend::default(),
     };
-    std::fs::write(f.dir.join("validation.json"), serde_json::to_string(&v).unwrap()).unwrap();
+    let name = crate::run::runner::validation_file(v.top, v.samples, v.max_samples);
+    std::fs::write(f.dir.join(name), serde_json::to_string(&v).unwrap()).unwrap();
 }
 
 /// Local files an HTML page links (`src` and `href` values that are not anchors).
@@ -281,7 +286,7 @@ fn the_run_folder_itself_is_refused_and_a_missing_run_is_named() {
     let e = write(&run, None, &f.dir).unwrap_err();
     assert!(e.starts_with("the report cannot be written into the run folder"), "{e}");
     let e = load(&f.dir.join("nope")).err().unwrap();
-    assert!(e.contains("is `") && e.contains("a finished run folder?"), "{e}");
+    assert!(e.contains("nope` is not a run folder"), "{e}");
     // Without the domain the page still renders, with letters only.
     let html = {
         write(&run, None, &f.dir.join("report")).unwrap();

@@ -1,71 +1,37 @@
-//! The evaluator: asked observations of concept sets (indices `k..n` of a set, so more
-//! observations of a set continue its earlier ones), each: sample a scene → render → ask the
-//! model → compare with the oracle's expected option. Observations of a set, and all sets of a
-//! batch, run concurrently up to `concurrency` (a semaphore); every finished observation is
-//! appended to the journal at once, and observations already in the journal are replayed instead
-//! of asked again.
-use std::collections::HashMap;
+//! The evaluator: observations of concept sets through the one observe pipeline
+//! ([`super::observe`]), concurrently up to the run's concurrency, each journaled the moment it
+//! ends; observations already in the journal are replayed instead of asked again.
+//!
+//! Observations are addressed by [`ObsKey`] (phase, set, observation index), and
+//! [`Evaluator::observe_sets`] evaluates any index range of any set: `0..m` for a search step,
+//! `k..n` for more observations of a set already evaluated (sequential sampling, [`Ask`]), another
+//! phase for validation or shrinking. Each observation's scene seed is a pure function of the run
+//! seed and its key ([`observation_seed`]), so a range extended later sees the scenes it would
+//! have seen in one go.
+//!
+//! Stopping: after `max_api_errors` model calls in a row end in `api_error`, or when the
+//! [`Stop`] handle is triggered (Ctrl-C), no new call starts; calls in flight finish and are
+//! journaled, the journal is synced, and the evaluation ends with [`RunError::Stopped`].
+use std::collections::{HashMap, HashSet};
+use std::ops::Range;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
+use serde::{Deserialize, Serialize};
 use tokio::sync::Semaphore;
 
-use crate::hash::sha256_hex;
-use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, Phase, Record};
-use crate::render::Renderer;
-use crate::scene::Scene;
-use serde::{Deserialize, Serialize};
-
-use crate::outcome::{Answer, Outcome, Usage};
-use crate::vlm::{Model, Query, Truth};
-
+use crate::ir::ConceptSet;
+use crate::journal::{Journal, Phase};
+use crate::outcome::{Outcome, Usage};
 use crate::search::{Ask, Evaluate, SetStats};
+use crate::vlm::Model;
 
-/// What the model is asked about a set, and the right answer.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Task {
-    pub question: String,
-    pub options: Vec<String>,
-    pub expected: u32,
-}
-
-/// Ground truth and scenes for concept sets: the domain's oracle and sampler in a run.
-pub trait World: Send + Sync {
-    fn task(&self, set: ConceptSet) -> Result<Task, String>;
-    fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String>;
-}
-
-/// The compiled domain's oracle and scene sampler, built once per run.
-pub struct DomainWorld {
-    oracle: crate::oracle::Oracle<'static>,
-    sampler: crate::sample::Sampler<'static>,
-}
-
-impl DomainWorld {
-    /// The sampler and oracle borrow the domain for the whole process (a run searches one domain),
-    /// so the domain is leaked once here rather than re-hashing its sources for every scene.
-    pub fn new(domain: &Domain) -> DomainWorld {
-        let domain: &'static Domain = Box::leak(Box::new(domain.clone()));
-        DomainWorld { oracle: crate::oracle::Oracle::new(domain), sampler: crate::sample::Sampler::new(domain) }
-    }
-}
-
-impl World for DomainWorld {
-    fn task(&self, set: ConceptSet) -> Result<Task, String> {
-        let d = self.sampler.domain();
-        let v = self.oracle.evaluate(set).map_err(|e| e.to_string())?;
-        let q = &d.questions[v.question.index()];
-        Ok(Task {
-            question: q.text.clone(),
-            options: q.options.iter().map(|o| o.text.clone()).collect(),
-            expected: v.expected,
-        })
-    }
-
-    fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String> {
-        self.sampler.sample(set, seed).map_err(|e| e.0)
-    }
-}
+use super::observe::{ObsKey, Observation, ObserveError, Observer};
+// Where these lived before the observe pipeline had its own module.
+pub use super::observe::{DomainWorld, Task, World};
+use super::progress::Progress;
+use super::stop::{Stop, StopReason};
+use super::{ResumeError, RunError};
 
 /// SplitMix64 finaliser: mixes run seed, phase, set and observation index into one seed.
 fn mix(mut z: u64) -> u64 {
@@ -75,48 +41,19 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// The seed of one observation: a pure function of the run seed, the phase, the set and the
-/// observation index, so a resumed run samples the same scenes. Validation gets its own stream
-/// (fresh scenes for the same sets).
-pub fn observation_seed(run_seed: u64, phase: Phase, set: ConceptSet, obs: u32) -> u64 {
-    let p = match phase {
+/// The scene seed of one observation: a pure function of the run seed and the observation's key,
+/// so a resumed run samples the same scenes. Each phase has its own stream (validation sees
+/// fresh scenes of the same sets).
+pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
+    let p = match key.phase {
         Phase::Search => 0x5345_4152_4348,
         Phase::Validate => 0x5641_4c49_4441,
         Phase::Shrink => 0x5348_5249_4e4b,
     };
     let mut h = mix(run_seed ^ p);
-    h = mix(h ^ set.0 as u64);
-    h = mix(h ^ (set.0 >> 64) as u64);
-    mix(h ^ u64::from(obs))
-}
-
-type Key = (Phase, ConceptSet, u32);
-
-/// Shared pieces of every observation task.
-struct Shared {
-    domain: Arc<Domain>,
-    world: Arc<dyn World>,
-    model: Arc<dyn Model>,
-    renderer: Option<Arc<dyn Renderer>>,
-    journal: Arc<Journal>,
-    seed: u64,
-}
-
-pub struct Evaluator {
-    shared: Arc<Shared>,
-    semaphore: Arc<Semaphore>,
-    replay: HashMap<Key, (Outcome, Usage, bool)>,
-    pub phase: Phase,
-    pub threshold: f64,
-    /// Inferences done / failure modes so far (indicatif; hidden when stderr is not a terminal).
-    pub progress: indicatif::ProgressBar,
-    /// Every set's observations in this process, by phase, for the failure-mode count.
-    totals: HashMap<(Phase, ConceptSet), SetStats>,
-    failure_modes: usize,
-    /// Observations served from the journal instead of the model.
-    pub replayed: u64,
-    /// Tokens and money of every observation evaluated (replayed ones as journaled).
-    pub spend: Spend,
+    h = mix(h ^ key.set.0 as u64);
+    h = mix(h ^ (key.set.0 >> 64) as u64);
+    mix(h ^ u64::from(key.index))
 }
 
 /// Tokens and money of a run's observations: the model's usage summed over the journal, so a
@@ -154,211 +91,242 @@ impl Spend {
     }
 }
 
+/// Counts model calls that end in `api_error` in a row, as they finish (before the next call
+/// starts), and requests the stop when there are `max` of them.
+struct ApiErrorWatch {
+    max: u32,
+    in_a_row: std::sync::Mutex<u32>,
+    stop: Stop,
+}
+
+impl ApiErrorWatch {
+    fn record(&self, outcome: Outcome, raw: &str) {
+        let mut n = self.in_a_row.lock().unwrap_or_else(|p| p.into_inner());
+        match outcome {
+            Outcome::ApiError => *n += 1,
+            // No model call was made: it says nothing about the model's API.
+            Outcome::ImageBlocked => return,
+            _ => *n = 0,
+        }
+        if self.max > 0 && *n >= self.max {
+            self.stop.request(StopReason::ApiErrors { count: *n, last: raw.to_string() });
+        }
+    }
+}
+
+/// A finished observation and where its outcome goes: (request, index within the request).
+type Placed = (usize, usize, Observation);
+
+/// A journaled observation served again on resume.
+#[derive(Debug, Clone, Copy)]
+struct Replayed {
+    outcome: Outcome,
+    usage: Usage,
+    cached: bool,
+}
+
 pub struct EvaluatorConfig {
-    pub domain: Arc<Domain>,
-    pub world: Arc<dyn World>,
+    pub observer: Arc<Observer>,
     pub model: Arc<dyn Model>,
-    pub renderer: Option<Arc<dyn Renderer>>,
     pub journal: Arc<Journal>,
     pub seed: u64,
     pub threshold: f64,
+    /// Observations in flight at once (the run's effective concurrency).
     pub concurrency: usize,
+    /// The phase [`Evaluate::evaluate`] observes in.
     pub phase: Phase,
+    pub stop: Stop,
+    /// Stop after this many model calls in a row end in `api_error` (0: never).
+    pub max_api_errors: u32,
+}
+
+pub struct Evaluator {
+    observer: Arc<Observer>,
+    model: Arc<dyn Model>,
+    journal: Arc<Journal>,
+    seed: u64,
+    semaphore: Arc<Semaphore>,
+    replay: HashMap<ObsKey, Replayed>,
+    pub phase: Phase,
+    pub threshold: f64,
+    /// Shown as observations finish (set by the runner).
+    pub progress: Option<Progress>,
+    stop: Stop,
+    api_errors: Arc<ApiErrorWatch>,
+    /// Outcomes so far per set (this evaluator's observations, replayed ones included), for the
+    /// progress line's failure-mode count.
+    tally: HashMap<(Phase, ConceptSet), SetStats>,
+    failing: HashSet<(Phase, ConceptSet)>,
+    /// The typed error behind the message the search algorithm saw.
+    failure: Option<RunError>,
+    /// Observations served from the journal instead of the model.
+    pub replayed: u64,
+    /// Tokens and money of every observation evaluated (replayed ones as journaled).
+    pub spend: Spend,
 }
 
 impl Evaluator {
-    pub fn new(c: EvaluatorConfig) -> Result<Evaluator, String> {
+    pub fn new(c: EvaluatorConfig) -> Result<Evaluator, RunError> {
+        let domain = c.observer.domain().clone();
         let mut replay = HashMap::new();
-        for r in &c.journal.records {
+        for (i, r) in c.journal.records.iter().enumerate() {
             // A failed call is not a paid answer: a resumed run asks again (the newer line wins).
             if r.outcome == Outcome::ApiError {
                 continue;
             }
-            let set = c.domain.parse_set(&r.set).map_err(|e| format!("cannot resume from the journal: {e}"))?;
-            replay.insert((r.phase, set, r.obs), (r.outcome, r.usage, r.cached));
+            let set = domain.parse_set(&r.set).map_err(|e| ResumeError::UnknownSet {
+                dir: c.journal.dir().to_path_buf(),
+                line: i + 1,
+                message: e.to_string(),
+            })?;
+            replay.insert(
+                ObsKey { phase: r.phase, set, index: r.obs },
+                Replayed { outcome: r.outcome, usage: r.usage, cached: r.cached },
+            );
         }
         Ok(Evaluator {
-            shared: Arc::new(Shared {
-                domain: c.domain,
-                world: c.world,
-                model: c.model,
-                renderer: c.renderer,
-                journal: c.journal,
-                seed: c.seed,
-            }),
+            observer: c.observer,
+            model: c.model,
+            journal: c.journal,
+            seed: c.seed,
             semaphore: Arc::new(Semaphore::new(c.concurrency.max(1))),
             replay,
             phase: c.phase,
             threshold: c.threshold,
-            progress: indicatif::ProgressBar::hidden(),
-            totals: HashMap::new(),
-            failure_modes: 0,
+            progress: None,
+            // Its own stop: a resume in the same process starts with a clean slate.
+            api_errors: Arc::new(ApiErrorWatch {
+                max: c.max_api_errors,
+                in_a_row: std::sync::Mutex::new(0),
+                stop: Stop::default(),
+            }),
+            stop: c.stop,
+            tally: HashMap::new(),
+            failing: HashSet::new(),
+            failure: None,
             replayed: 0,
             spend: Spend::default(),
         })
     }
 
-    /// Count a set's new observations toward the progress bar's failure modes (the shrink phase
-    /// re-tests known ones: not counted).
-    fn set_done(&mut self, stats: &SetStats) {
-        if self.phase == Phase::Shrink {
+    /// The typed error of the last failed [`Evaluate::evaluate`] call.
+    pub fn take_failure(&mut self) -> Option<RunError> {
+        self.failure.take()
+    }
+
+    /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
+    /// re-tests failure modes and their subsets: not counted as new ones).
+    fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
+        // A blocked image made no model call.
+        if outcome != Outcome::ImageBlocked {
+            self.spend.add(usage, cached);
+        }
+        if key.phase == Phase::Shrink {
+            if let Some(p) = &self.progress {
+                p.inc(&self.spend);
+            }
             return;
         }
-        let total = self.totals.entry((self.phase, stats.set)).or_insert_with(|| SetStats::new(stats.set));
-        let before = total.is_failure_mode(self.threshold);
-        total.merge(stats);
-        let after = total.is_failure_mode(self.threshold);
-        if before != after {
-            if after {
-                self.failure_modes += 1
-            } else {
-                self.failure_modes -= 1
+        let stats = self.tally.entry((key.phase, key.set)).or_insert_with(|| SetStats::new(key.set));
+        stats.add(outcome);
+        let failing = stats.is_failure_mode(self.threshold);
+        let changed = if failing {
+            self.failing.insert((key.phase, key.set))
+        } else {
+            self.failing.remove(&(key.phase, key.set))
+        };
+        if let Some(p) = &self.progress {
+            p.inc(&self.spend);
+            if changed {
+                p.set_failure_modes(self.failing.len());
             }
-            self.show_progress();
         }
     }
 
-    fn spent(&mut self, usage: &Usage, cached: bool) {
-        self.spend.add(usage, cached);
-        self.progress.inc(1);
-        if usage.cost_usd > 0.0 || usage.input_tokens > 0 {
-            self.show_progress();
+    /// Observations `range` of each set in `phase`, concurrently; returns each request's outcomes
+    /// in index order. Journaled observations are replayed; the rest are asked and journaled.
+    pub async fn observe_sets(
+        &mut self,
+        phase: Phase,
+        requests: &[(ConceptSet, Range<u32>)],
+    ) -> Result<Vec<Vec<Outcome>>, RunError> {
+        let mut out: Vec<Vec<Option<Outcome>>> = requests.iter().map(|(_, r)| vec![None; r.len()]).collect();
+        let halt = Arc::new(AtomicBool::new(false));
+        let mut tasks: tokio::task::JoinSet<Result<Option<Placed>, ObserveError>> = tokio::task::JoinSet::new();
+        for (i, (set, range)) in requests.iter().enumerate() {
+            let task = Arc::new(self.observer.task(*set)?);
+            for index in range.clone() {
+                let key = ObsKey { phase, set: *set, index };
+                let slot = (index - range.start) as usize;
+                if let Some(r) = self.replay.get(&key).copied() {
+                    out[i][slot] = Some(r.outcome);
+                    self.replayed += 1;
+                    self.finished(key, r.outcome, &r.usage, r.cached);
+                    continue;
+                }
+                let seed = observation_seed(self.seed, key);
+                let (observer, model, journal) = (self.observer.clone(), self.model.clone(), self.journal.clone());
+                let (sem, stop, halt, task) = (self.semaphore.clone(), self.stop.clone(), halt.clone(), task.clone());
+                let watch = self.api_errors.clone();
+                tasks.spawn(async move {
+                    let _permit = sem.acquire_owned().await.expect("the semaphore is never closed");
+                    if stop.requested() || watch.stop.requested() || halt.load(Ordering::SeqCst) {
+                        return Ok(None);
+                    }
+                    let o = observer.observe_task(model.as_ref(), key, seed, &task, Some(&journal)).await?;
+                    watch.record(o.outcome, &o.record.raw);
+                    Ok(Some((i, slot, o)))
+                });
+            }
         }
-    }
-
-    fn show_progress(&self) {
-        let s = &self.spend;
-        self.progress.set_message(format!(
-            "{} failure modes · {} tokens · ${:.4}",
-            self.failure_modes,
-            s.input_tokens + s.output_tokens,
-            s.cost_usd
-        ));
+        let mut first_error: Option<RunError> = None;
+        while let Some(joined) = tasks.join_next().await {
+            match joined {
+                Ok(Ok(Some((i, slot, o)))) => {
+                    out[i][slot] = Some(o.outcome);
+                    self.finished(o.key, o.outcome, &o.record.usage, o.record.cached);
+                }
+                Ok(Ok(None)) => {}
+                Ok(Err(e)) => {
+                    // Let the calls in flight finish and be journaled; start no new one.
+                    halt.store(true, Ordering::SeqCst);
+                    first_error.get_or_insert(e.into());
+                }
+                Err(e) => {
+                    halt.store(true, Ordering::SeqCst);
+                    first_error.get_or_insert(RunError::Search(format!("an observation task failed: {e}")));
+                }
+            }
+        }
+        self.journal.sync()?;
+        if let Some(e) = first_error {
+            return Err(e);
+        }
+        if let Some(reason) = self.api_errors.stop.reason().or_else(|| self.stop.reason()) {
+            return Err(RunError::Stopped(reason));
+        }
+        Ok(out.into_iter().map(|v| v.into_iter().map(|o| o.expect("every observation ended")).collect()).collect())
     }
 }
 
 impl Evaluate for Evaluator {
     async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
-        let mut stats: Vec<SetStats> = asks.iter().map(|a| SetStats::new(a.set)).collect();
-        let mut tasks = tokio::task::JoinSet::new();
-        for (i, ask) in asks.iter().enumerate() {
-            let set = ask.set;
-            let task = Arc::new(self.shared.world.task(set)?);
-            let prompt = Arc::new(crate::vlm::prompt::build(&task.question, &task.options));
-            for obs in ask.obs.clone() {
-                if let Some((o, usage, cached)) = self.replay.get(&(self.phase, set, obs)).cloned() {
-                    stats[i].add(o);
-                    self.replayed += 1;
-                    self.spent(&usage, cached);
-                    continue;
-                }
-                let (shared, sem, phase) = (self.shared.clone(), self.semaphore.clone(), self.phase);
-                let (task, prompt) = (task.clone(), prompt.clone());
-                tasks.spawn(async move {
-                    let _permit = sem.acquire_owned().await.expect("the semaphore is never closed");
-                    observe(&shared, phase, set, obs, &task, &prompt).await.map(|o| (i, o))
-                });
-            }
-            if stats[i].observations() == ask.len() {
-                self.set_done(&stats[i].clone());
+        let requests: Vec<(ConceptSet, Range<u32>)> = asks.iter().map(|a| (a.set, a.obs.clone())).collect();
+        match self.observe_sets(self.phase, &requests).await {
+            Ok(outcomes) => Ok(asks
+                .iter()
+                .zip(outcomes)
+                .map(|(a, os)| {
+                    let mut s = SetStats::new(a.set);
+                    os.into_iter().for_each(|o| s.add(o));
+                    s
+                })
+                .collect()),
+            Err(e) => {
+                let message = e.to_string();
+                self.failure = Some(e);
+                Err(message)
             }
         }
-        let mut first_error = None;
-        while let Some(joined) = tasks.join_next().await {
-            match joined {
-                Ok(Ok((i, (outcome, usage, cached)))) => {
-                    stats[i].add(outcome);
-                    self.spent(&usage, cached);
-                    if stats[i].observations() == asks[i].len() {
-                        self.set_done(&stats[i].clone());
-                    }
-                }
-                Ok(Err(e)) => {
-                    first_error.get_or_insert(e);
-                    tasks.abort_all();
-                }
-                Err(e) if e.is_cancelled() => {}
-                Err(e) => {
-                    first_error.get_or_insert(format!("an observation task failed: {e}"));
-                    tasks.abort_all();
-                }
-            }
-        }
-        self.shared.journal.sync()?;
-        if let Some(e) = first_error {
-            return Err(e);
-        }
-        Ok(stats)
     }
-}
-
-/// One observation: scene → image → model → outcome, journaled.
-async fn observe(
-    shared: &Shared,
-    phase: Phase,
-    set: ConceptSet,
-    obs: u32,
-    task: &Task,
-    prompt: &str,
-) -> Result<(Outcome, Usage, bool), String> {
-    let names = || shared.domain.set_names(set).join(", ");
-    let seed = observation_seed(shared.seed, phase, set, obs);
-    let scene = shared.world.scene(set, seed).map_err(|e| format!("cannot sample a scene for {{{}}}: {e}", names()))?;
-    let (image, image_hash) = match &shared.renderer {
-        Some(r) => {
-            let image_prompt = scene_prompt(&shared.domain, set);
-            let png =
-                r.render(&scene, &image_prompt).await.map_err(|e| format!("cannot render {{{}}}: {e}", names()))?.png;
-            let hash = shared.journal.store_image(&png)?;
-            (Some(Arc::new(png)), hash)
-        }
-        None => (None, sha256_hex(&serde_json::to_vec(&scene).expect("scenes serialise"))),
-    };
-    let query = Query {
-        image,
-        image_hash: image_hash.clone(),
-        prompt: prompt.to_string(),
-        options: task.options.clone(),
-        truth: Some(Truth {
-            set,
-            concepts: shared.domain.set_names(set).into_iter().map(String::from).collect(),
-            expected: task.expected,
-            key: seed,
-        }),
-    };
-    let reply = shared.model.ask(&query).await;
-    let outcome = Outcome::from_answer(reply.answer, task.expected);
-    shared.journal.append(&Record {
-        phase,
-        set: query.truth.as_ref().map(|t| t.concepts.clone()).unwrap_or_default(),
-        obs,
-        seed,
-        image: image_hash,
-        prompt: sha256_hex(prompt.as_bytes()),
-        raw: reply.raw,
-        parsed: match reply.answer {
-            Answer::Option(o) => Some(o),
-            _ => None,
-        },
-        answer: reply.answer,
-        expected: task.expected,
-        outcome,
-        usage: reply.usage,
-        latency_ms: reply.latency_ms,
-        cached: reply.cached,
-    })?;
-    Ok((outcome, reply.usage, reply.cached))
-}
-
-/// The image-generation prompt of a set: its concepts' prompt snippets in index order (the
-/// paper's indoor scenes), falling back to the description.
-pub fn scene_prompt(domain: &Domain, set: ConceptSet) -> String {
-    set.iter()
-        .map(|c| {
-            let c = &domain.concepts[c.index()];
-            c.render.prompt.as_deref().unwrap_or(&c.description).trim().to_string()
-        })
-        .filter(|s| !s.is_empty())
-        .collect::<Vec<_>>()
-        .join(" ")
 }

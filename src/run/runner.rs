@@ -1,38 +1,198 @@
-//! A whole run on a run folder: configuration check, search (or validation) through the
-//! journaled evaluator, and the summary. Shared by `revelio search`, `revelio validate` and
-//! `revelio bench search`.
+//! A whole run on a run folder: configuration check, search (then its shrink phase) or
+//! validation through the journaled evaluator, and the summary. Shared by `revelio search`,
+//! `revelio validate` and `revelio bench search`.
+//!
+//! Resuming: the same command on an existing folder replays the journal and continues. A
+//! different configuration is refused, naming the differing fields, except for fields that say
+//! where things are rather than what the run is (the domain file's path, the `--model` spelling,
+//! the recorded model flags) and the budgets: a higher `--budget` extends the run — the algorithm
+//! replays its decisions against the journal (sequential top-ups included) and goes on where the
+//! smaller budget stopped — and a higher `--shrink` extends the shrink phase, which shrinks the
+//! failure modes of the (possibly extended) search again, served from the journal where it asks
+//! what it asked before.
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, Phase};
+use crate::journal::{Journal, JournalError, Phase};
 use crate::outcome::Outcome;
 use crate::render::Renderer;
 use crate::vlm::Model;
 
-use super::eval::{Evaluator, EvaluatorConfig, Spend, World, observation_seed};
+use super::eval::{Evaluator, EvaluatorConfig, Spend};
+use super::observe::{Observer, World};
+use super::progress::{Progress, ProgressTo};
+use super::setup::{DEFAULT_CONCURRENCY, ModelSettings};
+use super::stop::Stop;
+use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
 use crate::search::shrink::{self, Found};
 use crate::search::{Driver, Params, Rule, SetStats, Space};
 
-/// The resolved configuration of a run (`config.json`): everything that changes its results.
-/// Concurrency is not in it: it changes timing, never answers.
+/// The run folder format this revelio writes and reads. Format 1 (no `format` field) seeded its
+/// scenes from the domain file's path as typed; its scenes cannot be reproduced, so such folders
+/// are refused with a message rather than resumed with different scenes.
+pub const RUN_FORMAT: u64 = 2;
+
+fn run_format_1() -> u64 {
+    1
+}
+
+/// The resolved configuration of a run (`config.json`): everything that changes its results,
+/// and how to rebuild its model. Concurrency is not in it: it changes timing, never answers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunConfig {
-    /// The domain file as given (made absolute), so `revelio validate` can reload it.
+    #[serde(default = "run_format_1")]
+    pub format: u64,
+    /// The domain file (made absolute), so `revelio validate` can reload it.
     pub domain_file: String,
     pub domain: String,
-    /// SHA-256 of the domain's source files.
+    /// The domain's identity ([`Domain::identity`]): canonical module names and texts.
     pub domain_hash: String,
     /// The `--model` spec and the model's id (which includes answer-changing settings).
     pub model_spec: String,
     pub model: String,
+    /// The base URL the model's requests go to (never a key); `None` for `sim`.
+    #[serde(default)]
+    pub endpoint: Option<String>,
+    /// The model flags the run was started with; `validate` and resumes reuse them.
+    #[serde(default)]
+    pub model_settings: ModelSettings,
     pub renderer: String,
     pub params: Params,
+}
+
+impl RunConfig {
+    /// The configuration of a run of `model` on `domain`.
+    pub fn new(
+        domain: &Domain,
+        domain_file: &Path,
+        model_spec: &str,
+        model: &dyn Model,
+        model_settings: ModelSettings,
+        renderer: &str,
+        params: Params,
+    ) -> RunConfig {
+        RunConfig {
+            format: RUN_FORMAT,
+            domain_file: super::setup::absolute(domain_file),
+            domain: domain.name.clone(),
+            domain_hash: domain.identity().to_string(),
+            model_spec: model_spec.to_string(),
+            model: model.id(),
+            endpoint: model.endpoint(),
+            model_settings,
+            renderer: renderer.to_string(),
+            params,
+        }
+    }
+}
+
+/// Fields of `config.json` a resume may change: where things are, not what the run is.
+const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings"];
+
+/// Budgets a resume may raise (field of `params` and `--flag`, what it is called): the search
+/// replays its decisions against the journal and goes on where the smaller budget stopped, and
+/// the shrink phase then starts over from the larger search's failure modes — its earlier
+/// observations are served from the journal wherever it asks for them again.
+type BudgetField = (&'static str, &'static str, fn(&Params) -> u64);
+const GROWABLE_BUDGETS: &[BudgetField] =
+    &[("budget", "budget", |p| p.budget), ("shrink", "shrink budget", |p| p.shrink)];
+
+/// Check that `new` may continue the run whose `config.json` is `old`.
+pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Result<(), ResumeError> {
+    let found = old.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
+    if found != RUN_FORMAT {
+        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT });
+    }
+    let was: RunConfig = serde_json::from_value(old.clone())
+        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
+    let view = |c: &RunConfig| {
+        let mut v = serde_json::to_value(c).expect("configurations serialise");
+        if let Some(o) = v.as_object_mut() {
+            for f in LOCATION_FIELDS {
+                o.remove(*f);
+            }
+        }
+        for (field, ..) in GROWABLE_BUDGETS {
+            v["params"][*field] = serde_json::Value::Null;
+        }
+        v
+    };
+    let diffs = differences(&view(&was), &view(new));
+    if !diffs.is_empty() {
+        return Err(ResumeError::Differs { dir: dir.to_path_buf(), diffs });
+    }
+    for &(flag, what, budget) in GROWABLE_BUDGETS {
+        let (was, now) = (budget(&was.params), budget(&new.params));
+        if now < was {
+            return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), flag, what, was, now });
+        }
+    }
+    Ok(())
+}
+
+/// Top-level fields (and nested ones, dotted) that differ between two configurations.
+fn differences(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> {
+    fn walk(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+        match (a, b) {
+            (serde_json::Value::Object(x), serde_json::Value::Object(y)) => {
+                let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+                for k in keys {
+                    let name = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                    let null = serde_json::Value::Null;
+                    walk(&name, x.get(k).unwrap_or(&null), y.get(k).unwrap_or(&null), out);
+                }
+            }
+            _ if a != b => out.push(format!("`{prefix}` was {a}, now {b}")),
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk("", old, new, &mut out);
+    out
+}
+
+/// Read a run folder's `config.json`, if it has one (to reuse its settings).
+pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
+    let path = dir.join("config.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).map_err(|source| JournalError::Io {
+        action: "read",
+        path: path.clone(),
+        source,
+    })?;
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
+    let found = value.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
+    if found != RUN_FORMAT {
+        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT }.into());
+    }
+    serde_json::from_value(value)
+        .map(Some)
+        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() }.into())
+}
+
+/// Open the run folder for `config`: a new folder gets the configuration, an existing one must
+/// match it (a raised budget is written back).
+fn open_run(out: &Path, config: &RunConfig) -> Result<Arc<Journal>, RunError> {
+    let journal = Journal::open(out)?;
+    let write = match journal.config() {
+        None => true,
+        Some(old) => {
+            check_resume(out, old, config)?;
+            *old != serde_json::to_value(config).expect("configurations serialise")
+        }
+    };
+    if write {
+        journal.write_config(config)?;
+    }
+    Ok(Arc::new(journal))
 }
 
 /// Everything a run needs besides its configuration.
@@ -41,10 +201,52 @@ pub struct Setup {
     pub world: Arc<dyn World>,
     pub model: Arc<dyn Model>,
     pub renderer: Option<Arc<dyn Renderer>>,
+    /// The effective concurrency (see `run::setup`).
     pub concurrency: usize,
     pub out: PathBuf,
-    /// Draw a progress bar on stderr (only when it is a terminal).
-    pub progress: bool,
+    pub progress: ProgressTo,
+    /// Triggered by Ctrl-C (the CLI wires it) or by the run itself.
+    pub stop: Stop,
+    /// Stop after this many model calls in a row end in `api_error` (0: never).
+    pub max_api_errors: u32,
+}
+
+impl Setup {
+    /// A setup with the defaults: concurrency [`DEFAULT_CONCURRENCY`], no progress output, no
+    /// Ctrl-C handling, [`MAX_API_ERRORS`].
+    pub fn new(
+        domain: Arc<Domain>,
+        world: Arc<dyn World>,
+        model: Arc<dyn Model>,
+        renderer: Option<Arc<dyn Renderer>>,
+        out: impl Into<PathBuf>,
+    ) -> Setup {
+        Setup {
+            domain,
+            world,
+            model,
+            renderer,
+            concurrency: DEFAULT_CONCURRENCY,
+            out: out.into(),
+            progress: ProgressTo::Off,
+            stop: Stop::default(),
+            max_api_errors: MAX_API_ERRORS,
+        }
+    }
+
+    fn evaluator(&self, journal: Arc<Journal>, seed: u64, threshold: f64, phase: Phase) -> Result<Evaluator, RunError> {
+        Evaluator::new(EvaluatorConfig {
+            observer: Arc::new(Observer::new(self.domain.clone(), self.world.clone(), self.renderer.clone())),
+            model: self.model.clone(),
+            journal,
+            seed,
+            threshold,
+            concurrency: self.concurrency,
+            phase,
+            stop: self.stop.clone(),
+            max_api_errors: self.max_api_errors,
+        })
+    }
 }
 
 /// One evaluated set, by name.
@@ -142,6 +344,25 @@ pub struct Summary {
     pub spend: Spend,
 }
 
+impl Summary {
+    /// `(api_error observations, all observations)`.
+    pub fn api_errors(&self) -> (u64, u64) {
+        (self.metrics.unanswered.get(&Outcome::ApiError).copied().unwrap_or(0), self.metrics.inferences)
+    }
+}
+
+/// The message for a finished run (or validation) in which at least [`super::API_ERROR_SHARE_LIMIT`]
+/// of the observations are failed model calls; `None` below it.
+pub fn api_error_warning(api_errors: u64, observations: u64) -> Option<String> {
+    if observations == 0 || (api_errors as f64) < super::API_ERROR_SHARE_LIMIT * observations as f64 {
+        return None;
+    }
+    Some(format!(
+        "{:.0}% of the observations ({api_errors} of {observations}) are failed model calls (`api_error`): the results are incomplete; run the same command again to retry them",
+        100.0 * api_errors as f64 / observations as f64
+    ))
+}
+
 /// What a finished run did in this process.
 pub struct RunReport {
     pub summary: Summary,
@@ -152,6 +373,8 @@ pub struct RunReport {
     /// Observations served from the journal (a resumed run).
     pub replayed: u64,
     pub dropped_torn_line: bool,
+    /// The effective concurrency the run used.
+    pub concurrency: usize,
 }
 
 /// The valid sets that have a ground truth. Sets whose expected answer is undetermined (lint
@@ -163,40 +386,23 @@ pub fn search_space(sets: Vec<ConceptSet>, dim: usize, world: &dyn World) -> (Sp
     (Space::new(kept, dim), dropped)
 }
 
-fn progress_bar(enabled: bool, len: u64) -> indicatif::ProgressBar {
-    if !enabled || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(len);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} inferences · {msg} · ETA {eta}")
-            .expect("the template is valid"),
-    );
-    bar.set_message("0 failure modes · 0 tokens · $0.0000");
-    bar
-}
-
-/// Run (or resume) a search into `setup.out`, then its shrink phase (`params.shrink` > 0).
-pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, String> {
+/// Run (or resume, or extend) a search into `setup.out`, then its shrink phase
+/// (`params.shrink` > 0).
+pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, RunError> {
     let params = &config.params;
-    params.validate()?;
-    let journal = Arc::new(Journal::open(&setup.out, config)?);
+    params.validate().map_err(RunError::Usage)?;
+    let journal = open_run(&setup.out, config)?;
     let dropped_torn_line = journal.dropped_torn_line;
-    let mut eval = Evaluator::new(EvaluatorConfig {
-        domain: setup.domain.clone(),
-        world: setup.world.clone(),
-        model: setup.model.clone(),
-        renderer: setup.renderer.clone(),
-        journal: journal.clone(),
-        seed: params.seed,
-        threshold: params.threshold,
-        concurrency: setup.concurrency,
-        phase: Phase::Search,
-    })?;
-    eval.progress = progress_bar(setup.progress, params.budget + params.shrink);
+    let mut eval = setup.evaluator(journal.clone(), params.seed, params.threshold, Phase::Search)?;
+    eval.progress = Some(Progress::start(&setup.progress, "search", params.budget + params.shrink, setup.concurrency));
     let result = search_and_shrink(params, space, &mut eval).await;
-    eval.progress.finish_and_clear();
-    let (history, found, shrink) = result?;
+    if let Some(mut p) = eval.progress.take() {
+        p.finish();
+    }
+    let (history, found, shrink) = match result {
+        Ok(r) => r,
+        Err(message) => return Err(eval.take_failure().unwrap_or(RunError::Search(message))),
+    };
     let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
     summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
         budget: params.shrink,
@@ -206,7 +412,14 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         refuted: found.refuted.iter().map(|s| SetRow::new(&setup.domain, s)).collect(),
     });
     journal.write_json("summary.json", &summary)?;
-    Ok(RunReport { summary, history, found, replayed: eval.replayed, dropped_torn_line })
+    Ok(RunReport {
+        summary,
+        history,
+        found,
+        replayed: eval.replayed,
+        dropped_torn_line,
+        concurrency: setup.concurrency,
+    })
 }
 
 /// The search, then the shrink phase: the search's history, the shrink's findings, and (when it
@@ -221,6 +434,9 @@ async fn search_and_shrink(
         return Ok((history, Found::default(), None));
     }
     eval.phase = Phase::Shrink;
+    if let Some(p) = &eval.progress {
+        p.set_label("shrink");
+    }
     let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink, history.clone());
     let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
     let shrink = (driver.spent(), driver.history.len() - history.len());
@@ -265,7 +481,8 @@ pub fn summarize(
     }
 }
 
-/// `validation.json`: the top-k sets of a run re-evaluated with fresh scenes.
+/// A validation's result (`validation-top{K}-samples{M}.json`): the top-k sets of a run
+/// re-evaluated with fresh scenes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Validation {
     pub top: usize,
@@ -285,6 +502,15 @@ pub struct Validation {
     pub spend: Spend,
 }
 
+impl Validation {
+    /// `(api_error observations, all observations)` of the validation.
+    pub fn api_errors(&self) -> (u64, u64) {
+        let rows = self.sets.iter().map(|s| &s.validation);
+        let errors = rows.clone().map(|r| u64::from(r.unanswered.get(&Outcome::ApiError).copied().unwrap_or(0))).sum();
+        (errors, rows.map(|r| u64::from(r.observations)).sum())
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ValidatedSet {
     pub search: SetRow,
@@ -294,38 +520,46 @@ pub struct ValidatedSet {
 /// FR a validated failure mode must reach to count as consistent (paper section 4).
 pub const CONSISTENT_FR: f64 = 0.8;
 
-/// The top `k` sets of a search by failure rate; ties in failure rate are broken by a seeded
-/// shuffle (the paper picks randomly among equally ranked sets), then by set order.
-pub fn top_sets(history: &[SetStats], k: usize, seed: u64) -> Vec<SetStats> {
-    let mut v: Vec<&SetStats> = ranked(history);
-    let tie = |s: &SetStats| observation_seed(seed, Phase::Validate, s.set, u32::MAX);
-    v.sort_by(|a, b| b.value().total_cmp(&a.value()).then(tie(a).cmp(&tie(b))).then(a.set.cmp(&b.set)));
-    v.into_iter().take(k).cloned().collect()
+/// The top `k` sets of a search, in the order the search table lists them (the same ranking:
+/// failure rate, then answered observations, then the canonical set order).
+pub fn top_sets(history: &[SetStats], k: usize) -> Vec<SetStats> {
+    ranked(history).into_iter().take(k).cloned().collect()
+}
+
+/// The file a validation with these options is written to: one per setting, so validating
+/// again with other options never overwrites an earlier result. A sequential validation
+/// (`max_samples` above `samples`) is a setting of its own: `…-samples{m}-max{M}.json`.
+pub fn validation_file(top: usize, samples: u32, max_samples: Option<u32>) -> String {
+    match max_samples.filter(|&m| m > samples) {
+        Some(max) => format!("validation-top{top}-samples{samples}-max{max}.json"),
+        None => format!("validation-top{top}-samples{samples}.json"),
+    }
 }
 
 /// Read a run folder's configuration and summary.
-pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), String> {
-    let read = |name: &str| {
-        let p = dir.join(name);
-        std::fs::read_to_string(&p).map_err(|e| {
-            format!(
-                "cannot read `{}`: {} (is `{}` a finished run folder?)",
-                p.display(),
-                e.to_string().to_lowercase(),
-                dir.display()
-            )
-        })
-    };
-    let config: RunConfig = serde_json::from_str(&read("config.json")?)
-        .map_err(|e| format!("invalid `config.json` in `{}`: {e}", dir.display()))?;
-    let summary: Summary = serde_json::from_str(&read("summary.json")?)
-        .map_err(|e| format!("invalid `summary.json` in `{}`: {e}", dir.display()))?;
+pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
+    let config = read_config(dir)?
+        .ok_or_else(|| RunError::Usage(format!("`{}` is not a run folder (it has no config.json)", dir.display())))?;
+    let path = dir.join("summary.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        RunError::Usage(format!(
+            "cannot read `{}`: {} (is `{}` a finished run folder?)",
+            path.display(),
+            e.to_string().to_lowercase(),
+            dir.display()
+        ))
+    })?;
+    let summary: Summary = serde_json::from_str(&text).map_err(|e| JournalError::BadConfig {
+        dir: dir.to_path_buf(),
+        message: format!("invalid `summary.json`: {e}"),
+    })?;
     Ok((config, summary))
 }
 
 /// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each —
 /// with `max_samples`, sequentially: a set whose interval still straddles the run's τ gets more,
-/// up to `max_samples` — journaled in the same run folder (so validation resumes too).
+/// up to `max_samples` — journaled in the same run folder (so validation resumes too). Written to
+/// [`validation_file`]`(top, samples, max_samples)`.
 pub async fn validate(
     setup: &Setup,
     config: &RunConfig,
@@ -333,12 +567,17 @@ pub async fn validate(
     top: usize,
     samples: u32,
     max_samples: Option<u32>,
-) -> Result<Validation, String> {
+) -> Result<Validation, RunError> {
+    if top == 0 {
+        return Err(RunError::Usage("invalid `--top`: must be at least 1".into()));
+    }
     if samples == 0 {
-        return Err("invalid `--samples`: must be at least 1".into());
+        return Err(RunError::Usage("invalid `--samples`: must be at least 1".into()));
     }
     if let Some(max) = max_samples.filter(|&m| m < samples) {
-        return Err(format!("invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"));
+        return Err(RunError::Usage(format!(
+            "invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"
+        )));
     }
     let rule = Rule { samples, max_samples: max_samples.unwrap_or(samples), threshold: config.params.threshold };
     let history = summary
@@ -353,27 +592,22 @@ pub async fn validate(
             Ok(s)
         })
         .collect::<Result<Vec<_>, String>>()
-        .map_err(|e| format!("cannot validate `{}`: {e}", setup.out.display()))?;
-    let chosen = top_sets(&history, top, config.params.seed);
-    let journal = Arc::new(Journal::open(&setup.out, config)?);
-    let mut eval = Evaluator::new(EvaluatorConfig {
-        domain: setup.domain.clone(),
-        world: setup.world.clone(),
-        model: setup.model.clone(),
-        renderer: setup.renderer.clone(),
-        journal: journal.clone(),
-        seed: config.params.seed,
-        threshold: CONSISTENT_FR,
-        concurrency: setup.concurrency,
-        phase: Phase::Validate,
-    })?;
+        .map_err(|e| RunError::Search(format!("cannot validate `{}`: {e}", setup.out.display())))?;
+    let chosen = top_sets(&history, top);
+    let journal = open_run(&setup.out, config)?;
+    let mut eval = setup.evaluator(journal.clone(), config.params.seed, CONSISTENT_FR, Phase::Validate)?;
     let most = chosen.len() as u64 * u64::from(rule.max_samples);
-    eval.progress = progress_bar(setup.progress, most);
+    eval.progress = Some(Progress::start(&setup.progress, "validate", most, setup.concurrency));
     let sets: Vec<ConceptSet> = chosen.iter().map(|s| s.set).collect();
     // A budget of M per set: every chosen set can reach M, none more.
     let result = Driver::new(&mut eval, rule, most).evaluate(&sets).await;
-    eval.progress.finish_and_clear();
-    let validated = result?;
+    if let Some(mut p) = eval.progress.take() {
+        p.finish();
+    }
+    let validated = match result {
+        Ok(v) => v,
+        Err(message) => return Err(eval.take_failure().unwrap_or(RunError::Search(message))),
+    };
     let frs: Vec<f64> = validated.iter().filter_map(SetStats::fr).collect();
     let (mean_fr, sd_fr) = mean_sd(&frs);
     let v = Validation {
@@ -393,6 +627,11 @@ pub async fn validate(
         sd_fr,
         spend: eval.spend.clone(),
     };
-    journal.write_json("validation.json", &v)?;
+    journal.write_json(&validation_file(top, samples, v.max_samples), &v)?;
     Ok(v)
+}
+
+/// Seconds between plain progress lines for the CLI (see [`super::progress`]).
+pub fn cli_progress(quiet: bool) -> ProgressTo {
+    if quiet { ProgressTo::Off } else { ProgressTo::Stderr { every: super::progress::PLAIN_EVERY } }
 }

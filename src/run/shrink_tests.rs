@@ -106,5 +106,41 @@ fn sequential_validation_tops_up_undecided_sets_only() {
     assert_eq!(n, v.sets.iter().map(|x| x.validation.observations).sum::<u32>());
     assert_eq!(block_on(runner::validate(&s, &cfg, &r.summary, 5, 10, Some(30))).unwrap(), v, "resumes");
     let e = block_on(runner::validate(&s, &cfg, &r.summary, 5, 10, Some(4))).unwrap_err();
-    assert_eq!(e, "invalid `--max-samples`: must be at least `--samples` (10), got 4");
+    assert_eq!(e.exit_code(), 2, "a usage error");
+    assert_eq!(e.to_string(), "invalid `--max-samples`: must be at least `--samples` (10), got 4");
+}
+
+/// Raising `--budget` and `--shrink` on a run with sequential sampling and a shrink phase extends
+/// it: the search replays its decisions (top-ups included) and goes on, the shrink phase works on
+/// the larger search's failure modes, and the result is the larger run's. Lowering the shrink
+/// budget is refused as lowering the budget is.
+#[test]
+fn raising_the_budgets_extends_a_sequential_run_with_its_shrink_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
+        let (small, big) = (dir.path().join(format!("{algo:?}")), dir.path().join(format!("{algo:?}-fresh")));
+        let (s, space) = setup(&small, 4);
+        let mut cfg = config(&s, algo);
+        cfg.params.max_samples = Some(15);
+        cfg.params.budget = 100;
+        cfg.params.beam_budget = 50;
+        cfg.params.shrink = 40;
+        let first = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        assert!(first.summary.shrink.as_ref().is_some_and(|sh| sh.inferences > 0), "{algo:?}: the shrink phase ran");
+        let searched = first.summary.metrics.inferences;
+        cfg.params.budget = 250;
+        cfg.params.shrink = 80;
+        let extended = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        assert!(extended.replayed >= searched, "{algo:?}: the smaller search's observations are all reused");
+        let (f, _) = setup(&big, 4);
+        let fresh = block_on(runner::search(&f, &cfg, &space)).unwrap();
+        assert_eq!(extended.summary, fresh.summary, "{algo:?}");
+        // The extended folder holds every observation the fresh run made (and the smaller run's
+        // shrink phase, where it tested what the larger one did not).
+        let kept = journal_lines(&small);
+        assert!(journal_lines(&big).iter().all(|l| kept.contains(l)), "{algo:?}");
+        cfg.params.shrink = 40;
+        let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
+        assert!(e.contains("with `--shrink 40`: it already holds a run with shrink budget 80"), "{e}");
+    }
 }

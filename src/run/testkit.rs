@@ -5,9 +5,9 @@ use crate::ir::{Camera, ConceptSet, Domain};
 /// scene that only records the set and seed.
 pub struct FakeWorld(pub Domain);
 
-impl crate::run::eval::World for FakeWorld {
-    fn task(&self, set: ConceptSet) -> Result<crate::run::eval::Task, String> {
-        Ok(crate::run::eval::Task {
+impl crate::run::observe::World for FakeWorld {
+    fn task(&self, set: ConceptSet) -> Result<crate::run::observe::Task, String> {
+        Ok(crate::run::observe::Task {
             question: "What should the car do?".into(),
             options: vec!["stop".into(), "slow down".into(), "continue".into()],
             expected: (set.0 % 3) as u32,

@@ -1,4 +1,5 @@
 //! End-to-end runs on synthetic domains: sim model, journal, resume, validation.
+use std::path::Path;
 use std::sync::Arc;
 
 use super::runner::{self, RunConfig, Setup};
@@ -15,28 +16,14 @@ pub(super) fn setup(out: &std::path::Path, concurrency: usize) -> (Setup, Space)
     let model = SimModel { profile: Profile::parse(PROFILE, "t.toml", &d).unwrap() };
     let world = Arc::new(FakeWorld(d.clone()));
     let space = Space::new(lattice(8, 4), 8);
-    let s = Setup {
-        domain: Arc::new(d),
-        world,
-        model: Arc::new(model),
-        renderer: None,
-        concurrency,
-        out: out.to_path_buf(),
-        progress: false,
-    };
+    let mut s = Setup::new(Arc::new(d), world, Arc::new(model), None, out);
+    s.concurrency = concurrency;
     (s, space)
 }
 
 pub(super) fn config(s: &Setup, algo: Algo) -> RunConfig {
-    RunConfig {
-        domain_file: "/t.rev".into(),
-        domain: "test".into(),
-        domain_hash: crate::journal::domain_hash(&s.domain),
-        model_spec: "sim:t.toml".into(),
-        model: s.model.id(),
-        renderer: "none".into(),
-        params: Params { algo, budget: 200, beam_budget: 100, ..Params::default() },
-    }
+    let params = Params { algo, budget: 200, beam_budget: 100, ..Params::default() };
+    RunConfig::new(&s.domain, Path::new("/t.rev"), "sim:t.toml", s.model.as_ref(), Default::default(), "none", params)
 }
 
 pub(super) fn journal_lines(dir: &std::path::Path) -> Vec<String> {
@@ -121,7 +108,7 @@ fn a_different_configuration_is_refused() {
     block_on(runner::search(&s, &config(&s, Algo::Random), &space)).unwrap();
     let mut other = config(&s, Algo::Random);
     other.params.seed = 9;
-    let e = block_on(runner::search(&s, &other, &space)).err().unwrap();
+    let e = block_on(runner::search(&s, &other, &space)).err().unwrap().to_string();
     assert!(e.contains("(`params.seed` was 0, now 9)"), "{e}");
 }
 
@@ -178,6 +165,8 @@ fn api_errors_are_asked_again_on_resume() {
     let sim = || SimModel { profile: Profile::parse(PROFILE, "t.toml", &s.domain).unwrap() };
     let outage = Arc::new(Outage { sim: sim(), down: true.into() });
     s.model = outage.clone();
+    // This test is about what a resume does with failed calls, not about stopping early.
+    s.max_api_errors = 0;
     let cfg = config(&s, Algo::Random);
     let down = block_on(runner::search(&s, &cfg, &space)).unwrap();
     assert_eq!(down.summary.metrics.unanswered.get(&Outcome::ApiError), Some(&200));
@@ -193,4 +182,347 @@ fn api_errors_are_asked_again_on_resume() {
 
 pub(super) fn block_on<T>(f: impl std::future::Future<Output = T>) -> T {
     tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap().block_on(f)
+}
+
+/// Every model query and image prompt a run makes, and the threads renders ran on.
+#[derive(Default)]
+struct Log {
+    prompts: std::sync::Mutex<Vec<(u64, String, String)>>,
+    image_prompts: std::sync::Mutex<Vec<(u64, String)>>,
+    render_threads: std::sync::Mutex<Vec<String>>,
+}
+
+/// A renderer that records what it is given and draws a fixed image per scene; scenes of a set
+/// holding `block` are refused like an image generator's safety filter.
+struct Recorder {
+    log: Arc<Log>,
+    block: Option<String>,
+    blocking: bool,
+}
+
+impl crate::render::Renderer for Recorder {
+    fn id(&self) -> String {
+        "recorder".into()
+    }
+    fn render<'a>(
+        &'a self,
+        scene: &'a crate::scene::Scene,
+        prompt: &'a str,
+    ) -> crate::net::BoxFuture<'a, Result<crate::render::Rendered, crate::render::RenderError>> {
+        Box::pin(async move {
+            self.log.image_prompts.lock().unwrap().push((scene.seed, prompt.to_string()));
+            let name = std::thread::current().name().unwrap_or("").to_string();
+            self.log.render_threads.lock().unwrap().push(name);
+            if self.block.as_ref().is_some_and(|b| scene.concepts.contains(b)) {
+                return Err(crate::render::RenderError::blocked(
+                    "the image was blocked by the provider (IMAGE_SAFETY)",
+                ));
+            }
+            Ok(crate::render::Rendered { png: format!("png of {}", scene.seed).into_bytes(), cached: false })
+        })
+    }
+    fn blocking(&self) -> bool {
+        self.blocking
+    }
+}
+
+/// The sim model, recording every query it is asked.
+struct Asked {
+    sim: SimModel,
+    log: Arc<Log>,
+}
+
+impl crate::vlm::Model for Asked {
+    fn id(&self) -> String {
+        self.sim.id()
+    }
+    fn ask<'a>(&'a self, q: &'a crate::vlm::Query) -> crate::vlm::BoxFuture<'a, crate::vlm::Reply> {
+        Box::pin(async move {
+            let key = q.truth.as_ref().map_or(0, |t| t.key);
+            self.log.prompts.lock().unwrap().push((key, q.prompt.clone(), q.image_hash.clone()));
+            self.sim.answer(q)
+        })
+    }
+}
+
+/// Bug: `ask` built its own image prompt (`emit::prompt`) while a search sent another one. Now
+/// both observe through one pipeline: for the seed of any journaled observation, `ask`'s path
+/// gives the image generator the text `revelio emit prompt` prints, and the model the same image
+/// and prompt the search sent.
+#[test]
+fn ask_observes_exactly_what_a_search_sends() {
+    use crate::run::observe::{DomainWorld, ObsKey, Observer};
+    let d = crate::lattice::testkit::driving();
+    let dir = tempfile::tempdir().unwrap();
+    let log = Arc::new(Log::default());
+    let world: Arc<dyn crate::run::World> = Arc::new(DomainWorld::new(&d));
+    let sim = || SimModel { profile: Profile::parse("name = \"t\"\nbase_error = 0.3\n", "t.toml", &d).unwrap() };
+    let model = Arc::new(Asked { sim: sim(), log: log.clone() });
+    let renderer = Arc::new(Recorder { log: log.clone(), block: None, blocking: false });
+    let (space, _) =
+        runner::search_space(crate::lattice::Lattice::enumerate(&d, 3).sets, d.concepts.len(), world.as_ref());
+    let mut s = Setup::new(Arc::new(d.clone()), world.clone(), model.clone(), Some(renderer.clone()), dir.path());
+    s.concurrency = 4;
+    let params = Params { algo: Algo::Random, budget: 20, beam_budget: 10, ..Params::default() };
+    let cfg =
+        RunConfig::new(&d, Path::new("/d.rev"), "sim:t.toml", model.as_ref(), Default::default(), "recorder", params);
+    block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let searched_prompts = log.image_prompts.lock().unwrap().clone();
+    let searched = log.prompts.lock().unwrap().clone();
+    assert_eq!(searched.len(), 20);
+    let journal: Vec<crate::journal::Record> = std::fs::read_to_string(dir.path().join("journal.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let observer = Observer::new(Arc::new(d.clone()), world, Some(renderer));
+    for r in journal.iter().take(5) {
+        let set = d.parse_set(&r.set).unwrap();
+        let scene = crate::sample::sample(&d, set, r.seed).unwrap();
+        let emitted = crate::emit::prompt(&d, &scene).unwrap();
+        let (_, sent_image_prompt) = searched_prompts.iter().find(|(seed, _)| *seed == r.seed).unwrap();
+        assert_eq!(*sent_image_prompt, emitted, "the image generator gets what `revelio emit prompt` prints");
+        let key = ObsKey { phase: crate::journal::Phase::Search, set, index: 0 };
+        let asked = block_on(observer.observe(model.as_ref(), key, r.seed, None)).unwrap();
+        assert_eq!(asked.record.image, r.image, "same image");
+        assert_eq!(asked.record.prompt, r.prompt, "same model prompt");
+        assert_eq!(asked.record.raw, r.raw, "same (simulated) reply");
+        let (_, again) = log.image_prompts.lock().unwrap().last().cloned().unwrap();
+        assert_eq!(again, emitted);
+    }
+}
+
+/// Bug: the builtin renderer ran on the async workers. A blocking renderer whose second frame
+/// waits for a model call to finish deadlocks a one-worker runtime if renders run inline; on the
+/// render threads the model call proceeds and the frame completes.
+#[test]
+fn a_blocking_renderer_never_holds_an_async_worker() {
+    struct Stalling {
+        renders: std::sync::atomic::AtomicUsize,
+        answered: Arc<(std::sync::Mutex<bool>, std::sync::Condvar)>,
+        threads: std::sync::Mutex<Vec<String>>,
+    }
+    impl crate::render::Renderer for Stalling {
+        fn id(&self) -> String {
+            "stalling".into()
+        }
+        fn render<'a>(
+            &'a self,
+            scene: &'a crate::scene::Scene,
+            _: &'a str,
+        ) -> crate::net::BoxFuture<'a, Result<crate::render::Rendered, crate::render::RenderError>> {
+            Box::pin(async move {
+                self.threads.lock().unwrap().push(std::thread::current().name().unwrap_or("").to_string());
+                if self.renders.fetch_add(1, std::sync::atomic::Ordering::SeqCst) > 0 {
+                    let (lock, cv) = &*self.answered;
+                    let (done, timeout) = cv
+                        .wait_timeout_while(lock.lock().unwrap(), std::time::Duration::from_secs(10), |a| !*a)
+                        .unwrap();
+                    if timeout.timed_out() && !*done {
+                        return Err(crate::render::RenderError::new("stalled: no model call finished while rendering"));
+                    }
+                }
+                Ok(crate::render::Rendered { png: vec![scene.seed as u8], cached: false })
+            })
+        }
+        fn blocking(&self) -> bool {
+            true
+        }
+    }
+    struct Signals {
+        sim: SimModel,
+        answered: Arc<(std::sync::Mutex<bool>, std::sync::Condvar)>,
+    }
+    impl crate::vlm::Model for Signals {
+        fn id(&self) -> String {
+            self.sim.id()
+        }
+        fn ask<'a>(&'a self, q: &'a crate::vlm::Query) -> crate::vlm::BoxFuture<'a, crate::vlm::Reply> {
+            Box::pin(async move {
+                // An HTTP call: it needs the runtime to make progress.
+                tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+                let (lock, cv) = &*self.answered;
+                *lock.lock().unwrap() = true;
+                cv.notify_all();
+                self.sim.answer(q)
+            })
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (mut s, space) = setup(dir.path(), 2);
+    let answered = Arc::new((std::sync::Mutex::new(false), std::sync::Condvar::new()));
+    let renderer = Arc::new(Stalling { renders: 0.into(), answered: answered.clone(), threads: Default::default() });
+    let sim = SimModel { profile: Profile::parse(PROFILE, "t.toml", &s.domain).unwrap() };
+    s.model = Arc::new(Signals { sim, answered });
+    s.renderer = Some(renderer.clone());
+    let mut cfg = config(&s, Algo::Random);
+    cfg.params.budget = 10;
+    cfg.params.beam_budget = 5;
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    rt.block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let threads = renderer.threads.lock().unwrap();
+    assert_eq!(threads.len(), 10);
+    assert!(threads.iter().all(|t| t.starts_with("revelio-render-")), "{threads:?}");
+}
+
+/// Bug: a higher `--budget` on an existing run folder was refused. Now it extends the run: every
+/// observation of the smaller run is replayed, and the result is the larger run's.
+#[test]
+fn raising_the_budget_extends_a_run() {
+    let dir = tempfile::tempdir().unwrap();
+    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
+        let (small, big) = (dir.path().join(format!("{algo:?}")), dir.path().join(format!("{algo:?}-fresh")));
+        let (s, space) = setup(&small, 4);
+        let mut cfg = config(&s, algo);
+        cfg.params.budget = 100;
+        cfg.params.beam_budget = 50;
+        let first = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        cfg.params.budget = 250;
+        let extended = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        assert_eq!(extended.replayed, 100, "{algo:?}: the smaller run's observations are all reused");
+        assert_eq!(extended.summary.metrics.inferences, 250);
+        let (f, _) = setup(&big, 4);
+        let fresh = block_on(runner::search(&f, &cfg, &space)).unwrap();
+        assert_eq!(extended.summary, fresh.summary, "{algo:?}");
+        assert_eq!(first.history[..], fresh.history[..first.history.len()], "{algo:?}");
+        let written: RunConfig =
+            serde_json::from_str(&std::fs::read_to_string(small.join("config.json")).unwrap()).unwrap();
+        assert_eq!(written.params.budget, 250);
+        // Going back down would silently cut the run short: refused.
+        cfg.params.budget = 100;
+        let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
+        assert!(e.contains("with `--budget 100`: it already holds a run with budget 250"), "{e}");
+    }
+}
+
+/// Bug: validation ranked tied sets by a seeded shuffle, the search table by answered count and
+/// set order. Now validation takes the table's order; each setting writes its own file.
+#[test]
+fn validation_follows_the_search_table_and_keeps_every_setting() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, space) = setup(dir.path(), 4);
+    let cfg = config(&s, Algo::Beam);
+    let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let modes = &r.summary.failure_modes;
+    let tied = modes.windows(2).filter(|w| w[0].fr == w[1].fr).count();
+    assert!(modes.len() >= 4 && tied >= 2, "the profile should give tied failure modes: {modes:?}");
+    let v = block_on(runner::validate(&s, &cfg, &r.summary, modes.len(), 3, None)).unwrap();
+    let order: Vec<&Vec<String>> = v.sets.iter().map(|x| &x.search.concepts).collect();
+    assert_eq!(order, modes.iter().map(|m| &m.concepts).collect::<Vec<_>>());
+    let first = std::fs::read(dir.path().join(runner::validation_file(modes.len(), 3, None))).unwrap();
+    block_on(runner::validate(&s, &cfg, &r.summary, 2, 6, None)).unwrap();
+    assert_eq!(std::fs::read(dir.path().join(runner::validation_file(modes.len(), 3, None))).unwrap(), first);
+    assert!(dir.path().join("validation-top2-samples6.json").exists());
+}
+
+/// Bug: with stderr not a terminal the progress bar was hidden and a log showed nothing. Plain
+/// lines now report progress, with the effective concurrency.
+#[test]
+fn progress_goes_to_plain_lines_when_there_is_no_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut s, space) = setup(dir.path(), 3);
+    let lines = Arc::new(std::sync::Mutex::new(Vec::new()));
+    s.progress =
+        crate::run::progress::ProgressTo::Lines { every: std::time::Duration::from_millis(20), to: lines.clone() };
+    block_on(runner::search(&s, &config(&s, Algo::Beam), &space)).unwrap();
+    let text = String::from_utf8(lines.lock().unwrap().clone()).unwrap();
+    let last = text.lines().last().unwrap_or_default();
+    assert!(last.starts_with("search: 200/200 inferences · "), "{text}");
+    assert!(last.contains(" · concurrency 3 · "), "{last}");
+}
+
+/// Issue 12: a blocked image is an outcome of its own — journaled, no model call, not an
+/// answer, counted in the summary — and the search goes on.
+#[test]
+fn a_blocked_image_is_recorded_and_the_run_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut s, space) = setup(dir.path(), 4);
+    let log = Arc::new(Log::default());
+    let sim = SimModel { profile: Profile::parse(PROFILE, "t.toml", &s.domain).unwrap() };
+    s.model = Arc::new(Asked { sim, log: log.clone() });
+    s.renderer = Some(Arc::new(Recorder { log: log.clone(), block: Some("c3".into()), blocking: true }));
+    let cfg = config(&s, Algo::Random);
+    let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let blocked = r.summary.metrics.unanswered.get(&Outcome::ImageBlocked).copied().unwrap_or(0);
+    assert!(blocked > 0 && blocked % 5 == 0, "{:?}", r.summary.metrics);
+    assert_eq!(r.summary.metrics.inferences, 200);
+    assert_eq!(log.prompts.lock().unwrap().len() as u64, 200 - blocked, "no model call for a blocked image");
+    let text = std::fs::read_to_string(dir.path().join("journal.jsonl")).unwrap();
+    let records: Vec<crate::journal::Record> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    for rec in records.iter().filter(|r| r.set.contains(&"c3".to_string())) {
+        assert_eq!((rec.outcome, rec.answer, rec.image.as_str()), (Outcome::ImageBlocked, None, ""));
+        assert!(rec.raw.contains("IMAGE_SAFETY"), "{}", rec.raw);
+    }
+    assert!(r.summary.failure_modes.iter().all(|m| !m.concepts.contains(&"c3".to_string())));
+    assert_eq!(r.summary.spend.calls, 200 - blocked);
+    // A resume replays the blocks like any other outcome.
+    let again = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    assert_eq!(again.replayed, 200);
+}
+
+/// Issue 12: a run in which every call fails stops after `max_api_errors` in a row, with the
+/// last error; what it did is journaled and the same command resumes it.
+#[test]
+fn repeated_api_errors_stop_the_run_and_it_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut s, space) = setup(dir.path(), 4);
+    let sim = || SimModel { profile: Profile::parse(PROFILE, "t.toml", &s.domain).unwrap() };
+    let outage = Arc::new(Outage { sim: sim(), down: true.into() });
+    s.model = outage.clone();
+    s.max_api_errors = 10;
+    let cfg = config(&s, Algo::Gpts);
+    let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap();
+    assert_eq!(e.exit_code(), 1);
+    assert!(e.resumable());
+    assert!(
+        e.to_string().starts_with("stopped after 10 model calls in a row failed; the last: 503 service unavailable"),
+        "{e}"
+    );
+    let lines = journal_lines(dir.path());
+    assert!((10..=13).contains(&lines.len()), "the calls in flight finish and are journaled: {}", lines.len());
+    outage.down.store(false, std::sync::atomic::Ordering::SeqCst);
+    let up = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let fresh = tempfile::tempdir().unwrap();
+    let (f, _) = setup(fresh.path(), 4);
+    assert_eq!(up.summary, block_on(runner::search(&f, &config(&f, Algo::Gpts), &space)).unwrap().summary);
+    assert_eq!(runner::api_error_warning(0, 200), None);
+    assert!(runner::api_error_warning(20, 200).unwrap().starts_with("10% of the observations (20 of 200)"));
+}
+
+/// A Ctrl-C (the stop handle) lets the calls in flight finish and journals them.
+#[test]
+fn a_stop_request_journals_the_calls_in_flight() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, space) = setup(dir.path(), 4);
+    s.stop.request(crate::run::StopReason::Interrupted);
+    let e = block_on(runner::search(&s, &config(&s, Algo::Random), &space)).err().unwrap();
+    assert_eq!(e.exit_code(), 130);
+    assert_eq!(journal_lines(dir.path()).len(), 0, "nothing new starts after a stop");
+}
+
+/// Issue 12: the endpoint is part of what a run is; a resume against another one is refused,
+/// and a folder of the first run format (scenes seeded by the path as typed) is refused too.
+#[test]
+fn resumes_check_the_endpoint_and_the_folder_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, space) = setup(dir.path(), 4);
+    let mut cfg = config(&s, Algo::Random);
+    cfg.endpoint = Some("http://localhost:8000/v1".into());
+    block_on(runner::search(&s, &cfg, &space)).unwrap();
+    cfg.endpoint = Some("http://localhost:9000/v1".into());
+    let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
+    assert!(e.contains("`endpoint` was \"http://localhost:8000/v1\", now \"http://localhost:9000/v1\""), "{e}");
+    // Where the domain file is and how `--model` was spelled may change.
+    cfg.endpoint = Some("http://localhost:8000/v1".into());
+    cfg.domain_file = "/elsewhere/t.rev".into();
+    cfg.model_spec = "sim:./t.toml".into();
+    assert_eq!(block_on(runner::search(&s, &cfg, &space)).unwrap().replayed, 200);
+
+    let old = tempfile::tempdir().unwrap();
+    let mut v = serde_json::to_value(&cfg).unwrap();
+    v.as_object_mut().unwrap().remove("format");
+    std::fs::write(old.path().join("config.json"), v.to_string()).unwrap();
+    let (o, _) = setup(old.path(), 4);
+    let e = block_on(runner::search(&o, &cfg, &space)).err().unwrap().to_string();
+    assert!(e.contains("was written by an older revelio (run folder format 1; this one reads format 2)"), "{e}");
 }

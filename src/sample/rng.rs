@@ -10,14 +10,14 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::ir::{ConceptSet, Domain};
 
-/// SHA-256 (hex) of the domain's source files, in load order. Each file contributes its name
-/// and text, length-prefixed so that moving text between files changes the hash.
+/// The domain's identity as hex ([`Domain::identity`]): the same digest seeds the scene stream
+/// and identifies the domain of a run folder.
 pub fn domain_hash(domain: &Domain) -> String {
-    hex::encode(domain_digest(domain))
+    domain.identity().to_string()
 }
 
 pub(crate) fn domain_digest(domain: &Domain) -> [u8; 32] {
-    crate::hash::parts(domain.files.iter().flat_map(|f| [f.name.as_bytes(), f.text.as_bytes()]))
+    domain.identity().0
 }
 
 /// The scene stream of `(domain, set, seed)`.

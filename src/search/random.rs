@@ -1,5 +1,11 @@
 //! Random search: sets drawn uniformly from the valid lattice, without repeats.
-use rand::SeedableRng;
+//!
+//! The draws are a seeded Fisher–Yates shuffle cut short, so the first n picks do not depend on
+//! how many are drawn: raising the budget of a run extends its sequence of sets instead of
+//! drawing a different one (the journal replays the first part).
+use std::collections::HashMap;
+
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::{Driver, Evaluate, Params, Space};
@@ -10,9 +16,39 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
     // All draws are made up front — as many as the budget could pay at m observations each — and
     // evaluated in order: with the fixed count as one batch at full concurrency; with sequential
     // sampling the driver works through them in chunks until the budget is spent. The order is a
-    // pure function of the seed.
-    let picks: Vec<_> =
-        rand::seq::index::sample(&mut rng, space.sets.len(), n).into_iter().map(|i| space.sets[i]).collect();
+    // pure function of the seed, and a prefix of the order drawn under a larger budget.
+    let picks: Vec<_> = shuffled_prefix(&mut rng, space.sets.len(), n).into_iter().map(|i| space.sets[i]).collect();
     driver.evaluate(&picks).await?;
     Ok(())
+}
+
+/// The first `n` of a uniform random permutation of `0..len`: a Fisher–Yates shuffle that
+/// keeps only the positions it has touched (memory O(n), not O(len)).
+pub fn shuffled_prefix(rng: &mut ChaCha8Rng, len: usize, n: usize) -> Vec<usize> {
+    let mut moved: HashMap<usize, usize> = HashMap::new();
+    (0..n.min(len))
+        .map(|i| {
+            let j = rng.random_range(i..len);
+            let at_j = moved.get(&j).copied().unwrap_or(j);
+            let at_i = moved.get(&i).copied().unwrap_or(i);
+            moved.insert(j, at_i);
+            at_j
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_longer_draw_extends_a_shorter_one_without_repeats() {
+        let draw = |n| shuffled_prefix(&mut ChaCha8Rng::seed_from_u64(7), 1000, n);
+        let (short, long) = (draw(50), draw(400));
+        assert_eq!(short[..], long[..50]);
+        let mut all = draw(1000);
+        all.sort_unstable();
+        assert_eq!(all, (0..1000).collect::<Vec<_>>());
+        assert_eq!(draw(5000).len(), 1000);
+    }
 }

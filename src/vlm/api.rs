@@ -139,6 +139,8 @@ pub struct ApiModel<P: Protocol> {
     settings: Resolved,
     cache: Option<ReplyCache>,
     ledger: Arc<Ledger>,
+    /// The provider's base URL (no credentials).
+    base_url: String,
 }
 
 /// The model id: the spec plus the settings that change answers.
@@ -187,8 +189,11 @@ impl<P: Protocol> ApiModel<P> {
         limits.max_body = settings.max_reply_bytes;
         limits.stall = settings.stall_timeout;
         let transport = Transport::new(gate, limits)?;
-        let cache = cache_dir.map(|d| ReplyCache::new(d, &id));
-        Ok(ApiModel { id, proto, transport, settings, cache, ledger: Arc::new(Ledger::default()) })
+        let base_url = public_url(base);
+        // The cache is shared by every run: the same model name served elsewhere (another
+        // vLLM server, a proxy) may answer differently, so the endpoint is part of its identity.
+        let cache = cache_dir.map(|d| ReplyCache::new(d, &format!("{id} at {base_url}")));
+        Ok(ApiModel { id, proto, transport, settings, cache, ledger: Arc::new(Ledger::default()), base_url })
     }
 
     async fn ask_uncached(&self, q: &Query) -> Reply {
@@ -293,6 +298,28 @@ impl<P: Protocol> Model for ApiModel<P> {
     fn spend(&self) -> Option<Spend> {
         Some(self.ledger.snapshot())
     }
+
+    fn concurrency(&self) -> Option<usize> {
+        Some(self.settings.concurrency)
+    }
+
+    fn endpoint(&self) -> Option<String> {
+        Some(self.base_url.clone())
+    }
+}
+
+/// A URL without user name, password, query or fragment: safe to record in a run folder.
+fn public_url(url: &str) -> String {
+    match reqwest::Url::parse(url) {
+        Ok(mut u) => {
+            let _ = u.set_username("");
+            let _ = u.set_password(None);
+            u.set_query(None);
+            u.set_fragment(None);
+            u.as_str().trim_end_matches('/').to_string()
+        }
+        Err(_) => url.split(['?', '#']).next().unwrap_or_default().to_string(),
+    }
 }
 
 /// A cache that cannot be written makes the run slower on resume but not wrong: say so once.
@@ -332,5 +359,11 @@ mod tests {
         s.temperature = Some(0.0);
         s.image_format = ImageFormat::Jpeg;
         assert_eq!(model_id("gemini:g", &s), "gemini:g@thinking=low,temperature=0,image=jpeg90");
+    }
+
+    #[test]
+    fn recorded_endpoints_carry_no_credentials() {
+        assert_eq!(public_url("https://user:sk-secret@host.example/v1?key=abc#x"), "https://host.example/v1");
+        assert_eq!(public_url("http://localhost:8000/v1"), "http://localhost:8000/v1");
     }
 }

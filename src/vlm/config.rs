@@ -25,7 +25,7 @@ pub const DEFAULT_STALL_TIMEOUT_S: f64 = 30.0;
 /// most this per observation (it was 900 s).
 pub const DEFAULT_RETRY_DEADLINE_S: f64 = 300.0;
 /// Default largest reply body: model replies are a few kilobytes of JSON.
-pub const DEFAULT_MAX_REPLY_BYTES: usize = crate::net::http::DEFAULT_MAX_BODY;
+pub const DEFAULT_MAX_REPLY_BYTES: usize = crate::net::DEFAULT_MAX_BODY;
 
 /// Image encoding sent to the provider.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]

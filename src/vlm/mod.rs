@@ -68,19 +68,38 @@ pub trait Model: Send + Sync {
     fn spend(&self) -> Option<cost::Spend> {
         None
     }
+    /// Requests this model lets be in flight at once (its resolved `concurrency` setting);
+    /// `None` for models without a limit of their own (`sim`).
+    fn concurrency(&self) -> Option<usize> {
+        None
+    }
+    /// The base URL the model's requests go to (never a key); `None` for local models (`sim`).
+    /// Recorded in a run's `config.json` so a resume against another endpoint is refused.
+    fn endpoint(&self) -> Option<String> {
+        None
+    }
 }
 
+// The HTTP clients need the `net` feature; the `sim` model, prompts, parsing, settings and the
+// reply cache do not.
+#[cfg(feature = "net")]
 pub mod anthropic;
+#[cfg(feature = "net")]
 pub mod api;
+#[cfg(feature = "net")]
 pub mod bedrock;
 pub mod cache;
 pub mod config;
 pub mod cost;
+#[cfg(feature = "net")]
 pub mod gemini;
+#[cfg(feature = "net")]
 pub mod image;
+#[cfg(feature = "net")]
 pub mod openai;
 pub mod parse;
 pub mod prompt;
 pub mod registry;
+#[cfg(feature = "net")]
 pub mod sigv4;
 pub mod sim;

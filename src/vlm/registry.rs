@@ -4,8 +4,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::ir::Domain;
+use crate::vlm::Model;
+#[cfg(feature = "net")]
 use crate::vlm::config::settings_for;
-use crate::vlm::{Model, anthropic, bedrock, gemini, openai};
+#[cfg(feature = "net")]
+use crate::vlm::{anthropic, bedrock, gemini, openai};
 
 /// Options that apply to building any model (from CLI flags and the environment).
 #[derive(Debug, Clone, Default)]
@@ -18,8 +21,11 @@ pub struct ModelOptions {
     pub thinking: Option<String>,
     /// `--no-cache`.
     pub no_cache: bool,
-    /// Where the response cache lives (a run folder's `cache/` or a user cache dir).
+    /// Where the response cache lives (the shared user cache by default).
     pub cache_dir: Option<PathBuf>,
+    /// `--concurrency`: overrides the model config's `concurrency` (one setting for the run's
+    /// observations and the provider's request gate).
+    pub concurrency: Option<usize>,
 }
 
 pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
@@ -36,10 +42,22 @@ pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<A
 }
 
 /// Build an API model (`openai:`, `anthropic:`, `gemini:`, `bedrock:`); needs no domain.
+#[cfg(not(feature = "net"))]
+pub fn build_api_model(spec: &str, _: &ModelOptions) -> Result<Arc<dyn Model>, String> {
+    Err(format!(
+        "model `{spec}` is not in this build of revelio (built without the `net` feature); use a `sim:` model or a default build"
+    ))
+}
+
+/// Build an API model (`openai:`, `anthropic:`, `gemini:`, `bedrock:`); needs no domain.
+#[cfg(feature = "net")]
 pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
     let (provider, rest) =
         spec.split_once(':').ok_or_else(|| format!("invalid model `{spec}`: expected PROVIDER:NAME"))?;
-    let settings = settings_for(spec, opts.config.as_deref(), opts.thinking.as_deref())?;
+    let mut settings = settings_for(spec, opts.config.as_deref(), opts.thinking.as_deref())?;
+    if let Some(c) = opts.concurrency {
+        settings.concurrency = c.max(1);
+    }
     let base = opts.base_url.as_deref();
     let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
     Ok(match provider {

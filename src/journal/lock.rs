@@ -1,0 +1,57 @@
+//! The run folder's lock: an exclusive OS file lock on `DIR/lock`, held for as long as the
+//! journal is open. The OS releases it when the process ends, even on `kill -9`, so a stale lock
+//! never needs cleaning up; the file itself stays and only says who held it last.
+
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::Path;
+
+use super::JournalError;
+
+/// The lock file's name inside a run folder.
+pub const LOCK_FILE: &str = "lock";
+
+/// A held lock; dropping it releases the folder.
+#[derive(Debug)]
+pub struct RunLock {
+    _file: File,
+}
+
+impl RunLock {
+    /// Lock `dir` (which must exist) or say who holds it.
+    pub fn acquire(dir: &Path) -> Result<RunLock, JournalError> {
+        let path = dir.join(LOCK_FILE);
+        let io = |action, source| JournalError::Io { action, path: path.clone(), source };
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(|e| io("open", e))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                let mut holder = String::new();
+                let _ = file.read_to_string(&mut holder);
+                let holder = holder.trim();
+                let holder =
+                    if holder.is_empty() { "it has not written its pid yet".to_string() } else { holder.to_string() };
+                return Err(JournalError::Locked { dir: dir.to_path_buf(), holder });
+            }
+            Err(TryLockError::Error(e)) => return Err(io("lock", e)),
+        }
+        let who = format!("pid {}{}", std::process::id(), command_line());
+        file.set_len(0)
+            .and_then(|()| file.seek(SeekFrom::Start(0)))
+            .and_then(|_| file.write_all(who.as_bytes()))
+            .map_err(|e| io("write", e))?;
+        Ok(RunLock { _file: file })
+    }
+}
+
+/// `, revelio search …` (the subcommand and its first argument), to recognise the holder.
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().skip(1).take(2).collect();
+    if args.is_empty() { String::new() } else { format!(", `revelio {}`", args.join(" ")) }
+}

@@ -1,0 +1,270 @@
+//! The one observation pipeline: oracle → sample → render → hash → query → outcome → journal.
+//!
+//! `revelio search`, `revelio validate` and `revelio ask` all observe through [`Observer`], so
+//! what `ask` shows is what a search sends: the same scene for the same seed, the same image
+//! prompt (the text `revelio emit prompt` prints), the same image bytes and the same model
+//! prompt. The steps are public on their own so that later commands compose them without a
+//! second copy:
+//!
+//! - [`Observer::task`]: the oracle's question, options and expected option for a set;
+//! - [`Observer::stimulus`]: sample the scene for a seed, build its image prompt, render and hash
+//!   it — done once and shown to any number of models (transfer) or prompts (probe);
+//! - [`Observer::query`]: the model query for a stimulus and a task;
+//! - [`Observer::record`]: the outcome and the journal line of a reply;
+//! - [`Observer::observe`]: all of it for one observation, journaled when a journal is given.
+//!
+//! A scene the image generator blocks (a safety filter, a text-only reply) is an observation of
+//! its own: outcome `image_blocked`, no model call, not an answer.
+use std::sync::Arc;
+
+use crate::hash::sha256_hex as sha256;
+use crate::ir::{ConceptSet, Domain};
+use crate::journal::{Journal, JournalError, Phase, Record};
+use crate::outcome::{Answer, Outcome};
+use crate::render::Renderer;
+use crate::scene::Scene;
+use crate::vlm::{Model, Query, Reply, Truth};
+
+use super::render_pool::RenderPool;
+
+/// Where an observation sits in a run: the journal's key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ObsKey {
+    pub phase: Phase,
+    pub set: ConceptSet,
+    /// Observation index within the set and phase.
+    pub index: u32,
+}
+
+/// What the model is asked about a set, and the right answer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Task {
+    pub question: String,
+    pub options: Vec<String>,
+    pub expected: u32,
+}
+
+/// Ground truth and scenes for concept sets: the domain's oracle and sampler in a run.
+pub trait World: Send + Sync {
+    fn task(&self, set: ConceptSet) -> Result<Task, String>;
+    fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String>;
+}
+
+/// The compiled domain's oracle and scene sampler, built once per process.
+pub struct DomainWorld {
+    oracle: crate::oracle::Oracle<'static>,
+    sampler: crate::sample::Sampler<'static>,
+}
+
+impl DomainWorld {
+    /// The sampler and oracle borrow the domain for the whole process (a run searches one domain),
+    /// so the domain is leaked once here rather than re-hashing its sources for every scene.
+    pub fn new(domain: &Domain) -> DomainWorld {
+        let domain: &'static Domain = Box::leak(Box::new(domain.clone()));
+        DomainWorld { oracle: crate::oracle::Oracle::new(domain), sampler: crate::sample::Sampler::new(domain) }
+    }
+}
+
+impl World for DomainWorld {
+    fn task(&self, set: ConceptSet) -> Result<Task, String> {
+        let d = self.sampler.domain();
+        let v = self.oracle.evaluate(set).map_err(|e| e.to_string())?;
+        let q = &d.questions[v.question.index()];
+        Ok(Task {
+            question: q.text.clone(),
+            options: q.options.iter().map(|o| o.text.clone()).collect(),
+            expected: v.expected,
+        })
+    }
+
+    fn scene(&self, set: ConceptSet, seed: u64) -> Result<Scene, String> {
+        self.sampler.sample(set, seed).map_err(|e| e.0)
+    }
+}
+
+/// A sampled, rendered scene: what a model is shown. Rendered once; any number of queries may
+/// show it.
+#[derive(Debug, Clone)]
+pub struct Stimulus {
+    pub set: ConceptSet,
+    /// The sampler's seed.
+    pub seed: u64,
+    pub scene: Scene,
+    /// The image-generation prompt of the scene (`revelio emit prompt` prints the same text).
+    pub image_prompt: String,
+    /// The encoded image; `None` without a renderer (the model sees only the prompt) or when the
+    /// image generator blocked the scene.
+    pub image: Option<Arc<Vec<u8>>>,
+    /// SHA-256 of the image, or of the scene JSON without a renderer; empty when blocked.
+    pub image_hash: String,
+    /// The image generator's reason when it refused to draw the scene.
+    pub blocked: Option<String>,
+}
+
+/// One finished observation.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    pub key: ObsKey,
+    pub outcome: Outcome,
+    /// The model's reply; `None` when the image was blocked and no model was asked.
+    pub reply: Option<Reply>,
+    /// The journal line (appended when the observation was made with a journal).
+    pub record: Record,
+}
+
+/// Why an observation could not be made. A failed model call is not an error here: it is an
+/// observation with outcome `api_error`.
+#[derive(Debug, thiserror::Error)]
+pub enum ObserveError {
+    #[error("{{{set}}} has no ground truth: {message}")]
+    Task { set: String, message: String },
+    #[error("cannot sample a scene for {{{set}}}: {message}")]
+    Scene { set: String, message: String },
+    #[error("cannot render {{{set}}}: {message}")]
+    Render { set: String, message: String },
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+}
+
+/// The observation pipeline of one domain, renderer included.
+pub struct Observer {
+    domain: Arc<Domain>,
+    world: Arc<dyn World>,
+    renderer: Option<Arc<dyn Renderer>>,
+}
+
+impl Observer {
+    /// A renderer that computes on the calling thread (the builtin one) is moved onto dedicated
+    /// render threads behind a bounded queue, so it never stalls the async workers that carry
+    /// the model calls.
+    pub fn new(domain: Arc<Domain>, world: Arc<dyn World>, renderer: Option<Arc<dyn Renderer>>) -> Observer {
+        let renderer = renderer.map(|r| if r.blocking() { RenderPool::wrap(r) } else { r });
+        Observer { domain, world, renderer }
+    }
+
+    pub fn domain(&self) -> &Arc<Domain> {
+        &self.domain
+    }
+
+    fn names(&self, set: ConceptSet) -> String {
+        self.domain.set_names(set).join(", ")
+    }
+
+    /// The oracle's question, options and expected option for `set`.
+    pub fn task(&self, set: ConceptSet) -> Result<Task, ObserveError> {
+        self.world.task(set).map_err(|message| ObserveError::Task { set: self.names(set), message })
+    }
+
+    /// Sample the scene of `set` for `seed`, build its image prompt, render and hash it.
+    pub async fn stimulus(&self, set: ConceptSet, seed: u64) -> Result<Stimulus, ObserveError> {
+        let scene =
+            self.world.scene(set, seed).map_err(|message| ObserveError::Scene { set: self.names(set), message })?;
+        // Exactly the text `revelio emit prompt` prints for this scene.
+        let image_prompt = crate::emit::prompt(&self.domain, &scene)
+            .map_err(|e| ObserveError::Scene { set: self.names(set), message: e.to_string() })?;
+        let mut stimulus =
+            Stimulus { set, seed, scene, image_prompt, image: None, image_hash: String::new(), blocked: None };
+        match &self.renderer {
+            None => stimulus.image_hash = sha256(&serde_json::to_vec(&stimulus.scene).expect("scenes serialise")),
+            Some(r) => match r.render(&stimulus.scene, &stimulus.image_prompt).await {
+                Ok(img) => {
+                    stimulus.image_hash = sha256(&img.png);
+                    stimulus.image = Some(Arc::new(img.png));
+                }
+                Err(e) if e.blocked => stimulus.blocked = Some(e.message),
+                Err(e) => return Err(ObserveError::Render { set: self.names(set), message: e.message }),
+            },
+        }
+        Ok(stimulus)
+    }
+
+    /// The query that shows `stimulus` with `task`'s question; `key` seeds the `sim` model's
+    /// answer (the observation's sampler seed, so a resumed run sees the same simulated reply).
+    pub fn query(&self, stimulus: &Stimulus, task: &Task) -> Query {
+        Query {
+            image: stimulus.image.clone(),
+            image_hash: stimulus.image_hash.clone(),
+            prompt: crate::vlm::prompt::build(&task.question, &task.options),
+            options: task.options.clone(),
+            truth: Some(Truth {
+                set: stimulus.set,
+                concepts: self.domain.set_names(stimulus.set).into_iter().map(String::from).collect(),
+                expected: task.expected,
+                key: stimulus.seed,
+            }),
+        }
+    }
+
+    /// The outcome and journal line of a reply (`None`: the image was blocked, nobody asked).
+    pub fn record(
+        &self,
+        key: ObsKey,
+        stimulus: &Stimulus,
+        task: &Task,
+        query: &Query,
+        reply: Option<Reply>,
+    ) -> Observation {
+        let (outcome, raw) = match (&reply, &stimulus.blocked) {
+            (Some(r), _) => (Outcome::from_answer(r.answer, task.expected), r.raw.clone()),
+            (None, blocked) => (Outcome::ImageBlocked, blocked.clone().unwrap_or_default()),
+        };
+        let record = Record {
+            phase: key.phase,
+            set: self.domain.set_names(key.set).into_iter().map(String::from).collect(),
+            obs: key.index,
+            seed: stimulus.seed,
+            image: stimulus.image_hash.clone(),
+            prompt: sha256(query.prompt.as_bytes()),
+            raw,
+            parsed: match reply.as_ref().map(|r| r.answer) {
+                Some(Answer::Option(o)) => Some(o),
+                _ => None,
+            },
+            answer: reply.as_ref().map(|r| r.answer),
+            expected: task.expected,
+            outcome,
+            usage: reply.as_ref().map(|r| r.usage).unwrap_or_default(),
+            latency_ms: reply.as_ref().map_or(0, |r| r.latency_ms),
+            cached: reply.as_ref().is_some_and(|r| r.cached),
+        };
+        Observation { key, outcome, reply, record }
+    }
+
+    /// One observation, start to end: oracle → sample → render → hash → query → outcome, and,
+    /// with a journal, the image stored and the line appended.
+    pub async fn observe(
+        &self,
+        model: &dyn Model,
+        key: ObsKey,
+        seed: u64,
+        journal: Option<&Journal>,
+    ) -> Result<Observation, ObserveError> {
+        let task = self.task(key.set)?;
+        self.observe_task(model, key, seed, &task, journal).await
+    }
+
+    /// [`Observer::observe`] with the task already looked up (a set's observations share it).
+    pub async fn observe_task(
+        &self,
+        model: &dyn Model,
+        key: ObsKey,
+        seed: u64,
+        task: &Task,
+        journal: Option<&Journal>,
+    ) -> Result<Observation, ObserveError> {
+        let stimulus = self.stimulus(key.set, seed).await?;
+        if let (Some(j), Some(png)) = (journal, &stimulus.image) {
+            j.store_image(png)?;
+        }
+        let query = self.query(&stimulus, task);
+        let reply = match stimulus.blocked {
+            Some(_) => None,
+            None => Some(model.ask(&query).await),
+        };
+        let observation = self.record(key, &stimulus, task, &query, reply);
+        if let Some(j) = journal {
+            j.append(&observation.record)?;
+        }
+        Ok(observation)
+    }
+}

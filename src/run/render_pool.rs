@@ -1,0 +1,106 @@
+//! Dedicated render threads. The builtin renderer computes on the thread that calls it (a few
+//! milliseconds of tessellation, rasterisation on a CPU driver, readback, PNG encoding); called
+//! from an async task it would hold a tokio worker the whole time, and at high concurrency on a
+//! small machine the model calls' HTTP would stall behind it. [`RenderPool`] runs such a
+//! renderer on its own named threads (`revelio-render-N`) behind a bounded queue: an observation
+//! waits for a queue slot asynchronously, never blocking a worker.
+use std::future::Future;
+use std::sync::Arc;
+use std::sync::mpsc::{Sender, channel};
+use std::task::{Context, Poll, Wake, Waker};
+
+use tokio::sync::Semaphore;
+
+use crate::net::BoxFuture;
+use crate::render::{RenderError, Rendered, Renderer};
+use crate::scene::Scene;
+
+type Job = Box<dyn FnOnce() + Send>;
+
+/// A blocking renderer on dedicated threads, itself a non-blocking [`Renderer`].
+pub struct RenderPool {
+    inner: Arc<dyn Renderer>,
+    jobs: Sender<Job>,
+    /// Queue slots: renders in progress or waiting for a thread. Several threads let one
+    /// frame's tessellation and encoding overlap another's rasterisation (`benches/render.rs`).
+    slots: Semaphore,
+}
+
+/// Render threads: the cores, at most 4 (the builtin renderer's throughput stops growing there).
+pub fn render_threads() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(1, 4)
+}
+
+impl RenderPool {
+    /// `inner` on [`render_threads`] threads.
+    pub fn wrap(inner: Arc<dyn Renderer>) -> Arc<dyn Renderer> {
+        Arc::new(RenderPool::new(inner, render_threads()))
+    }
+
+    /// `inner` on `threads` threads with a queue of twice as many renders.
+    pub fn new(inner: Arc<dyn Renderer>, threads: usize) -> RenderPool {
+        let threads = threads.max(1);
+        let (jobs, rx) = channel::<Job>();
+        let rx = Arc::new(std::sync::Mutex::new(rx));
+        for i in 0..threads {
+            let rx = rx.clone();
+            let spawned = std::thread::Builder::new().name(format!("revelio-render-{i}")).spawn(move || {
+                loop {
+                    // The lock is held only while taking a job, never while rendering.
+                    let job = match rx.lock().unwrap_or_else(|p| p.into_inner()).recv() {
+                        Ok(job) => job,
+                        Err(_) => break,
+                    };
+                    job();
+                }
+            });
+            // Without any thread every render fails with a clear error below instead.
+            drop(spawned);
+        }
+        RenderPool { inner, jobs, slots: Semaphore::new(2 * threads) }
+    }
+}
+
+impl Renderer for RenderPool {
+    fn id(&self) -> String {
+        self.inner.id()
+    }
+
+    fn render<'a>(&'a self, scene: &'a Scene, prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
+        Box::pin(async move {
+            let _slot =
+                self.slots.acquire().await.map_err(|_| RenderError::new("the render queue was closed".to_string()))?;
+            let (tx, rx) = tokio::sync::oneshot::channel();
+            let (inner, scene, prompt) = (self.inner.clone(), scene.clone(), prompt.to_string());
+            let job: Job = Box::new(move || {
+                let drawn =
+                    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| block_on(inner.render(&scene, &prompt))))
+                        .unwrap_or_else(|_| {
+                            Err(RenderError::new("the renderer panicked while drawing this scene".to_string()))
+                        });
+                let _ = tx.send(drawn);
+            });
+            self.jobs.send(job).map_err(|_| RenderError::new("the render threads could not be started".to_string()))?;
+            rx.await.unwrap_or_else(|_| Err(RenderError::new("the render threads could not be started".to_string())))
+        })
+    }
+}
+
+/// Drive a future to completion on the current (render) thread.
+fn block_on<F: Future>(f: F) -> F::Output {
+    struct Unpark(std::thread::Thread);
+    impl Wake for Unpark {
+        fn wake(self: Arc<Self>) {
+            self.0.unpark();
+        }
+    }
+    let waker = Waker::from(Arc::new(Unpark(std::thread::current())));
+    let mut cx = Context::from_waker(&waker);
+    let mut f = std::pin::pin!(f);
+    loop {
+        if let Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::park();
+    }
+}
