@@ -424,7 +424,9 @@ async fn bedrock_converse_signed_requests() {
 }
 
 /// Fails 20% of calls with 429 (Retry-After: 0), 10% with 500, 5% with a timeout and 5% with a
-/// malformed body, chosen by a request counter; counts successful answers per prompt.
+/// malformed body, chosen by a request counter; counts successful answers per prompt. Clients
+/// use a 1.5 s per-attempt timeout: short enough to cut the 5 s stall, long enough that a
+/// loaded machine does not time out (and so repeat) an attempt the server already answered.
 struct Faulty {
     n: AtomicU64,
     successes: Mutex<HashMap<String, u32>>,
@@ -466,7 +468,7 @@ async fn faulty_server() -> (MockServer, Arc<Faulty>) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fault_injection_1000_calls() {
     let (server, faulty) = faulty_server().await;
-    let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 0.25", None, false);
+    let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 1.5", None, false);
     let queries: Vec<Query> = (0..1000).map(|i| query(&format!("call-{i}"))).collect();
     let replies = futures_join_all(&s.model, &queries).await;
     assert_eq!(replies.len(), 1000, "every call has exactly one reply");
@@ -730,7 +732,7 @@ async fn fault_injection_search_loses_nothing() {
     use revelio::search::{Algo, Params};
 
     let (server, faulty) = faulty_server().await;
-    let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 0.25", None, false);
+    let s = model("openai:vlm-test", &server, "retry_attempts = 12\ntimeout_s = 1.5", None, false);
 
     let path = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
     let d = revelio::check::compile_source(&path, &std::fs::read_to_string(&path).unwrap()).unwrap();
