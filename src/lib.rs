@@ -4,9 +4,10 @@
 //! [`diag`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
 //! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
-//! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
+//! [`journal`] → [`run`] → [`analysis`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
 //! and GPU live in `net`, `render`, `vlm`, `journal`, `run` and `cli`.
 
+pub mod analysis;
 pub mod anchor;
 pub mod check;
 pub mod cli;

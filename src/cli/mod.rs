@@ -12,6 +12,7 @@ pub mod describe;
 pub mod emit;
 pub mod lattice;
 pub mod oracle;
+pub mod probe;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod search;
@@ -47,6 +48,8 @@ pub enum Command {
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     #[cfg(feature = "render")]
     Render(render::RenderArgs),
+    /// Recognition vs. reasoning: re-ask a run's top sets with true/false probe statements
+    Probe(probe::ProbeArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -70,6 +73,7 @@ pub fn main() -> ExitCode {
         Command::Ask(a) => ask::run(a),
         #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
+        Command::Probe(a) => probe::run(a),
     }
 }
 

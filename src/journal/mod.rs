@@ -43,6 +43,10 @@ pub const SYNC_EVERY: usize = 64;
 pub enum Phase {
     Search,
     Validate,
+    /// `revelio probe`: the safety question with the recognition statements (paper appendix G).
+    Probe,
+    /// `revelio transfer`: a run's top sets and random sets asked of other models.
+    Transfer,
 }
 
 /// One observation, as one journal line.
@@ -72,6 +76,9 @@ pub struct Record {
     pub usage: Usage,
     pub latency_ms: u64,
     pub cached: bool,
+    /// The model that answered, when it is not the run's own (phase `transfer`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
 }
 
 /// What can go wrong with a run folder.
@@ -295,6 +302,7 @@ mod tests {
             usage: Usage::default(),
             latency_ms: 3,
             cached: false,
+            model: None,
         }
     }
 
