@@ -16,6 +16,7 @@ pub mod probe;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod search;
+pub mod transfer;
 pub mod validate;
 
 #[derive(Parser, Debug)]
@@ -50,6 +51,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Recognition vs. reasoning: re-ask a run's top sets with true/false probe statements
     Probe(probe::ProbeArgs),
+    /// Replay a run's top sets on other models with the same images (failure-mode transfer)
+    Transfer(transfer::TransferArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -74,6 +77,7 @@ pub fn main() -> ExitCode {
         #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
         Command::Probe(a) => probe::run(a),
+        Command::Transfer(a) => transfer::run(a),
     }
 }
 
