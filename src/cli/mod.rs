@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 pub mod ask;
 pub mod bench;
 pub mod check;
+pub mod compare;
 pub mod describe;
 pub mod emit;
 pub mod lattice;
@@ -53,6 +54,8 @@ pub enum Command {
     Probe(probe::ProbeArgs),
     /// Replay a run's top sets on other models with the same images (failure-mode transfer)
     Transfer(transfer::TransferArgs),
+    /// Compare finished runs: PFM, MFR and Div with intervals (terminal, CSV, HTML)
+    Compare(compare::CompareArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -78,6 +81,7 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Probe(a) => probe::run(a),
         Command::Transfer(a) => transfer::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
 
