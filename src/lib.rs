@@ -15,10 +15,12 @@ pub mod diag;
 #[cfg(test)]
 mod editor_sync;
 pub mod emit;
+pub mod fmt;
 pub mod ir;
 pub mod journal;
 pub mod lattice;
 pub mod lint;
+pub mod lsp;
 pub mod net;
 pub mod oracle;
 pub mod outcome;

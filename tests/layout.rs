@@ -6,7 +6,8 @@
 //! The floors, bottom first (README "Architecture" draws the same line): `diag` (spans,
 //! diagnostics, codes, suggestions) and `outcome` → `ir` → `syntax` → `check` → `anchor`,
 //! `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure algorithms) →
-//! `net` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt`, `lsp` → `cli`.
+//! `net` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt` → `lsp` → `cli`
+//! (the language server formats through `fmt`).
 //! `ir` is the compiler's output but plain data: it sits below the front end that builds it.
 
 use std::collections::BTreeMap;
@@ -35,8 +36,8 @@ const FLOORS: &[(&str, u32)] = &[
     ("analysis", 15),
     ("report", 15),
     ("fmt", 16),
-    ("lsp", 16),
-    ("cli", 17),
+    ("lsp", 17),
+    ("cli", 18),
 ];
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.

@@ -1,7 +1,8 @@
 //! `revelio bench search --profile P --seeds K --budget N [--domain FILE]`: Random, Beam and
 //! GPTS over K seeds against a sim profile (no renderer), reporting mean ± sd of PFM, MFR, Div,
 //! the fraction of the profile's planted failure modes recovered, and Revelio's own time per
-//! inference.
+//! inference. `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
+//! latencies (see `src/lsp/bench.rs`).
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -32,6 +33,19 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
     Search(SearchBenchArgs),
+    /// How long an editor waits for diagnostics from `revelio lsp` (front end per edit, lattice
+    /// lints per save)
+    Lsp(LspBenchArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct LspBenchArgs {
+    /// The domain file to edit
+    #[arg(long, default_value = "domains/driving.rev")]
+    pub domain: PathBuf,
+    /// Edits (each followed by a save)
+    #[arg(long, default_value_t = 20)]
+    pub rounds: usize,
 }
 
 #[derive(clap::Args, Debug)]
@@ -66,7 +80,30 @@ pub struct SearchBenchArgs {
 pub fn run(args: BenchArgs) -> ExitCode {
     match args.what {
         BenchWhat::Search(a) => search(a),
+        BenchWhat::Lsp(a) => lsp(a),
     }
+}
+
+fn lsp(args: LspBenchArgs) -> ExitCode {
+    let l = match crate::lsp::bench::measure(&args.domain, args.rounds) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1000.0;
+    let (fe, fe90) = crate::lsp::bench::summary(&l.front_end);
+    let (li, li90) = crate::lsp::bench::summary(&l.lints_on_save);
+    println!("revelio lsp on {} ({} edits)", args.domain.display(), l.front_end.len());
+    println!("  diagnostics after an edit (front end):   median {:7.1} ms, p90 {:7.1} ms", ms(fe), ms(fe90));
+    println!("  lattice lints after a save:              median {:7.1} ms, p90 {:7.1} ms", ms(li), ms(li90));
+    println!(
+        "  lattice lints after an edit (debounced): median {:7.1} ms ({} ms quiet, then the lints)",
+        ms(l.debounce + li),
+        l.debounce.as_millis()
+    );
+    ExitCode::SUCCESS
 }
 
 /// Mean and sample sd of one metric over seeds.

@@ -1,6 +1,8 @@
 //! `revelio check PATH...`: compile `.rev` files (folders are searched recursively) and report
-//! every diagnostic as human (miette), plain or JSON output. Also home of the diagnostic
-//! renderers the other subcommands use through [`super::load_domain`].
+//! every diagnostic as human (miette), plain or JSON output. `-` checks standard input (an
+//! editor's unsaved buffer), named by `--stdin-filename` so that its `use "…"` paths resolve
+//! and its diagnostics name the file. Also home of the diagnostic renderers the other
+//! subcommands use through [`super::load_domain`].
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,9 +16,13 @@ use crate::ir::{SourceFile, Span};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
-    /// `.rev` files or folders (searched recursively for `*.rev`)
+    /// `.rev` files or folders (searched recursively for `*.rev`), or `-` for standard input
     #[arg(required = true, value_name = "PATH")]
     pub paths: Vec<PathBuf>,
+    /// The file name the text read from `-` stands for: `use "…"` paths resolve from its folder
+    /// and diagnostics name it (default `<stdin>`)
+    #[arg(long, value_name = "NAME")]
+    pub stdin_filename: Option<PathBuf>,
     /// Output format: `human` (annotated source), `plain` (one line each) or `json` (one object
     /// per line)
     #[arg(long, value_enum, default_value_t = Format::Human)]
@@ -31,14 +37,30 @@ pub enum Format {
 }
 
 pub fn run(args: CheckArgs) -> ExitCode {
-    let files = match collect_rev_files(&args.paths) {
+    let stdin = args.paths.iter().filter(|p| p.as_os_str() == "-").count();
+    if stdin > 1 || (stdin == 0 && args.stdin_filename.is_some()) {
+        eprintln!("error: `-` (standard input) may be given once, and `--stdin-filename` only with it");
+        return ExitCode::from(2);
+    }
+    let paths: Vec<PathBuf> = args.paths.iter().filter(|p| p.as_os_str() != "-").cloned().collect();
+    let mut files = match collect_rev_files(&paths) {
         Ok(f) => f,
         Err(msg) => {
             eprintln!("error: {msg}");
             return ExitCode::from(2);
         }
     };
-    let compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    if stdin == 1 {
+        let name = args.stdin_filename.unwrap_or_else(|| PathBuf::from("<stdin>"));
+        let mut text = String::new();
+        if let Err(e) = std::io::Read::read_to_string(&mut std::io::stdin(), &mut text) {
+            eprintln!("error: cannot read standard input: {}", io_reason(&e));
+            return ExitCode::from(1);
+        }
+        compiled.push(compile_text(&name.to_string_lossy(), &text, true));
+        files.push(name);
+    }
     let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
     reports.sort_by(|a, b| a.key().cmp(&b.key()));
     reports.dedup_by(|a, b| a.key() == b.key());
@@ -108,7 +130,13 @@ pub fn compile_path(path: &Path, lints: bool) -> Compiled {
             return Compiled { domain: None, diagnostics: vec![d], files: Vec::new() };
         }
     };
-    let mut compiled = check::compile(&name, &text, &|p| std::fs::read_to_string(p).ok());
+    compile_text(&name, &text, lints)
+}
+
+/// Compile `text` as the file `name` (its `use "…"` paths are read from disk relative to it);
+/// with `lints`, as [`compile_path`].
+pub fn compile_text(name: &str, text: &str, lints: bool) -> Compiled {
+    let mut compiled = check::compile(name, text, &|p| std::fs::read_to_string(p).ok());
     if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
         compiled.diagnostics.extend(crate::lint::lint_domain(domain));
         check::sort_diagnostics(&mut compiled.diagnostics);
@@ -393,7 +421,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let lib = write(dir.path(), "lib.rev", "/// A tag.\ntag Shiny\n");
         let bad = write(dir.path(), "bad.rev", "kind K: Shinny {}\n");
-        let run_on = |paths: Vec<PathBuf>| run(CheckArgs { paths, format: Format::Plain });
+        let run_on = |paths: Vec<PathBuf>| run(CheckArgs { paths, format: Format::Plain, stdin_filename: None });
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);
         assert_eq!(run_on(vec![lib, bad]), ExitCode::from(1));
         assert_eq!(run_on(vec![dir.path().to_path_buf()]), ExitCode::from(1), "folders are searched");

@@ -11,7 +11,9 @@ pub mod check;
 pub mod compare;
 pub mod describe;
 pub mod emit;
+pub mod fmt;
 pub mod lattice;
+pub mod lsp;
 pub mod oracle;
 pub mod probe;
 #[cfg(feature = "render")]
@@ -31,6 +33,10 @@ pub struct Cli {
 pub enum Command {
     /// Type-check `.rev` files and report every problem
     Check(check::CheckArgs),
+    /// Rewrite `.rev` files in the canonical layout (`--check` only reports)
+    Fmt(fmt::FmtArgs),
+    /// Run the language server on standard input/output (for editors)
+    Lsp(lsp::LspArgs),
     /// Show what a domain file compiles to (concepts, constraints, questions, rules)
     Describe(describe::DescribeArgs),
     /// Count or list the valid concept sets of a domain
@@ -69,6 +75,8 @@ pub fn main() -> ExitCode {
     };
     match cli.command {
         Command::Check(a) => check::run(a),
+        Command::Fmt(a) => fmt::run(a),
+        Command::Lsp(a) => lsp::run(a),
         Command::Describe(a) => describe::run(a),
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),

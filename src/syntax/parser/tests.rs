@@ -1,0 +1,188 @@
+//! Parser unit tests: recovery, literals, doc comments.
+
+use super::*;
+use crate::syntax::lexer;
+
+fn parse_ok(text: &str) -> File {
+    let p = parse(0, text);
+    assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+    p.file
+}
+
+fn concept_stmts(text: &str) -> Vec<ConceptStmt> {
+    match &parse_ok(text).items[0].kind {
+        ItemKind::Concept { stmts, .. } => stmts.clone(),
+        other => panic!("not a concept: {other:?}"),
+    }
+}
+
+#[test]
+fn doc_comments_attach_to_the_next_item() {
+    let f = parse_ok("// plain\n/// First line.\n///   Second.\n\nunit m: length = 1\n/// Tag doc.\ntag T");
+    assert_eq!(f.items[0].doc, "", "a blank line separates a doc comment from its item");
+    assert_eq!(f.items[1].doc, "Tag doc.");
+    let f =
+        parse_ok("kind K {\n  /// Attr doc.\n  a: bool = true\n}\nrules priority {\n  /// Why.\n  rule r { safe }\n}");
+    let ItemKind::Kind { attrs, .. } = &f.items[0].kind else { panic!() };
+    assert_eq!(attrs[0].doc, "Attr doc.");
+    let ItemKind::Rules { rules, .. } = &f.items[1].kind else { panic!() };
+    assert_eq!(rules[0].doc, "Why.");
+}
+
+#[test]
+fn keywords_are_whole_words() {
+    let stmts = concept_stmts("modifier m { target worldly_things }");
+    assert!(matches!(&stmts[0], ConceptStmt::Target { world: None, filter, .. } if filter[0].name == "worldly_things"));
+    let stmts = concept_stmts("modifier m { target world }");
+    assert!(matches!(&stmts[0], ConceptStmt::Target { world: Some(_), .. }));
+}
+
+#[test]
+fn add_without_relation_does_not_swallow_the_next_statement() {
+    let stmts = concept_stmts("concept c { add a: K in lane add b: K in lane near a { x = 1m } }");
+    assert_eq!(stmts.len(), 2);
+    let ConceptStmt::Add { relation, attrs, .. } = &stmts[1] else { panic!() };
+    assert_eq!(relation.as_ref().map(|r| r.1.name.as_str()), Some("a"));
+    assert_eq!(attrs.len(), 1);
+}
+
+#[test]
+fn strings_decode_escapes_and_raw_strings_keep_their_lines() {
+    let stmts = concept_stmts("concept c { description \"a \\\"b\\\"\\n\" scenic \"\"\"\nline 1\nline \"2\"\n\"\"\" }");
+    assert!(matches!(&stmts[0], ConceptStmt::Description(s) if s.value == "a \"b\"\n"));
+    assert!(matches!(&stmts[1], ConceptStmt::Scenic(s) if s.value == "line 1\nline \"2\"\n"));
+}
+
+#[test]
+fn numbers_ranges_and_units() {
+    let f = parse_ok("kind K { d: length in -8m..8.5m = 2m..4m }");
+    let ItemKind::Kind { attrs, .. } = &f.items[0].kind else { panic!() };
+    let (lo, hi) = attrs[0].bounds.as_ref().unwrap();
+    assert_eq!((lo.value, hi.value), (-8.0, 8.5));
+    assert!(
+        matches!(&attrs[0].default, ValueLit::Range(a, b) if a.value == 2.0 && b.unit.as_ref().unwrap().name == "m")
+    );
+}
+
+#[test]
+fn three_mistakes_three_diagnostics_and_the_rest_parses() {
+    let text = "domain d\nconcept a { descriptio \"x\" probe \"p\" not \"n\" }\n@@@\nkind K { d: length = }\nregion r { x 0m y 0m }";
+    let p = parse(0, text);
+    let line = |d: &Diagnostic| text[..d.span.unwrap().start as usize].matches('\n').count() + 1;
+    let lines: Vec<usize> = p.diagnostics.iter().map(line).collect();
+    assert_eq!(lines, [2, 3, 4], "{:?}", p.diagnostics);
+    assert!(p.diagnostics.iter().all(|d| d.code == codes::SYNTAX));
+    assert_eq!(p.file.items.len(), 5, "domain, concept, junk, kind, region");
+    assert!(p.file.items[1].broken && !p.file.items[4].broken);
+    assert_eq!(p.diagnostics[0].help.as_deref(), Some("did you mean `description`?"));
+    assert_eq!(p.diagnostics[2].message, "expected a value, found `}`");
+}
+
+#[test]
+fn expected_tokens_point_at_the_mistake() {
+    let text = "enum Color { red, green blue }";
+    let p = parse(0, text);
+    let d = &p.diagnostics[0];
+    assert_eq!(d.message, "expected `,` or `}`, found `blue`");
+    assert_eq!(&text[d.span.unwrap().start as usize..d.span.unwrap().end as usize], "blue");
+}
+
+#[test]
+fn nesting_limit_ignores_strings_and_comments() {
+    let parens = "(".repeat(MAX_NESTING + 1);
+    assert_eq!(too_deep_at(&format!("// {parens}\n\"{parens}\" \"\"\"{parens}\"\"\"")), None);
+    assert_eq!(too_deep_at(&format!("x {parens}")), Some(2 + MAX_NESTING));
+}
+
+/// The raw-text scan the token layer replaced, kept as the reference it must agree with.
+fn doc_before_by_text(text: &str, pos: usize) -> String {
+    let before = &text[..pos];
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    if !before[line_start..].trim().is_empty() {
+        return String::new();
+    }
+    let mut lines: Vec<&str> = Vec::new();
+    let mut end = line_start;
+    while end > 0 {
+        let prev = &text[..end - 1];
+        let start = prev.rfind('\n').map_or(0, |i| i + 1);
+        let line = prev[start..].trim();
+        match line.strip_prefix("///") {
+            Some(doc) if !doc.starts_with('/') => lines.push(doc.strip_prefix(' ').unwrap_or(doc).trim_end()),
+            _ => break,
+        }
+        end = start;
+    }
+    lines.reverse();
+    lines.join("\n")
+}
+
+/// Every place a doc comment can attach (the start of each item, attribute and rule), as the
+/// parser sees them.
+fn doc_sites(file: &File) -> Vec<(u32, String)> {
+    let mut out = Vec::new();
+    for item in &file.items {
+        out.push((item.span.start, item.doc.clone()));
+        match &item.kind {
+            ItemKind::Kind { attrs, .. } | ItemKind::World { attrs } => {
+                out.extend(attrs.iter().map(|a| (a.span.start, a.doc.clone())));
+            }
+            ItemKind::Rules { rules, .. } => out.extend(rules.iter().map(|r| (r.span.start, r.doc.clone()))),
+            _ => {}
+        }
+    }
+    out
+}
+
+#[test]
+fn token_doc_comments_agree_with_the_text_scan() {
+    // Shipped and corpus files, and a few thousand cut-and-spliced variants of them (comments,
+    // blank lines and odd characters moved into every position).
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut texts = Vec::new();
+    let mut dirs = vec![root.join("stdlib"), root.join("domains"), root.join("tests/corpus")];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "rev") {
+                texts.push(std::fs::read_to_string(p).unwrap());
+            }
+        }
+    }
+    texts.sort();
+    let pieces =
+        ["/// d\n", "//// x\n", "// c\n", "\n\n", "  ", "\u{feff}", "\u{a0}", "\r\n", "/// e  \r\n", "\"", "x "];
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move |n: usize| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed % n as u64) as usize
+    };
+    let mut checked = 0;
+    for round in 0..3000 {
+        let base = &texts[round % texts.len()];
+        let mut text = base.clone();
+        if round >= texts.len() {
+            for _ in 0..1 + next(6) {
+                let mut at = next(text.len() + 1);
+                while !text.is_char_boundary(at) {
+                    at -= 1;
+                }
+                text.insert_str(at, pieces[next(pieces.len())]);
+            }
+        }
+        let parsed = parse(0, &text);
+        for (pos, doc) in doc_sites(&parsed.file) {
+            let expected = doc_before_by_text(&text, pos as usize);
+            let around = &text[text.floor_char_boundary((pos as usize).saturating_sub(120))
+                ..text.ceil_char_boundary(pos as usize + 20)];
+            assert_eq!(doc, expected, "round {round}, position {pos} in:\n{around:?}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 10_000, "{checked}");
+    let _ = lexer::lex("");
+}
