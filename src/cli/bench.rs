@@ -72,6 +72,13 @@ pub struct SearchBenchArgs {
     pub beam_width: usize,
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
+    /// Ablation: run every algorithm at each value of one parameter (beam_width, beam_budget,
+    /// samples, threshold, lambda), e.g. `beam_width=1,5,10`; prints a table and writes an SVG plot
+    #[arg(long, value_name = "PARAM=V1,V2,…")]
+    pub sweep: Option<crate::analysis::sweep::Sweep>,
+    /// Where `--sweep` writes its plot [default: sweep-PARAM.svg]
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -173,6 +180,16 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let planted: Vec<_> = profile.modes.iter().filter(|m| m.error >= args.threshold).map(|m| m.concepts).collect();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
+    if let Some(sweep) = &args.sweep {
+        let code = super::sweep::run(
+            &args,
+            sweep,
+            &base,
+            &super::sweep::Bench { domain, world, model, space, planted, tmp: tmp.clone() },
+        );
+        let _ = std::fs::remove_dir_all(&tmp);
+        return code;
+    }
     let mut results = Vec::new();
     for algo in Algo::ALL {
         let mut rows: Vec<[Option<f64>; 5]> = Vec::new();
@@ -215,7 +232,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn bench_one(
+pub(crate) fn bench_one(
     args: &SearchBenchArgs,
     domain: &Arc<Domain>,
     world: &Arc<dyn World>,

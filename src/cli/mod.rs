@@ -19,6 +19,7 @@ pub mod probe;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod search;
+pub mod sweep;
 pub mod transfer;
 pub mod validate;
 
