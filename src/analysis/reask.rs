@@ -20,7 +20,7 @@ use crate::run::{ObsKey, Observer, RunError, Stimulus, Stop, StopReason};
 use crate::search::SetStats;
 use crate::vlm::{Model, Statement};
 
-use super::probe::{Marks, ProbedSet};
+use super::probe::ProbedSet;
 
 /// What re-asking needs: the run's observe pipeline, its journal and seed.
 pub struct Reask {
@@ -187,7 +187,7 @@ pub async fn probe(
             _ => {}
         }
         for (s, m) in o.statements.iter().zip(&o.marks) {
-            p.marks.entry(s.concept.clone()).or_insert_with(Marks::default).add(s.positive, *m);
+            p.marks.entry(s.concept.clone()).or_default().add(s.positive, *m);
         }
     }
     Ok((out, spend))

@@ -52,7 +52,8 @@ pub fn run(args: CompareArgs) -> ExitCode {
             return ExitCode::from(e.exit_code());
         }
     };
-    let files: [(Option<&PathBuf>, fn(&[Row]) -> String); 2] = [(args.csv.as_ref(), csv), (args.html.as_ref(), html)];
+    type Render = fn(&[Row]) -> String;
+    let files: [(Option<&PathBuf>, Render); 2] = [(args.csv.as_ref(), csv), (args.html.as_ref(), html)];
     for (path, render) in files {
         if let Some(p) = path
             && let Err(e) = std::fs::write(p, render(&rows))

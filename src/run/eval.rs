@@ -48,7 +48,7 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
     let p = match key.phase {
         Phase::Search => 0x5345_4152_4348,
         Phase::Validate => 0x5641_4c49_4441,
-        Phase::Probe => 0x5052_4f42_45,
+        Phase::Probe => 0x0050_524f_4245,
         Phase::Transfer => 0x5452_414e_5346,
     };
     let mut h = mix(run_seed ^ p);
