@@ -88,3 +88,45 @@ fn probe_transfer_and_compare_on_a_sim_run() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("is not a run folder"));
 }
+
+#[test]
+fn probe_starts_from_a_shrunk_runs_cores() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().unwrap();
+    ok(&[
+        "search",
+        "domains/driving.rev",
+        "--model",
+        "sim:examples/sim/driving_recognition.toml",
+        "--renderer",
+        "none",
+        "--algo",
+        "beam",
+        "--budget",
+        "300",
+        "--shrink",
+        "200",
+        "--out",
+        run_s,
+        "--json",
+    ]);
+    let read = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(run.join(f)).unwrap()).unwrap()
+    };
+    let summary = read("summary.json");
+    let cores: Vec<&serde_json::Value> = summary["cores"].as_array().unwrap().iter().map(|c| &c["concepts"]).collect();
+    assert!(!cores.is_empty(), "the sim profile plants modes the shrink confirms");
+    let top = cores.len() + 2;
+    ok(&["probe", run_s, "--top", &top.to_string(), "--samples", "2", "--min-n", "2", "--json"]);
+    let probe = read("probe.json");
+    let probed: Vec<&serde_json::Value> = probe["sets"].as_array().unwrap().iter().map(|s| &s["concepts"]).collect();
+    assert_eq!(probed.len(), top);
+    assert_eq!(probed[..cores.len()], cores[..], "cores first, in the summary's order");
+    assert!(probed[cores.len()..].iter().all(|s| !cores.contains(s)), "each set once");
+
+    // Compare counts the shrink's cores, not the minimal failure modes.
+    let out = ok(&["compare", run_s, "--json"]);
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(rows[0]["cores"].as_u64().unwrap() as usize, cores.len(), "{out}");
+}

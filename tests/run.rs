@@ -108,7 +108,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     assert_eq!(a_config["endpoint"], json!(server.uri()));
     assert_eq!(a_config["model_settings"]["base_url"], json!(server.uri()));
 
-    // Same settings, new folder: every reply from the shared cache, nothing paid twice.
+    // Same settings, new folder: every reply from the shared cache, nothing paid twice (without
+    // the shrink phase, so the journal holds the search's 30 lines).
     let before = server.received_requests().await.unwrap().len();
     let d = dir.path().to_path_buf();
     let (c, cache2, w) = (cache.clone(), cache.clone(), with_config.map(String::from));
@@ -127,6 +128,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
             "30",
             "--samples",
             "3",
+            "--shrink",
+            "0",
             "--out",
         ]);
         cmd.arg(d.join("again")).args(&w).args(["--cache-dir", c.to_str().unwrap()]);
@@ -139,7 +142,40 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let lines = journal(&dir.path().join("again"));
     assert_eq!(lines.len(), 30);
     assert!(lines.iter().all(|l| l["cached"] == json!(true)));
-    let _ = cache2;
+
+    // Another algorithm, same model and seed: GPTS's beam phase (15 of its 30 inferences) is the
+    // beam run's first 5 sets, and only the rest is paid for (no shrink phase: its re-tests would
+    // hit the cache or not depending on what the beam run's shrink phase asked).
+    let before = server.received_requests().await.unwrap().len();
+    let (d, w) = (dir.path().to_path_buf(), with_config.map(String::from));
+    let gpts = tokio::task::spawn_blocking(move || {
+        let w: Vec<&str> = w.iter().map(String::as_str).collect();
+        let mut cmd = revelio(&[
+            "search",
+            "domains/driving.rev",
+            "--model",
+            "openai:vlm-test",
+            "--renderer",
+            "none",
+            "--algo",
+            "gpts",
+            "--budget",
+            "30",
+            "--samples",
+            "3",
+            "--shrink",
+            "0",
+            "--out",
+        ]);
+        cmd.arg(d.join("gpts")).args(&w).args(["--cache-dir", cache2.to_str().unwrap()]);
+        text(&cmd.output().unwrap())
+    })
+    .await
+    .unwrap();
+    assert_eq!(gpts.0, 0, "{}", gpts.2);
+    let lines = journal(&dir.path().join("gpts"));
+    assert_eq!(lines.iter().filter(|l| l["cached"] == json!(true)).count(), 15, "the beam phase is shared");
+    assert_eq!(server.received_requests().await.unwrap().len(), before + 15, "only the GP rounds are paid for");
 
     // Two processes filling one fresh cache at once: both finish with the same answers.
     let shared = dir.path().join("shared-cache");
@@ -263,8 +299,12 @@ fn ctrl_c_journals_the_calls_in_flight_and_the_run_resumes() {
     assert!(err.contains(&format!("{kept} observations replayed")), "{err}");
     let (code, fresh, err) = text(&slow_search(&model, &dir.path().join("fresh"), "60").output().unwrap());
     assert_eq!(code, 0, "{err}");
-    assert_eq!(serde_json::from_str::<Value>(&resumed).unwrap(), serde_json::from_str::<Value>(&fresh).unwrap());
-    assert_eq!(journal(&out).len(), 60);
+    let summary: Value = serde_json::from_str(&resumed).unwrap();
+    assert_eq!(summary, serde_json::from_str::<Value>(&fresh).unwrap());
+    // The search's 60 inferences, then the shrink phase's (default: a quarter of the budget).
+    let shrunk = summary["shrink"]["inferences"].as_u64().unwrap_or(0);
+    assert!(shrunk <= 15, "{summary}");
+    assert_eq!(journal(&out).len() as u64, 60 + shrunk);
 }
 
 /// One exit-code policy: a bad flag value is a usage error (2) for every command.
@@ -287,4 +327,64 @@ fn usage_errors_exit_2_everywhere() {
     let (code, _, err) = run(&["validate", dir.path().to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("is not a run folder (it has no config.json)"), "{err}");
+}
+
+/// Issue 12: a run in which every model call failed exited 0 with "no failure modes found".
+/// Against an endpoint that refuses every request, the run stops after `--max-api-errors` calls
+/// in a row with the last error (exit 1, resumable); with the stop turned off it finishes and
+/// still exits 1, saying what share of the observations failed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_whose_model_calls_all_fail_exits_1() {
+    let server = MockServer::start().await;
+    // 400 is not transient: no retries, so the test stays fast.
+    Mock::given(method("POST"))
+        .respond_with(ResponseTemplate::new(400).set_body_string("{\"error\": {\"message\": \"model not loaded\"}}"))
+        .mount(&server)
+        .await;
+    let dir = tempfile::tempdir().unwrap();
+    let (uri, d) = (server.uri(), dir.path().to_path_buf());
+    let outcome = tokio::task::spawn_blocking(move || {
+        let run = |out: &str, extra: &[&str]| {
+            let mut cmd = revelio(&[
+                "search",
+                "domains/driving.rev",
+                "--model",
+                "openai:vlm-test",
+                "--renderer",
+                "none",
+                "--algo",
+                "random",
+                "--budget",
+                "40",
+                "--samples",
+                "2",
+                "--concurrency",
+                "2",
+                "--no-cache",
+                "--base-url",
+                &uri,
+            ]);
+            cmd.args(extra).arg("--out").arg(d.join(out));
+            text(&cmd.output().unwrap())
+        };
+        (run("stops", &[]), run("finishes", &["--max-api-errors", "0"]))
+    })
+    .await
+    .unwrap();
+    let ((code, _, err), (code_all, out_all, err_all)) = outcome;
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("error: stopped after 10 model calls in a row failed; the last: "), "{err}");
+    assert!(err.contains("model not loaded"), "the last error is shown: {err}");
+    assert!(err.contains("the same command resumes it"), "{err}");
+    let stopped = journal(&dir.path().join("stops"));
+    assert!((10..=12).contains(&stopped.len()), "the calls in flight are journaled: {}", stopped.len());
+    assert!(stopped.iter().all(|l| l["outcome"] == json!("api_error")));
+
+    assert_eq!(code_all, 1, "{err_all}");
+    assert!(out_all.contains("not answered (excluded from FR): 40 api_error"), "{out_all}");
+    assert!(
+        err_all.contains("error: 100% of the observations (40 of 40) are failed model calls (`api_error`)"),
+        "{err_all}"
+    );
+    assert_eq!(journal(&dir.path().join("finishes")).len(), 40);
 }

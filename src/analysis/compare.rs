@@ -1,6 +1,7 @@
 //! The paper's Table 2 across runs: per run its domain, model and algorithm, PFM, MFR and Div
-//! with 95 % intervals, its failure modes, its minimal failure modes (those with no smaller
-//! failure mode inside them, the distinct cores the search found) and its spend.
+//! with 95 % intervals, its failure modes, its distinct cores (the shrink phase's, from
+//! `summary.json`; for a run that did not shrink, its failure modes with no smaller failure mode
+//! inside them) and its spend.
 //!
 //! Intervals: Wilson score intervals for PFM (failure modes among evaluated sets) and MFR (wrong
 //! answers among inferences); for Div, the mean pairwise Jaccard distance, ± 1.96 jackknife
@@ -22,6 +23,9 @@ pub struct RunFacts {
     pub failures: u64,
     /// The failure modes' concept names.
     pub failure_modes: Vec<Vec<String>>,
+    /// The shrink phase's distinct cores (`summary.json`'s `cores`); `None` for a run that did
+    /// not shrink, whose cores are counted as its failure modes with no smaller one inside.
+    pub shrunk_cores: Option<usize>,
     pub calls: u64,
     pub cost_usd: f64,
 }
@@ -120,7 +124,7 @@ pub fn row(f: &RunFacts) -> Row {
         mfr: wilson(f.failures, f.inferences),
         div: diversity(&f.failure_modes),
         failure_modes: f.failure_modes.len(),
-        cores: cores(&f.failure_modes),
+        cores: f.shrunk_cores.unwrap_or_else(|| cores(&f.failure_modes)),
         sets: f.sets,
         inferences: f.inferences,
         calls: f.calls,
@@ -150,6 +154,26 @@ mod tests {
     fn cores_are_modes_without_a_smaller_mode_inside() {
         let m = names(&[&["a"], &["a", "b"], &["c", "d"], &["c", "d", "e"], &["f", "g"]]);
         assert_eq!(cores(&m), 3);
+    }
+
+    #[test]
+    fn a_shrunk_run_counts_its_own_cores() {
+        let facts = |shrunk_cores| RunFacts {
+            run: "r".into(),
+            domain: "d".into(),
+            model: "m".into(),
+            algo: "beam".into(),
+            sets: 10,
+            inferences: 50,
+            failures: 20,
+            failure_modes: names(&[&["a", "b"], &["a", "c"], &["d", "e"]]),
+            shrunk_cores,
+            calls: 50,
+            cost_usd: 0.0,
+        };
+        assert_eq!(row(&facts(None)).cores, 3, "no smaller failure mode inside any of them");
+        assert_eq!(row(&facts(Some(2))).cores, 2, "the shrink found `a` and `d`");
+        assert_eq!(row(&facts(Some(0))).cores, 0, "a shrink that confirmed nothing");
     }
 
     #[test]

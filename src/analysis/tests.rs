@@ -1,240 +1,142 @@
-//! End to end on the driving domain with sim models: probe and transfer through the observe
-//! pipeline, journaled and resumed.
-use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::collections::BTreeMap;
 
-use super::probe::{Mechanism, Thresholds, analyse};
-use super::reask::{self, Reask};
-use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, Phase};
-use crate::render::{RenderError, Rendered, Renderer};
-use crate::run::observe::{DomainWorld, Observer, World};
-use crate::run::progress::ProgressTo;
-use crate::run::{ObsKey, Stop};
-use crate::scene::Scene;
-use crate::vlm::sim::{Profile, SimModel};
-use crate::vlm::{BoxFuture, Model};
+use super::*;
+use crate::outcome::{Answer, Usage};
 
-fn driving() -> Domain {
-    crate::check::compile_source("domains/driving.rev", include_str!("../../domains/driving.rev"))
-        .unwrap_or_else(|d| panic!("domains/driving.rev does not compile: {d:?}"))
+fn names(s: &[&str]) -> Vec<String> {
+    s.iter().map(|c| c.to_string()).collect()
 }
 
-fn sim(text: &str, d: &Domain) -> Arc<dyn Model> {
-    Arc::new(SimModel { profile: Profile::parse(text, "p.toml", d).unwrap() })
-}
-
-/// A renderer that counts its renders and draws the scene's seed and concepts as bytes.
-struct Counting(AtomicUsize);
-
-impl Renderer for Counting {
-    fn id(&self) -> String {
-        "counting".into()
-    }
-
-    fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
-        self.0.fetch_add(1, Ordering::SeqCst);
-        let png = format!("{}:{}", scene.seed, scene.concepts.join(",")).into_bytes();
-        Box::pin(async move { Ok(Rendered { png, cached: false }) })
+fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
+    SetRow {
+        concepts: names(concepts),
+        fr: (answered > 0).then(|| f64::from(wrong) / f64::from(answered)),
+        ci95: crate::search::interval::wilson(wrong, answered),
+        wrong,
+        answered,
+        observations: answered,
+        unanswered: BTreeMap::new(),
+        core: None,
     }
 }
 
-fn reask(d: &Domain, dir: &std::path::Path, renderer: Option<Arc<dyn Renderer>>) -> Reask {
-    let world: Arc<dyn World> = Arc::new(DomainWorld::new(d));
-    let journal = Journal::open(dir).unwrap();
-    if journal.config().is_none() {
-        journal.write_config(&serde_json::json!({})).unwrap();
+fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
+    Record {
+        phase,
+        set: names(set),
+        obs,
+        seed: 0,
+        image: String::new(),
+        prompt: String::new(),
+        raw: String::new(),
+        parsed: None,
+        answer: Some(Answer::Unparsed),
+        expected: 0,
+        outcome,
+        usage: Usage::default(),
+        latency_ms: 0,
+        cached: false,
+        model: None,
     }
-    Reask {
-        observer: Arc::new(Observer::new(Arc::new(d.clone()), world, renderer)),
-        journal: Arc::new(journal),
-        seed: 7,
-        concurrency: 4,
-        stop: Stop::default(),
-        progress: ProgressTo::Off,
-    }
-}
-
-fn sets(d: &Domain, names: &[&[&str]]) -> Vec<ConceptSet> {
-    let world = DomainWorld::new(d);
-    names
-        .iter()
-        .map(|n| {
-            let s = d.parse_set(n).unwrap();
-            assert!(world.task(s).is_ok(), "{n:?} has a ground truth");
-            s
-        })
-        .collect()
-}
-
-fn block_on<F: std::future::Future>(f: F) -> F::Output {
-    tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap().block_on(f)
-}
-
-const PROBE_PROFILE: &str = r#"
-name = "planted"
-base_error = 0.05
-[[mode]]
-concepts = ["debris_far"]
-error = 0.9
-[[mode]]
-concepts = ["cyclist"]
-error = 0.9
-[[mode]]
-concepts = ["cone", "weather_wet"]
-error = 0.95
-[[mode]]
-concepts = ["pedestrian"]
-error = 0.9
-[[mode]]
-concepts = ["weather_foggy"]
-error = 0.9
-[[mode]]
-concepts = ["pedestrian", "weather_foggy"]
-error = 0.0
-[recognition]
-debris_far = 0.1
-"#;
-
-#[test]
-fn probe_classifies_planted_mechanisms_and_lift_signs() {
-    let d = driving();
-    let dir = tempfile::tempdir().unwrap();
-    let model = sim(PROBE_PROFILE, &d);
-    let chosen = sets(
-        &d,
-        &[
-            &["debris_far"],
-            &["debris_far", "weather_cloudy"],
-            &["cyclist"],
-            &["cyclist", "weather_cloudy"],
-            &["cone"],
-            &["cone", "weather_cloudy"],
-            &["weather_wet"],
-            &["weather_wet", "garbage_bin"],
-            &["cone", "weather_wet"],
-            &["pedestrian"],
-            &["pedestrian", "garbage_bin"],
-            &["weather_foggy"],
-            &["weather_foggy", "garbage_bin"],
-            &["pedestrian", "weather_foggy"],
-        ],
-    );
-    let r = reask(&d, dir.path(), None);
-    let t = Thresholds { min_n: 2, ..Thresholds::default() };
-    let (probed, _) = block_on(reask::probe(&r, model.clone(), &chosen, 40)).unwrap();
-    let a = analyse(&probed, &t);
-    let row = |c: &str| a.concepts.iter().find(|r| r.concept == c).unwrap();
-    assert_eq!(row("debris_far").mechanism, Some(Mechanism::Recognition), "{:?}", row("debris_far"));
-    assert!(row("debris_far").failure.unwrap() > 0.7);
-    assert_eq!(row("cyclist").mechanism, Some(Mechanism::Reasoning), "{:?}", row("cyclist"));
-    assert!(row("cyclist").failure.unwrap() > 0.7);
-    assert_eq!(row("cyclist").recognition, Some(1.0));
-    assert_eq!(row("cyclist").marks.unanswered, 0, "every sim statement is parsed");
-    let pair = |x: &str, y: &str| a.pairs.iter().find(|p| (p.a == x && p.b == y) || (p.a == y && p.b == x)).unwrap();
-    assert!(pair("cone", "weather_wet").lift > 0.3, "{:?}", pair("cone", "weather_wet"));
-    assert!(pair("pedestrian", "weather_foggy").lift < -0.3, "{:?}", pair("pedestrian", "weather_foggy"));
-
-    // Journaled under phase `probe`; a second run asks nothing and gets the same answer.
-    drop(r);
-    let lines = Journal::open(dir.path()).unwrap().records;
-    assert_eq!(lines.len(), chosen.len() * 40);
-    assert!(lines.iter().all(|l| l.phase == Phase::Probe && l.model.is_none()));
-    let r = reask(&d, dir.path(), None);
-    let (again, _) = block_on(reask::probe(&r, model, &chosen, 40)).unwrap();
-    assert_eq!(again, probed);
-    drop(r);
-    assert_eq!(Journal::open(dir.path()).unwrap().records.len(), chosen.len() * 40);
 }
 
 #[test]
-fn probe_statements_are_each_concepts_pair_in_a_seeded_order() {
-    let d = driving();
-    let s = d.parse_set(&["debris_far", "cyclist"]).unwrap();
-    let a = reask::statements(&d, s, 1);
-    assert_eq!(a.len(), 4);
-    assert_eq!(a.iter().filter(|x| x.positive).count(), 2);
-    assert_eq!(a, reask::statements(&d, s, 1));
-    let orders: std::collections::HashSet<Vec<bool>> =
-        (0..20).map(|k| reask::statements(&d, s, k).iter().map(|x| x.positive).collect()).collect();
-    assert!(orders.len() > 1, "the order depends on the seed");
+fn wilson_matches_published_values() {
+    // Newcombe (1998), Statistics in Medicine 17:857–872, Table II, method 3 (score, no
+    // continuity correction), to the four decimals printed there.
+    for (k, n, lo, hi) in
+        [(81, 263, 0.2553, 0.3662), (15, 148, 0.0624, 0.1605), (0, 20, 0.0, 0.1611), (1, 29, 0.0061, 0.1718)]
+    {
+        let (l, h) = wilson95(k, n).unwrap();
+        assert!((l - lo).abs() < 5e-5 && (h - hi).abs() < 5e-5, "{k}/{n}: [{l:.4}, {h:.4}], expected [{lo}, {hi}]");
+    }
+    assert_eq!(wilson95(0, 0), None);
+    let (l, h) = wilson95(5, 5).unwrap();
+    assert!((h - 1.0).abs() < 1e-12 && (l - 0.5655).abs() < 5e-5, "{l} {h}");
 }
 
 #[test]
-fn transfer_between_two_sim_profiles_same_images_rendered_once() {
-    let d = driving();
-    let dir = tempfile::tempdir().unwrap();
-    let source = sim(
-        "name = \"src\"\nbase_error = 0.0\n[[mode]]\nconcepts = [\"debris_far\"]\nerror = 1.0\n[[mode]]\nconcepts = [\"cyclist\"]\nerror = 1.0\n",
-        &d,
-    );
-    let target = sim(
-        "name = \"tgt\"\nbase_error = 0.0\n[[mode]]\nconcepts = [\"debris_far\"]\nerror = 0.95\n[[mode]]\nconcepts = [\"cone\"]\nerror = 1.0\n",
-        &d,
-    );
-    let chosen = sets(&d, &[&["debris_far"], &["cyclist"]]);
-    let counting = Arc::new(Counting(AtomicUsize::new(0)));
-    let r = reask(&d, dir.path(), Some(counting.clone()));
-    let models = vec![source.clone(), target.clone()];
-    let (stats, _) = block_on(reask::transfer(&r, &models, &chosen, 20)).unwrap();
-    assert_eq!(counting.0.load(Ordering::SeqCst), 2 * 20, "one render per scene for both models");
-    assert!(stats[1][0].fr().unwrap() >= 0.6, "the shared mode transfers");
-    assert!(stats[1][1].fr().unwrap() < 0.2, "the source-only mode does not");
-    assert_eq!(stats[0][1].fr(), Some(1.0));
-    let names = |s: ConceptSet| d.set_names(s).into_iter().map(String::from).collect::<Vec<_>>();
-    let table = super::transfer::table(
-        "src",
-        &[source.id(), target.id()],
-        0.6,
-        20,
-        &chosen.iter().map(|&s| names(s)).collect::<Vec<_>>(),
-        &[Some(1.0), Some(1.0)],
-        &stats,
-        &[],
-        &[vec![], vec![]],
-    );
-    assert_eq!(table.targets[1].transfers, 1);
-    drop(r);
+fn concept_rates_average_the_sets_containing_each_concept() {
+    let sets = [row(&["a", "b"], 4, 4), row(&["a"], 1, 4), row(&["b", "c"], 0, 5), row(&["c"], 0, 0)];
+    let rates = concept_rates(&sets, 0.6);
+    let got: Vec<(&str, f64, u32, u32)> =
+        rates.iter().map(|r| (r.concept.as_str(), r.f, r.n, r.failure_modes)).collect();
+    // c's second set has no failure rate and does not count.
+    assert_eq!(got, vec![("a", 0.625, 2, 1), ("b", 0.5, 2, 1), ("c", 0.0, 1, 0)]);
+}
 
-    // Same image for the same observation on both models, each line naming its model.
-    let records = Journal::open(dir.path()).unwrap().records;
-    assert_eq!(records.len(), 2 * 2 * 20);
-    let mut by_obs: std::collections::HashMap<(Vec<String>, u32), Vec<&crate::journal::Record>> = Default::default();
-    for rec in &records {
-        assert_eq!(rec.phase, Phase::Transfer);
-        by_obs.entry((rec.set.clone(), rec.obs)).or_default().push(rec);
-    }
-    for recs in by_obs.values() {
-        assert_eq!(recs.len(), 2);
-        assert_eq!(recs[0].image, recs[1].image);
-        assert_eq!(recs[0].seed, recs[1].seed);
-        assert_ne!(recs[0].model, recs[1].model);
-        assert!(recs.iter().all(|r| r.model.is_some()));
-    }
+#[test]
+fn pair_rates_hold_the_diagonal_and_leave_unseen_pairs_empty() {
+    let sets = [row(&["a", "b"], 4, 4), row(&["a"], 1, 4), row(&["b", "c"], 0, 5)];
+    let p = pair_rates(&sets, &names(&["a", "b", "c"]));
+    assert_eq!(p.cells[0][0], Some(PairRate { fr: 0.625, n: 2 }));
+    assert_eq!(p.cells[0][1], Some(PairRate { fr: 1.0, n: 1 }));
+    assert_eq!(p.cells[1][0], p.cells[0][1]);
+    assert_eq!(p.cells[0][2], None);
+    assert_eq!(p.cells[1][2], Some(PairRate { fr: 0.0, n: 1 }));
+}
 
-    // Resumed: nothing rendered or asked again; a third model is asked on the same scenes.
-    let third = sim("name = \"third\"\nbase_error = 0.0\n", &d);
-    let r = reask(&d, dir.path(), Some(counting.clone()));
-    let (again, _) = block_on(reask::transfer(&r, &models, &chosen, 20)).unwrap();
-    assert_eq!(counting.0.load(Ordering::SeqCst), 40);
-    assert_eq!(again[1][0].fr(), stats[1][0].fr());
-    let (with_third, _) = block_on(reask::transfer(&r, &[source, target, third], &chosen, 20)).unwrap();
-    assert_eq!(counting.0.load(Ordering::SeqCst), 80, "the new model's scenes are rendered once");
-    assert_eq!(with_third[2][0].fr(), Some(0.0));
-    drop(r);
-    let records = Journal::open(dir.path()).unwrap().records;
-    let seed_of = |model: &str| {
-        let mut v: Vec<(u32, String)> = records
-            .iter()
-            .filter(|r| r.model.as_deref().is_some_and(|m| m.starts_with(model)) && r.set == ["debris_far"])
-            .map(|r| (r.obs, r.image.clone()))
-            .collect();
-        v.sort();
-        v
-    };
-    assert_eq!(seed_of("sim:third"), seed_of("sim:src"), "the third model saw the same images");
-    let key = ObsKey { phase: Phase::Transfer, set: chosen[0], index: 0 };
-    assert_eq!(records.iter().find(|r| r.obs == 0 && r.set == ["debris_far"]).unwrap().seed, {
-        crate::run::eval::observation_seed(7, key)
-    });
+#[test]
+fn newest_line_wins_for_a_retried_observation() {
+    let records = [
+        record(Phase::Search, &["a"], 0, Outcome::ApiError),
+        record(Phase::Search, &["a"], 1, Outcome::Correct),
+        record(Phase::Search, &["a"], 0, Outcome::Wrong),
+        record(Phase::Validate, &["a"], 0, Outcome::Correct),
+    ];
+    let obs = latest_observations(&records);
+    let got: Vec<(Phase, u32, Outcome)> = obs.iter().map(|r| (r.phase, r.obs, r.outcome)).collect();
+    assert_eq!(
+        got,
+        vec![
+            (Phase::Search, 1, Outcome::Correct),
+            (Phase::Search, 0, Outcome::Wrong),
+            (Phase::Validate, 0, Outcome::Correct)
+        ]
+    );
+    let counts = outcome_counts(&obs);
+    assert_eq!(counts[&Phase::Search], BTreeMap::from([(Outcome::Correct, 1), (Outcome::Wrong, 1)]));
+    assert_eq!(counts[&Phase::Validate], BTreeMap::from([(Outcome::Correct, 1)]));
+}
+
+#[test]
+fn discovery_counts_modes_at_their_last_observation_and_cores_at_their_first_mode() {
+    use Outcome::*;
+    let records = [
+        record(Phase::Search, &["a", "b"], 0, Wrong),
+        record(Phase::Search, &["c"], 0, Correct),
+        record(Phase::Search, &["a", "b"], 1, Wrong), // {a, b} found after 3 inferences
+        record(Phase::Search, &["c"], 1, Correct),
+        record(Phase::Search, &["a", "b", "c"], 0, Wrong),
+        record(Phase::Search, &["a", "b", "c"], 1, Wrong), // found after 6; its core {a} is not new
+        record(Phase::Search, &["d", "e"], 0, Wrong),
+        record(Phase::Search, &["d", "e"], 1, Wrong), // found after 8, with the second core
+        record(Phase::Validate, &["a", "b"], 0, Wrong), // validation finds nothing new
+        record(Phase::Search, &["f"], 0, Correct),
+    ];
+    let obs: Vec<&Record> = records.iter().collect();
+    let modes = [names(&["b", "a"]), names(&["a", "b", "c"]), names(&["d", "e"])];
+    let cores = [names(&["a"]), names(&["e"]), names(&["z"])];
+    let d = discovery(&obs, &modes, &cores);
+    let got: Vec<(u64, usize, usize)> = d.points.iter().map(|p| (p.inferences, p.failure_modes, p.cores)).collect();
+    assert_eq!(got, vec![(0, 0, 0), (3, 1, 1), (6, 2, 1), (8, 3, 2), (9, 3, 2)]);
+    assert_eq!(d.inferences, 9);
+    assert!(d.phase_starts.is_empty());
+}
+
+#[test]
+fn minimal_failure_modes_are_those_without_a_failing_subset() {
+    let modes = [
+        row(&["a", "b", "c"], 5, 5),
+        row(&["a", "b"], 4, 5),
+        row(&["a", "b", "d"], 5, 5),
+        row(&["c", "d"], 5, 5),
+        row(&["e", "f", "g"], 3, 5),
+    ];
+    let minimal = minimal_failure_modes(&modes);
+    // {a, b} (in three failure modes) first, then {c, d} (FR 1.0), then {e, f, g} (0.6).
+    assert_eq!(minimal, vec![1, 3, 4]);
+    assert_eq!(supersets(&modes[1].concepts, &modes), 3);
+    assert_eq!(supersets(&names(&["d"]), &modes), 2);
+    assert_eq!(supersets(&names(&["z"]), &modes), 0);
 }

@@ -37,6 +37,7 @@ pub fn rows(dirs: &[PathBuf]) -> Result<Vec<Row>, crate::run::RunError> {
                 inferences: s.metrics.inferences,
                 failures: s.metrics.failures,
                 failure_modes: s.failure_modes.iter().map(|r| r.concepts.clone()).collect(),
+                shrunk_cores: s.shrink.is_some().then_some(s.cores.len()),
                 calls: s.spend.calls,
                 cost_usd: s.spend.cost_usd,
             }))
@@ -199,6 +200,7 @@ mod tests {
             inferences: 1000,
             failures: 250,
             failure_modes: vec![vec!["a".into()], vec!["b".into(), "c".into()], vec!["a".into(), "c".into()]],
+            shrunk_cores: None,
             calls: 1000,
             cost_usd: 0.5,
         })]

@@ -16,8 +16,10 @@ pub mod lattice;
 pub mod lsp;
 pub mod oracle;
 pub mod probe;
+pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod report;
 pub mod search;
 pub mod sweep;
 pub mod transfer;
@@ -63,6 +65,8 @@ pub enum Command {
     Transfer(transfer::TransferArgs),
     /// Compare finished runs: PFM, MFR and Div with intervals (terminal, CSV, HTML)
     Compare(compare::CompareArgs),
+    /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
+    Report(report::ReportArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -91,6 +95,7 @@ pub fn main() -> ExitCode {
         Command::Probe(a) => probe::run(a),
         Command::Transfer(a) => transfer::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Report(a) => report::run(a),
     }
 }
 

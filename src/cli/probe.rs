@@ -1,5 +1,5 @@
 //! `revelio probe RUN_DIR [--top k] [--samples n]`: recognition vs. reasoning (paper appendix
-//! G). Re-asks a finished run's top sets with the safety prompt extended by each present
+//! G). Re-asks a finished run's cores and top sets with the safety prompt extended by each present
 //! concept's probe statement and its counterfactual, answered True/False in the same reply as
 //! the option; prints R(c), F(c), n and the mechanism per concept and the lift of concept pairs;
 //! writes `probe.json`. Observations are journaled under phase `probe`, so the same command
@@ -29,7 +29,7 @@ use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
 pub struct ProbeArgs {
     /// A finished `revelio search` run folder
     pub run_dir: PathBuf,
-    /// Sets to probe (in the order of the search's table)
+    /// Sets to probe: the run's cores first (when it shrank), then the search's table in order
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..))]
     pub top: u64,
     /// Probe observations per set
@@ -131,6 +131,25 @@ pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quie
     Ok(OpenRun { config, summary, domain, model, reask })
 }
 
+/// The `k` sets to probe: the run's distinct cores first (`summary.json`'s `cores`, when the
+/// run shrank its failure modes), as they are what a failure mode comes down to, then its top
+/// sets in the order of its table, each set once.
+pub(crate) fn probe_order(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
+    let mut sets = Vec::with_capacity(k);
+    for core in &summary.cores {
+        let set = domain.parse_set(&core.set.concepts).map_err(|e| RunError::Search(e.to_string()))?;
+        if sets.len() < k && !sets.contains(&set) {
+            sets.push(set);
+        }
+    }
+    for set in top_sets(domain, summary, k)? {
+        if sets.len() < k && !sets.contains(&set) {
+            sets.push(set);
+        }
+    }
+    Ok(sets)
+}
+
 /// The run's top `k` sets, in the order of its table.
 pub(crate) fn top_sets(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
     let history = summary
@@ -188,7 +207,7 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         Ok(o) => o,
         Err(code) => return code,
     };
-    let sets = match top_sets(&open.domain, &open.summary, args.top as usize) {
+    let sets = match probe_order(&open.domain, &open.summary, args.top as usize) {
         Ok(s) => s,
         Err(e) => return fail_run(&e, &args.run_dir),
     };

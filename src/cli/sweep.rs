@@ -12,8 +12,9 @@ use crate::run::observe::World;
 use crate::search::metrics::mean_sd;
 use crate::search::{Algo, Params, Space};
 use crate::vlm::Model;
+use crate::vlm::sim::Profile;
 
-use super::bench::{SearchBenchArgs, bench_one};
+use super::bench::{RunFigures, SearchBenchArgs, bench_one};
 
 /// What `bench search` prepared: the domain, its world and search space, the sim model and its
 /// planted modes, and a scratch folder for the runs.
@@ -23,6 +24,8 @@ pub struct Bench {
     pub model: Arc<dyn Model>,
     pub space: Space,
     pub planted: Vec<ConceptSet>,
+    /// The profile itself, for the bench's precision figures.
+    pub truth: Profile,
     pub tmp: PathBuf,
 }
 
@@ -32,6 +35,7 @@ fn stat(xs: &[f64]) -> Option<(f64, f64)> {
 
 pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> ExitCode {
     let mut points = Vec::new();
+    let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
     for &value in &sweep.values {
         let at = sweep.param.apply(base, value);
         // The beam phase of GPTS cannot outgrow the budget.
@@ -40,12 +44,12 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
             eprintln!("error: `--sweep {}={value}`: {e}", sweep.param.name());
             return ExitCode::from(2);
         }
-        for algo in Algo::ALL {
+        for &algo in &algos {
             let mut rows = Vec::new();
             for seed in 0..args.seeds {
                 let params = Params { algo, seed, ..at.clone() };
                 let out = b.tmp.join(format!("{}-{value}-{}-{seed}", sweep.param.name(), algo.name()));
-                match bench_one(args, &b.domain, &b.world, &b.model, &b.space, params, out, &b.planted) {
+                match bench_one(args, &b.domain, &b.world, &b.model, &b.space, params, out, &b.planted, &b.truth) {
                     Ok(r) => rows.push(r),
                     Err(e) => {
                         eprintln!("error: {e}");
@@ -53,13 +57,13 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
                     }
                 }
             }
-            let col = |i: usize| rows.iter().filter_map(|r| r[i]).collect::<Vec<f64>>();
+            let col = |f: &dyn Fn(&RunFigures) -> Option<f64>| rows.iter().filter_map(f).collect::<Vec<f64>>();
             points.push(Point {
                 algo: algo.name().to_string(),
                 value,
-                pfm: stat(&col(0)).unwrap_or_default(),
-                mfr: stat(&col(1)).unwrap_or_default(),
-                div: stat(&col(2)),
+                pfm: stat(&col(&|r| Some(r.pfm))).unwrap_or_default(),
+                mfr: stat(&col(&|r| Some(r.mfr))).unwrap_or_default(),
+                div: stat(&col(&|r| r.div)),
             });
         }
     }

@@ -17,8 +17,9 @@
 //! its own: outcome `image_blocked`, no model call, not an answer.
 use std::sync::Arc;
 
+use crate::hash::sha256_hex as sha256;
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, JournalError, Phase, Record, sha256};
+use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
 use crate::render::Renderer;
 use crate::scene::Scene;

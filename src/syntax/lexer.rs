@@ -161,6 +161,7 @@ pub const KEYWORDS: &[&str] = &[
     "material",
     "yaw",
     "roll",
+    "pitch",
     "repeat",
     "step",
     "in",
