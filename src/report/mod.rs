@@ -5,7 +5,7 @@
 //! inline SVG. Images are hard-linked (copied where linking fails) into the report's `images/`,
 //! with small `thumbs/` beside them, so the folder can be moved, zipped or served on its own and
 //! costs no extra disk on the run's file system. Every text taken from the run — replies above
-//! all — is escaped by the templates (`askama`, HTML escaping for `.html` and `.svg`).
+//! all — is escaped: by the page's one escaping helper in `index.html`, by plotters in the SVGs.
 //!
 //! What it shows comes from [`crate::analysis`]: cores first (the summary's `cores` when the run
 //! was shrunk; otherwise the minimal failure modes stand in), each with its observations, the
@@ -285,8 +285,8 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     let findings = run.findings();
     let wanted: Vec<&str> = findings.core_observations.iter().flatten().map(|r| r.image.as_str()).collect();
     let images = files::materialize(&run.dir.join("images"), out, &wanted)?;
-    let discovery = svg::discovery(&findings.discovery);
-    let heatmap = svg::heatmap(&findings.pairs);
+    let discovery = svg::discovery(&findings.discovery)?;
+    let heatmap = svg::heatmap(&findings.pairs)?;
     let html = page::render(run, domain, &findings, &images, &discovery, &heatmap)?;
     let put = |name: &str, text: &str| {
         crate::journal::write_atomic(&out.join(name), text.as_bytes()).map_err(|e| e.to_string())

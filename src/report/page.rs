@@ -1,11 +1,10 @@
-//! `index.html`: the page's data, formatted for reading, and its template. Every field is plain
-//! text; the template escapes it. Only the two SVG plots (written by our own escaped templates)
-//! are inserted as markup.
+//! `index.html`: the page's data formatted for reading, then written as HTML by one function per
+//! section. Every text is plain until written, and every text from the run goes through [`Esc`];
+//! only the two SVG plots (drawn by plotters, which escapes their text) are inserted as markup.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::{self, Write};
 use std::time::SystemTime;
-
-use askama::Template;
 
 use super::files::ImageRef;
 use super::{Core, Findings, Run, outcome_name, phase_name};
@@ -94,8 +93,12 @@ pub struct OutcomeRow {
     pub counts: Vec<u64>,
 }
 
-#[derive(Template)]
-#[template(path = "index.html")]
+pub struct PairRow {
+    pub pair: String,
+    pub fr: String,
+    pub n: u32,
+}
+
 pub struct IndexPage<'a> {
     pub title: String,
     pub subtitle: String,
@@ -111,6 +114,8 @@ pub struct IndexPage<'a> {
     pub refuted: Vec<ModeRow>,
     pub concepts: Vec<ConceptRow>,
     pub heatmap: &'a str,
+    /// Evaluated pairs, highest rate first: the heatmap's numbers.
+    pub pairs: Vec<PairRow>,
     pub discovery: &'a str,
     pub outcome_phases: Vec<String>,
     pub outcome_rows: Vec<OutcomeRow>,
@@ -310,7 +315,12 @@ fn algorithm_text(run: &Run) -> String {
             grouped(p.beam_budget),
             p.batch
         ),
-        Algo::Interact => "interact (interaction-aware surrogate; confirmed cores shrunk at once)".into(),
+        Algo::Interact => format!(
+            "interact ({} interaction-aware surrogate, {} per round; confirmed cores shrunk at once; supersets of a core: {})",
+            super::snake(p.surrogate),
+            p.batch,
+            super::snake(p.supersets)
+        ),
     }
 }
 
@@ -499,6 +509,7 @@ pub fn render(
         refuted,
         concepts,
         heatmap,
+        pairs: pair_rows(&f.pairs),
         discovery,
         outcome_phases,
         outcome_rows,
@@ -512,7 +523,322 @@ pub fn render(
         validation_file: run.validation.as_ref().and(run.validation_file.clone()),
         version: env!("CARGO_PKG_VERSION"),
     };
-    page.render().map_err(|e| format!("cannot write the report page: {e}"))
+    let mut html = String::new();
+    write_page(&mut html, &page).map_err(|e| format!("cannot write the report page: {e}"))?;
+    Ok(html)
+}
+
+fn pair_rows(p: &crate::analysis::PairRates) -> Vec<PairRow> {
+    let mut rows = Vec::new();
+    for (i, row) in p.cells.iter().enumerate() {
+        for (j, c) in row.iter().enumerate().skip(i) {
+            let Some(c) = c else { continue };
+            let pair = if i == j { p.concepts[i].clone() } else { format!("{} + {}", p.concepts[i], p.concepts[j]) };
+            rows.push((c.fr, PairRow { pair, fr: pct(Some(c.fr)), n: c.n }));
+        }
+    }
+    rows.sort_by(|a, b| b.0.total_cmp(&a.0).then(b.1.n.cmp(&a.1.n)));
+    rows.into_iter().map(|(_, r)| r).collect()
+}
+
+/// A text escaped for HTML content and quoted attribute values alike.
+pub struct Esc<'s>(pub &'s str);
+
+impl fmt::Display for Esc<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut rest = self.0;
+        while let Some(i) = rest.find(['&', '<', '>', '"', '\'']) {
+            f.write_str(&rest[..i])?;
+            f.write_str(match rest.as_bytes()[i] {
+                b'&' => "&#38;",
+                b'<' => "&#60;",
+                b'>' => "&#62;",
+                b'"' => "&#34;",
+                _ => "&#39;",
+            })?;
+            rest = &rest[i + 1..];
+        }
+        f.write_str(rest)
+    }
+}
+
+const STYLE: &str = include_str!("templates/style.css");
+
+fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    write!(
+        out,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <link rel=\"icon\" href=\"data:,\">\n<title>{}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n<main>\n",
+        Esc(&p.title)
+    )?;
+    write_header(out, p)?;
+    write_nav(out, p)?;
+    write_metrics(out, p)?;
+    write_cores(out, p)?;
+    if !p.others.is_empty() {
+        writeln!(out, "<section id=\"others\">\n<h2>Other failure modes ({})</h2>", p.others.len())?;
+        out.push_str("<p class=\"note\">Failure modes that contain none of the cores above.</p>\n<div class=\"card\">");
+        write_modes(out, &p.others)?;
+        out.push_str("</div>\n</section>\n\n");
+    }
+    if !p.refuted.is_empty() {
+        writeln!(out, "<section id=\"refuted\">\n<h2>Refuted on re-test ({})</h2>", p.refuted.len())?;
+        out.push_str("<p class=\"note\">Failure modes of the search that passed when the shrink phase tested them again: their search observations overstated their failure rate.</p>\n<div class=\"card\">");
+        write_modes(out, &p.refuted)?;
+        out.push_str("</div>\n</section>\n\n");
+    }
+    write_concepts(out, p)?;
+    write_pairs(out, p)?;
+    write_discovery_and_outcomes(out, p)?;
+    out.push_str("<section id=\"files\">\n<h2>Files</h2>\n<div class=\"card\">\n<ul class=\"files\">\n");
+    for (href, what) in &p.files {
+        writeln!(out, "<li><a href=\"{}\">{}</a> — {}</li>", Esc(href), Esc(href), Esc(what))?;
+    }
+    out.push_str("</ul>\n</div>\n</section>\n\n");
+    for n in &p.notes {
+        writeln!(out, "<p class=\"note\">{}</p>", Esc(n))?;
+    }
+    let validation = match &p.validation_file {
+        Some(file) => format!(" and {}", Esc(file)),
+        None => String::new(),
+    };
+    writeln!(
+        out,
+        "<footer>Written by revelio {} from the run folder's config.json, summary.json, journal.jsonl{validation}. Static: no network, no scripts.</footer>\n</main>\n</body>\n</html>",
+        Esc(p.version)
+    )
+}
+
+fn write_header(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    writeln!(out, "<header>\n<h1>Revelio run report</h1>\n<p class=\"sub\">{}</p>", Esc(&p.subtitle))?;
+    out.push_str("<div class=\"card\">\n<dl class=\"kv\">\n");
+    for (label, value) in &p.header {
+        writeln!(out, "<div><dt>{}</dt><dd>{}</dd></div>", Esc(label), Esc(value))?;
+    }
+    writeln!(out, "</dl>\n<p class=\"params\">{}</p>\n</div>\n</header>\n", Esc(&p.params))
+}
+
+fn write_nav(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    out.push_str("<nav>\n<a href=\"#metrics\">Metrics</a><a href=\"#cores\">Cores</a>");
+    if !p.others.is_empty() {
+        out.push_str("<a href=\"#others\">Other failure modes</a>");
+    }
+    if !p.refuted.is_empty() {
+        out.push_str("<a href=\"#refuted\">Refuted</a>");
+    }
+    out.push_str("<a href=\"#concepts\">Concepts</a><a href=\"#pairs\">Pairs</a><a href=\"#discovery\">Discovery</a><a href=\"#outcomes\">Outcomes</a><a href=\"#files\">Files</a>\n</nav>\n\n");
+    Ok(())
+}
+
+fn write_metrics(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    out.push_str("<section id=\"metrics\">\n<h2>Metrics</h2>\n<div class=\"stats\">\n");
+    for m in &p.metrics {
+        writeln!(
+            out,
+            "<div class=\"stat\"><div class=\"label\">{}</div><div class=\"value\">{}</div><div class=\"detail\">{}</div></div>",
+            Esc(&m.label),
+            Esc(&m.value),
+            Esc(&m.detail)
+        )?;
+    }
+    writeln!(out, "</div>\n<p class=\"note\">{}</p>\n</section>\n", Esc(&p.metrics_note))
+}
+
+fn write_cores(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    writeln!(out, "<section id=\"cores\">\n<h2>Failure modes by core ({})</h2>", p.cores.len())?;
+    writeln!(out, "<p class=\"note\">{}</p>", Esc(&p.cores_note))?;
+    if p.cores.is_empty() {
+        writeln!(out, "<div class=\"card\">No failure mode reached FR ≥ {}.</div>", p.threshold)?;
+    }
+    for c in &p.cores {
+        write_core(out, c)?;
+    }
+    out.push_str("</section>\n\n");
+    Ok(())
+}
+
+fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
+    writeln!(
+        out,
+        "<article class=\"card core\" id=\"{}\" data-concepts=\"{}\">\n<div class=\"core-head\">\n<span class=\"rank\">#{}</span>",
+        Esc(&c.anchor),
+        Esc(&c.key),
+        c.rank
+    )?;
+    out.push_str("<div class=\"chips\">");
+    for name in &c.concepts {
+        write!(out, "<span class=\"chip\">{}</span>", Esc(name))?;
+    }
+    writeln!(
+        out,
+        "</div>\n<div class=\"rate\"><div class=\"fr\">{}</div><div class=\"ci\">95% CI {}</div></div>\n</div>",
+        Esc(&c.fr),
+        Esc(&c.ci)
+    )?;
+    writeln!(out, "<div class=\"facts\">\n<span><b>{}</b> wrong of <b>{}</b> answered</span>", c.wrong, c.answered)?;
+    writeln!(out, "<span>validated: <b>{}</b></span>", Esc(&c.validated))?;
+    writeln!(out, "<span><b>{}</b> failure modes of the search contain it</span>", c.supersets)?;
+    if let Some(from) = &c.shrunk_from {
+        writeln!(out, "<span>shrunk from <code>{}</code></span>", Esc(from))?;
+    }
+    if !c.minimal {
+        out.push_str(
+            "<span>not shown minimal: the shrink budget ran out before every smaller subset was tested</span>\n",
+        );
+    }
+    out.push_str("</div>\n");
+    if let Some(v) = &c.verdict {
+        writeln!(out, "<div class=\"verdict\">\n<p><b>Expected:</b> {}</p>", Esc(&v.expected))?;
+        write!(out, "<p><b>Deciding rule:</b> <code>{}</code>", Esc(&v.rule))?;
+        if !v.rationale.is_empty() {
+            write!(out, " — {}", Esc(&v.rationale))?;
+        }
+        writeln!(
+            out,
+            "</p>\n<p class=\"why\">{}</p>\n<details><summary>question asked</summary><pre>{}</pre></details>\n</div>",
+            Esc(&v.explanation),
+            Esc(&v.question)
+        )?;
+    }
+    if let Some(e) = &c.verdict_error {
+        writeln!(out, "<p class=\"note\">{}</p>", Esc(e))?;
+    }
+    if c.observations.is_empty() {
+        out.push_str("<p class=\"note\">No observation of this exact set is in the journal.</p>\n");
+    }
+    out.push_str("<div class=\"obs-grid\">\n");
+    for o in &c.observations {
+        write_observation(out, c, o)?;
+    }
+    out.push_str("</div>\n");
+    if !c.superset_rows.is_empty() {
+        let open = if c.superset_rows.len() <= 6 { " open" } else { "" };
+        writeln!(
+            out,
+            "<details{open}><summary>{} larger failure modes containing this core</summary>",
+            c.superset_rows.len()
+        )?;
+        write_modes(out, &c.superset_rows)?;
+        out.push_str("</details>\n");
+    }
+    out.push_str("</article>\n");
+    Ok(())
+}
+
+fn write_observation(out: &mut String, c: &CoreView, o: &ObsView) -> fmt::Result {
+    out.push_str("<div class=\"obs\">\n");
+    match &o.image {
+        Some(img) => writeln!(
+            out,
+            "<a href=\"{}\" title=\"full size\"><img src=\"{}\" width=\"{}\" height=\"{}\" alt=\"{} observation {} of {}\"></a>",
+            Esc(&img.full),
+            Esc(&img.thumb),
+            img.width,
+            img.height,
+            Esc(&o.phase),
+            o.obs,
+            Esc(&c.title)
+        )?,
+        None => writeln!(out, "<div class=\"noimg\">{}</div>", Esc(&o.no_image))?,
+    }
+    writeln!(
+        out,
+        "<div class=\"body\">\n<div class=\"line\"><span class=\"badge {}\">{}</span><span class=\"mono\">{} #{}</span></div>",
+        o.class,
+        Esc(&o.outcome),
+        Esc(&o.phase),
+        o.obs
+    )?;
+    writeln!(out, "<div class=\"line\"><span>expected</span><b>{}</b></div>", Esc(&o.expected))?;
+    writeln!(out, "<div class=\"line\"><span>given</span><b>{}</b></div>", Esc(&o.given))?;
+    writeln!(out, "<p class=\"reply\">{}</p>", Esc(&o.reply))?;
+    if let Some(full) = &o.full {
+        writeln!(
+            out,
+            "<details><summary>full reply ({} characters)</summary><pre>{}</pre></details>",
+            o.chars,
+            Esc(full)
+        )?;
+    }
+    out.push_str("</div>\n</div>\n");
+    Ok(())
+}
+
+/// A table of failure modes (the larger ones of a core, the others, the refuted).
+fn write_modes(out: &mut String, rows: &[ModeRow]) -> fmt::Result {
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th class=\"num\">validated</th></tr></thead>\n<tbody>\n");
+    for m in rows {
+        write!(out, "<tr><td class=\"num\">{}</td><td>", m.rank)?;
+        for (i, name) in m.concepts.iter().enumerate() {
+            let sep = if i > 0 { " + " } else { "" };
+            write!(out, "{sep}<code>{}</code>", Esc(name))?;
+        }
+        writeln!(
+            out,
+            "</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            Esc(&m.fr),
+            Esc(&m.ci),
+            m.answered,
+            Esc(&m.validated)
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n");
+    Ok(())
+}
+
+fn write_concepts(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    out.push_str("<section id=\"concepts\">\n<h2>Concepts</h2>\n<p class=\"note\">F(c): the mean failure rate of the evaluated sets that contain concept c; n: how many such sets. A concept the search rarely combined has a wide margin of error.</p>\n<div class=\"card\">\n<table class=\"tbl\">\n<thead><tr><th>concept</th><th class=\"num\">F(c)</th><th></th><th class=\"num\">n sets</th><th class=\"num\">failure modes</th></tr></thead>\n<tbody>\n");
+    for r in &p.concepts {
+        writeln!(
+            out,
+            "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td><div class=\"bar\"><span style=\"width: {}%\"></span></div></td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            Esc(&r.concept),
+            Esc(&r.f),
+            Esc(&r.bar),
+            r.n,
+            r.failure_modes
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
+    Ok(())
+}
+
+fn write_pairs(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    out.push_str("<section id=\"pairs\">\n<h2>Pair failure rates</h2>\n<p class=\"note\">Cell (a, b): the mean failure rate of the evaluated sets holding both a and b (the diagonal is F(c)); hatched where no evaluated set holds both. The table under the plot gives each pair's rate and count.</p>\n");
+    writeln!(out, "<div class=\"card plot\">{}", p.heatmap)?;
+    writeln!(out, "<details><summary>{} evaluated pairs, highest rate first</summary>", p.pairs.len())?;
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">n sets</th></tr></thead>\n<tbody>\n");
+    for r in &p.pairs {
+        writeln!(
+            out,
+            "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            Esc(&r.pair),
+            Esc(&r.fr),
+            r.n
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n</details>\n</div>\n</section>\n\n");
+    Ok(())
+}
+
+fn write_discovery_and_outcomes(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    out.push_str("<div class=\"two\">\n<section id=\"discovery\">\n<h2>Discovery</h2>\n<p class=\"note\">Failure modes and distinct cores found against inferences spent (validation excluded). A failure mode counts at its last observation, a core at the first failure mode that contains it.</p>\n");
+    writeln!(out, "<div class=\"card plot\">{}</div>\n</section>\n", p.discovery)?;
+    out.push_str("<section id=\"outcomes\">\n<h2>Outcomes</h2>\n<p class=\"note\">Every observation by phase. Only correct and wrong answers enter a failure rate; the rest are counted here.</p>\n<div class=\"card\">\n<table class=\"tbl\">\n<thead><tr><th>outcome</th>");
+    for phase in &p.outcome_phases {
+        write!(out, "<th class=\"num\">{}</th>", Esc(phase))?;
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    for r in &p.outcome_rows {
+        write!(out, "<tr><td><span class=\"badge {}\">{}</span></td>", r.class, Esc(&r.outcome))?;
+        for n in &r.counts {
+            write!(out, "<td class=\"num\">{n}</td>")?;
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</tbody>\n</table>\n</div>\n</section>\n</div>\n\n");
+    Ok(())
 }
 
 #[cfg(test)]
@@ -527,5 +853,11 @@ mod tests {
         assert_eq!(grouped(115_144), "115\u{202f}144");
         assert_eq!(grouped(999), "999");
         assert_eq!(interval(Some((0.5655, 1.0))), "[57–100%]");
+    }
+
+    #[test]
+    fn escaping_covers_text_and_both_quotes() {
+        assert_eq!(Esc("a<b> & \"c\" 'd'").to_string(), "a&#60;b&#62; &#38; &#34;c&#34; &#39;d&#39;");
+        assert_eq!(Esc("plain – ünïcode").to_string(), "plain – ünïcode");
     }
 }

@@ -1,315 +1,247 @@
-//! The report's plots as SVG: the geometry is computed here, the markup is written by the
-//! `discovery.svg` and `heatmap.svg` templates (escaped like the page). The same text is saved as
-//! a standalone file and inlined in `index.html`, where cell tooltips (`<title>`) work.
+//! The report's plots, drawn with `plotters` on its SVG backend (which escapes every text it
+//! writes). The same text is saved as a standalone file and inlined in `index.html`.
 
-use std::fmt;
-
-use askama::Template;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::analysis::{Discovery, DiscoveryPoint, PairRates};
 
-/// A coordinate in SVG user units, written with at most one decimal.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Px(pub f64);
+const FONT: &str = "system-ui, DejaVu Sans, Arial, sans-serif";
+const INK: RGBColor = RGBColor(0x1f, 0x23, 0x28);
+const MUTED: RGBColor = RGBColor(0x59, 0x63, 0x6e);
+const GRID: RGBColor = RGBColor(0xe9, 0xec, 0xef);
+const HATCH: RGBColor = RGBColor(0xd5, 0xda, 0xe0);
+const FRAME: RGBColor = RGBColor(0xde, 0xe2, 0xe6);
+const MODES: RGBColor = RGBColor(0xc9, 0x2a, 0x2a);
+const CORES: RGBColor = RGBColor(0x3b, 0x5b, 0xdb);
+const MARKER: RGBColor = RGBColor(0x86, 0x8e, 0x96);
 
-impl fmt::Display for Px {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let v = (self.0 * 10.0).round() / 10.0;
-        if v.fract() == 0.0 { write!(f, "{}", v as i64) } else { write!(f, "{v:.1}") }
+/// Text of `px` pixels: the SVG backend writes `font-size` as the size given divided by 1.24.
+fn text(px: f64, color: RGBColor) -> TextStyle<'static> {
+    (FONT, px * 1.24).into_font().color(&color)
+}
+
+/// A drawing error as the report states it (the SVG backend writes to a string and has no
+/// fonts to load, so this is not expected to happen).
+fn drawing<E: std::fmt::Debug>(what: &str) -> impl Fn(E) -> String + '_ {
+    move |e| format!("cannot draw the {what}: {e:?}")
+}
+
+/// Plotters writes no title: one after the root tag names the plot for screen readers and as
+/// the standalone file's tooltip. `title` is ours, plain text without markup characters.
+fn titled(svg: String, title: &str) -> String {
+    match svg.find(">\n") {
+        Some(i) => format!("{}<title>{title}</title>\n{}", &svg[..i + 2], &svg[i + 2..]),
+        None => svg,
     }
 }
 
-pub struct Frame {
-    pub left: Px,
-    pub right: Px,
-    pub top: Px,
-    pub bottom: Px,
-}
-
-pub struct Tick {
-    pub pos: Px,
-    pub tick_end: Px,
-    pub text_x: Px,
-    pub text_y: Px,
-    pub label: String,
-}
-
-pub struct Marker {
-    pub pos: Px,
-    pub text_x: Px,
-    pub text_y: Px,
-    pub label: String,
-}
-
-pub struct Series {
-    pub name: String,
-    pub color: &'static str,
-    /// `x,y` pairs separated by spaces.
-    pub points: String,
-    pub key_x0: Px,
-    pub key_x1: Px,
-    pub key_y: Px,
-    pub text_x: Px,
-    pub text_y: Px,
-}
-
-pub struct Text {
-    pub x: Px,
-    pub y: Px,
-    pub text: String,
-}
-
-pub struct Rect {
-    pub x: Px,
-    pub y: Px,
-    pub w: Px,
-    pub h: Px,
-}
-
-#[derive(Template)]
-#[template(path = "discovery.svg")]
-pub struct DiscoverySvg {
-    pub title: String,
-    pub width: u32,
-    pub height: u32,
-    pub frame: Frame,
-    pub x_ticks: Vec<Tick>,
-    pub y_ticks: Vec<Tick>,
-    pub markers: Vec<Marker>,
-    pub series: Vec<Series>,
-    pub x_label: Text,
-    pub y_label: Text,
-}
-
-/// Tick values 0, step, 2·step, … up to the first at or above `max`, with a 1-2-5 step giving
-/// about `target` intervals.
+/// Tick values 0, step, 2·step, … up to the first at or above `max`, with the smallest 1-2-5
+/// step giving at most `target + 1` intervals (so the axis ends close above the data).
 pub fn nice_ticks(max: f64, target: usize) -> Vec<f64> {
     let max = max.max(1.0);
-    let raw = max / target.max(1) as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+    let target = target.max(1);
+    let mag = 10f64.powf((max / target as f64).log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * mag)
+        .find(|s| (max / s).ceil() as usize <= target + 1)
+        .unwrap_or(10.0 * mag);
     let step = step.max(1.0); // counts: whole numbers only
     let n = (max / step).ceil() as usize;
     (0..=n).map(|i| i as f64 * step).collect()
 }
 
-fn count_label(v: f64) -> String {
-    format!("{}", v.round() as i64)
-}
+const DISCOVERY_TITLE: &str = "Failure modes and distinct cores found against inferences";
 
 /// The discovery curve: failure modes and distinct cores found against inferences.
-pub fn discovery(d: &Discovery) -> String {
-    let (width, height) = (560u32, 300u32);
-    let frame = Frame {
-        left: Px(52.0),
-        right: Px(f64::from(width) - 18.0),
-        top: Px(14.0),
-        bottom: Px(f64::from(height) - 46.0),
-    };
+pub fn discovery(d: &Discovery) -> Result<String, String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (560, 300)).into_drawing_area();
+        draw_discovery(&root, d).map_err(drawing("discovery curve"))?;
+        root.present().map_err(drawing("discovery curve"))?;
+    }
+    Ok(titled(svg, DISCOVERY_TITLE))
+}
+
+fn draw_discovery<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    d: &Discovery,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    // Axes end on a round number at or above the data, so the last tick closes the frame.
     let xs = nice_ticks(d.inferences as f64, 5);
     let y_max = d.points.iter().map(|p| p.failure_modes.max(p.cores)).max().unwrap_or(0);
     let ys = nice_ticks(y_max as f64, 5);
-    let (x_hi, y_hi) = (*xs.last().unwrap_or(&1.0), *ys.last().unwrap_or(&1.0));
-    let x = |v: f64| frame.left.0 + (frame.right.0 - frame.left.0) * v / x_hi;
-    let y = |v: f64| frame.bottom.0 - (frame.bottom.0 - frame.top.0) * v / y_hi;
-    let x_ticks = xs
-        .iter()
-        .map(|&v| Tick {
-            pos: Px(x(v)),
-            tick_end: Px(frame.bottom.0 + 4.0),
-            text_x: Px(x(v)),
-            text_y: Px(frame.bottom.0 + 17.0),
-            label: count_label(v),
-        })
-        .collect();
-    let y_ticks = ys
-        .iter()
-        .map(|&v| Tick {
-            pos: Px(y(v)),
-            tick_end: Px(frame.left.0),
-            text_x: Px(frame.left.0 - 6.0),
-            text_y: Px(y(v) + 4.0),
-            label: count_label(v),
-        })
-        .collect();
+    let x_hi = xs.last().copied().unwrap_or(1.0) as u64;
+    let y_hi = ys.last().copied().unwrap_or(1.0) as u64;
+    let mut chart = ChartBuilder::on(root)
+        .margin_top(14)
+        .margin_right(18)
+        .margin_left(6)
+        .margin_bottom(6)
+        .x_label_area_size(40)
+        .y_label_area_size(46)
+        .build_cartesian_2d(0..x_hi, 0..y_hi)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(GRID)
+        .axis_style(MUTED)
+        .x_labels(xs.len())
+        .y_labels(ys.len())
+        .label_style(text(12.0, MUTED))
+        .axis_desc_style(text(12.0, INK))
+        .x_desc("inferences")
+        .y_desc("found")
+        .draw()?;
+    for &(at, phase) in &d.phase_starts {
+        let style = ShapeStyle::from(MARKER).stroke_width(1);
+        chart.draw_series(DashedLineSeries::new([(at, 0), (at, y_hi)], 4, 3, style))?;
+        let label = Text::new(super::phase_name(phase), (4, 4), text(12.0, MUTED));
+        chart.draw_series(std::iter::once(EmptyElement::at((at, y_hi)) + label))?;
+    }
+    // A step line: flat until the next point, then up. Cores are drawn thinner on top, so where
+    // the two counts agree the failure modes' red still shows around the blue.
     type Count = fn(&DiscoveryPoint) -> usize;
-    let step_line = |value: Count| {
-        let mut pts: Vec<String> = Vec::new();
-        let mut prev: Option<usize> = None;
-        for p in &d.points {
-            let px = Px(x(p.inferences as f64));
-            if let Some(before) = prev {
-                pts.push(format!("{px},{}", Px(y(before as f64))));
+    let steps = |value: Count| {
+        let mut pts = Vec::new();
+        for (i, p) in d.points.iter().enumerate() {
+            if i > 0 {
+                pts.push((p.inferences, value(&d.points[i - 1]) as u64));
             }
-            pts.push(format!("{px},{}", Px(y(value(p) as f64))));
-            prev = Some(value(p));
+            pts.push((p.inferences, value(p) as u64));
         }
-        pts.join(" ")
+        pts
     };
-    let lines: [(&str, &'static str, Count); 2] =
-        [("failure modes", "#c92a2a", |p| p.failure_modes), ("distinct cores", "#3b5bdb", |p| p.cores)];
-    let series = lines
-        .iter()
-        .enumerate()
-        .map(|(i, &(name, color, value))| {
-            let key_y = frame.top.0 + 12.0 + 18.0 * i as f64;
-            Series {
-                name: name.to_string(),
-                color,
-                points: step_line(value),
-                key_x0: Px(frame.left.0 + 12.0),
-                key_x1: Px(frame.left.0 + 32.0),
-                key_y: Px(key_y),
-                text_x: Px(frame.left.0 + 38.0),
-                text_y: Px(key_y + 4.0),
-            }
-        })
-        .collect();
-    let markers = d
-        .phase_starts
-        .iter()
-        .map(|(at, phase)| {
-            let pos = x(*at as f64);
-            Marker {
-                pos: Px(pos),
-                text_x: Px(pos + 4.0),
-                text_y: Px(frame.top.0 + 12.0),
-                label: super::phase_name(*phase),
-            }
-        })
-        .collect();
-    let svg = DiscoverySvg {
-        title: "Failure modes and distinct cores found against inferences".into(),
-        width,
-        height,
-        x_label: Text {
-            x: Px((frame.left.0 + frame.right.0) / 2.0),
-            y: Px(f64::from(height) - 8.0),
-            text: "inferences".into(),
-        },
-        y_label: Text { x: Px(14.0), y: Px((frame.top.0 + frame.bottom.0) / 2.0), text: "found".into() },
-        frame,
-        x_ticks,
-        y_ticks,
-        markers,
-        series,
-    };
-    svg.render().expect("the discovery template renders")
-}
-
-pub struct Cell {
-    pub x: Px,
-    pub y: Px,
-    pub fill: String,
-    pub title: String,
-}
-
-pub struct Stop {
-    pub offset: String,
-    pub color: String,
-}
-
-#[derive(Template)]
-#[template(path = "heatmap.svg")]
-pub struct HeatmapSvg {
-    pub title: String,
-    pub width: u32,
-    pub height: u32,
-    pub row_labels: Vec<Text>,
-    pub col_labels: Vec<Text>,
-    pub grid: Rect,
-    pub cell: Px,
-    pub cells: Vec<Cell>,
-    pub legend: Rect,
-    pub legend_stops: Vec<Stop>,
-    pub legend_ticks: Vec<Text>,
+    let lines: [(&str, RGBColor, u32, Count); 2] =
+        [("failure modes", MODES, 4, |p| p.failure_modes), ("distinct cores", CORES, 2, |p| p.cores)];
+    for (name, color, width, value) in lines {
+        chart
+            .draw_series(LineSeries::new(steps(value), color.stroke_width(width)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(WHITE)
+        .label_font(text(12.0, INK))
+        .draw()?;
+    Ok(())
 }
 
 /// The colour of a failure rate: pale (0) through orange to dark red (1).
-pub fn heat(fr: f64) -> String {
+pub fn heat(fr: f64) -> RGBColor {
     const STOPS: [(f64, [f64; 3]); 3] =
         [(0.0, [255.0, 245.0, 235.0]), (0.5, [253.0, 141.0, 60.0]), (1.0, [165.0, 15.0, 21.0])];
     let fr = fr.clamp(0.0, 1.0);
     let i = if fr <= STOPS[1].0 { 0 } else { 1 };
     let (a, b) = (STOPS[i], STOPS[i + 1]);
     let t = (fr - a.0) / (b.0 - a.0);
-    let c: Vec<u8> = (0..3).map(|k| (a.1[k] + t * (b.1[k] - a.1[k])).round() as u8).collect();
-    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+    let c = |k: usize| (a.1[k] + t * (b.1[k] - a.1[k])).round() as u8;
+    RGBColor(c(0), c(1), c(2))
 }
 
 /// Width of a label at 12 px, estimated (no font metrics here): generous, so labels never clip.
-fn label_width(s: &str) -> f64 {
-    s.chars().count() as f64 * 7.2
+fn label_width(s: &str) -> i32 {
+    (s.chars().count() as f64 * 7.2).ceil() as i32
 }
 
-/// The concept × concept heatmap of pair failure rates.
-pub fn heatmap(p: &PairRates) -> String {
-    let k = p.concepts.len();
-    let cell = 18.0;
-    let longest = p.concepts.iter().map(|c| label_width(c)).fold(40.0, f64::max);
-    let (sin, cos) = (55f64.to_radians().sin(), 55f64.to_radians().cos());
-    let left = longest + 14.0;
-    let top = longest * sin + 16.0;
-    let grid = cell * k as f64;
-    let overhang = longest * cos - cell * 0.5;
-    let legend_x = left + grid + 22.0;
-    let width = (legend_x + 60.0).max(left + grid + overhang + 8.0).ceil();
-    let height = (top + grid.max(120.0) + 12.0).ceil();
-    let row_labels = p
-        .concepts
-        .iter()
-        .enumerate()
-        .map(|(i, c)| Text { x: Px(left - 6.0), y: Px(top + cell * i as f64 + cell * 0.5 + 4.0), text: c.clone() })
-        .collect();
-    let col_labels = p
-        .concepts
-        .iter()
-        .enumerate()
-        .map(|(j, c)| Text { x: Px(left + cell * j as f64 + cell * 0.5), y: Px(top - 6.0), text: c.clone() })
-        .collect();
-    let mut cells = Vec::new();
+const CELL: i32 = 18;
+const HEATMAP_TITLE: &str = "Mean failure rate of the evaluated sets holding each pair of concepts";
+
+/// Where the heatmap's parts go, in pixels.
+struct Layout {
+    left: i32,
+    top: i32,
+    grid: i32,
+    legend_x: i32,
+    legend_h: i32,
+    width: u32,
+    height: u32,
+}
+
+impl Layout {
+    fn of(p: &PairRates) -> Layout {
+        let longest = p.concepts.iter().map(|c| label_width(c)).fold(40, i32::max);
+        // Column labels stand upright above the grid, row labels to its left.
+        let (left, top) = (longest + 14, longest + 14);
+        let grid = CELL * p.concepts.len() as i32;
+        let legend_x = left + grid + 22;
+        let legend_h = grid.clamp(120, 240);
+        let width = (legend_x + 60) as u32;
+        let height = (top + grid.max(legend_h) + 12) as u32;
+        Layout { left, top, grid, legend_x, legend_h, width, height }
+    }
+}
+
+/// The concept × concept heatmap of pair failure rates; pairs never evaluated are hatched.
+pub fn heatmap(p: &PairRates) -> Result<String, String> {
+    let layout = Layout::of(p);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (layout.width, layout.height)).into_drawing_area();
+        draw_heatmap(&root, p, &layout).map_err(drawing("pair heatmap"))?;
+        root.present().map_err(drawing("pair heatmap"))?;
+    }
+    Ok(titled(svg, HEATMAP_TITLE))
+}
+
+fn draw_heatmap<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    p: &PairRates,
+    l: &Layout,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    let label = text(12.0, INK);
+    for (i, c) in p.concepts.iter().enumerate() {
+        let middle = CELL * i as i32 + CELL / 2;
+        let row = label.pos(Pos::new(HPos::Right, VPos::Center));
+        root.draw(&Text::new(c.as_str(), (l.left - 6, l.top + middle), row))?;
+        let column = label.pos(Pos::new(HPos::Left, VPos::Center)).transform(FontTransform::Rotate270);
+        root.draw(&Text::new(c.as_str(), (l.left + middle, l.top - 6), column))?;
+    }
+    // The hatch under the grid shows through wherever no evaluated set holds the pair.
+    let (x0, y0, g) = (l.left, l.top, l.grid);
+    for t in (6..2 * g).step_by(6) {
+        let from = (x0 + (t - g).max(0), y0 + t.min(g));
+        let to = (x0 + t.min(g), y0 + (t - g).max(0));
+        root.draw(&PathElement::new([from, to], HATCH.stroke_width(1)))?;
+    }
+    root.draw(&Rectangle::new([(x0, y0), (x0 + g, y0 + g)], FRAME.stroke_width(1)))?;
     for (i, row) in p.cells.iter().enumerate() {
         for (j, c) in row.iter().enumerate() {
             let Some(c) = c else { continue };
-            let sets = if c.n == 1 { "set" } else { "sets" };
-            let title = if i == j {
-                format!("{}: F(c) {:.0}% over {} {sets}", p.concepts[i], 100.0 * c.fr, c.n)
-            } else {
-                format!("{} + {}: {:.0}% over {} {sets}", p.concepts[i], p.concepts[j], 100.0 * c.fr, c.n)
-            };
-            cells.push(Cell { x: Px(left + cell * j as f64), y: Px(top + cell * i as f64), fill: heat(c.fr), title });
+            let (x, y) = (x0 + CELL * j as i32, y0 + CELL * i as i32);
+            root.draw(&Rectangle::new([(x, y), (x + CELL, y + CELL)], WHITE.filled()))?;
+            root.draw(&Rectangle::new([(x + 1, y + 1), (x + CELL - 1, y + CELL - 1)], heat(c.fr).filled()))?;
         }
     }
-    let legend_h = grid.clamp(120.0, 240.0);
-    let legend_stops =
-        [0.0, 0.25, 0.5, 0.75, 1.0].iter().map(|&v| Stop { offset: format!("{v}"), color: heat(v) }).collect();
-    let legend_ticks = [0.0, 0.5, 1.0]
-        .iter()
-        .map(|&v| Text {
-            x: Px(legend_x + 20.0),
-            y: Px(top + legend_h * (1.0 - v) + 4.0),
-            text: format!("{:.0}%", 100.0 * v),
-        })
-        .collect();
-    let svg = HeatmapSvg {
-        title: "Mean failure rate of the evaluated sets holding each pair of concepts".into(),
-        width: width as u32,
-        height: height as u32,
-        row_labels,
-        col_labels,
-        grid: Rect { x: Px(left), y: Px(top), w: Px(grid), h: Px(grid) },
-        cell: Px(cell),
-        cells,
-        legend: Rect { x: Px(legend_x), y: Px(top), w: Px(14.0), h: Px(legend_h) },
-        legend_stops,
-        legend_ticks,
-    };
-    svg.render().expect("the heatmap template renders")
+    // The legend: a column of thin bands from 0 % (bottom) to 100 % (top).
+    let (lx, h) = (l.legend_x, l.legend_h);
+    const BANDS: i32 = 48;
+    for b in 0..BANDS {
+        let (lo, hi) = (y0 + h - h * (b + 1) / BANDS, y0 + h - h * b / BANDS);
+        let fr = (f64::from(b) + 0.5) / f64::from(BANDS);
+        root.draw(&Rectangle::new([(lx, lo), (lx + 14, hi)], heat(fr).filled()))?;
+    }
+    root.draw(&Rectangle::new([(lx, y0), (lx + 14, y0 + h)], FRAME.stroke_width(1)))?;
+    let tick = text(12.0, MUTED).pos(Pos::new(HPos::Left, VPos::Center));
+    for v in [0, 50, 100] {
+        root.draw(&Text::new(format!("{v}%"), (lx + 20, y0 + h - h * v / 100), tick.clone()))?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::PairRate;
 
     #[test]
     fn ticks_use_1_2_5_steps_and_cover_the_maximum() {
@@ -317,29 +249,56 @@ mod tests {
         assert_eq!(nice_ticks(37.0, 5), vec![0.0, 10.0, 20.0, 30.0, 40.0]);
         assert_eq!(nice_ticks(0.0, 5), vec![0.0, 1.0]);
         assert_eq!(nice_ticks(3.0, 5), vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(nice_ticks(1092.0, 5), vec![0.0, 200.0, 400.0, 600.0, 800.0, 1000.0, 1200.0]);
+        assert_eq!(nice_ticks(52.0, 5), vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0]);
     }
 
     #[test]
-    fn coordinates_print_short_and_colours_span_the_scale() {
-        assert_eq!(Px(12.0).to_string(), "12");
-        assert_eq!(Px(12.349).to_string(), "12.3");
-        assert_eq!(heat(0.0), "#fff5eb");
-        assert_eq!(heat(1.0), "#a50f15");
-        assert_eq!(heat(0.5), "#fd8d3c");
+    fn colours_span_the_scale() {
+        assert_eq!(heat(0.0), RGBColor(0xff, 0xf5, 0xeb));
+        assert_eq!(heat(0.5), RGBColor(0xfd, 0x8d, 0x3c));
+        assert_eq!(heat(1.0), RGBColor(0xa5, 0x0f, 0x15));
     }
 
     #[test]
-    fn heatmap_escapes_names_and_titles_every_cell() {
-        let p = crate::analysis::PairRates {
+    fn heatmap_escapes_names_and_colours_each_evaluated_pair() {
+        let p = PairRates {
             concepts: vec!["a<b".into(), "c".into()],
-            cells: vec![
-                vec![Some(crate::analysis::PairRate { fr: 1.0, n: 2 }), None],
-                vec![None, Some(crate::analysis::PairRate { fr: 0.0, n: 1 })],
-            ],
+            cells: vec![vec![Some(PairRate { fr: 1.0, n: 2 }), None], vec![None, Some(PairRate { fr: 0.0, n: 1 })]],
         };
-        let svg = heatmap(&p);
-        assert!(svg.contains("a&#60;b") && !svg.contains("a<b"), "{svg}");
-        assert_eq!(svg.matches("<title>").count(), 3, "{svg}");
-        assert!(svg.contains("F(c) 100% over 2 sets"));
+        let svg = heatmap(&p).unwrap();
+        assert!(svg.contains("a&lt;b") && !svg.contains("a<b"), "{svg}");
+        assert!(svg.contains(&format!("<title>{HEATMAP_TITLE}</title>")), "{svg}");
+        // One cell at 100 % and one at 0 %: each colour once in the grid, once in the legend's ends.
+        assert_eq!(svg.matches("fill=\"#A50F15\"").count(), 1, "{svg}");
+        assert_eq!(svg.matches("fill=\"#FFF5EB\"").count(), 1, "{svg}");
+    }
+
+    #[test]
+    fn discovery_has_both_lines_a_legend_and_phase_markers() {
+        let point = |inferences, failure_modes, cores| DiscoveryPoint { inferences, failure_modes, cores };
+        let d = Discovery {
+            points: vec![point(0, 0, 0), point(40, 1, 1), point(90, 3, 1), point(120, 3, 2)],
+            phase_starts: vec![(100, crate::journal::Phase::Shrink)],
+            inferences: 120,
+        };
+        let svg = discovery(&d).unwrap();
+        for needle in
+            ["failure modes", "distinct cores", "inferences", "found", "shrink\n</text>", "stroke=\"#C92A2A\""]
+        {
+            assert!(svg.contains(needle), "`{needle}` missing:\n{svg}");
+        }
+        assert!(svg.starts_with("<svg ") && svg.trim_end().ends_with("</svg>"));
+        // A run that spent nothing still draws its (empty) axes.
+        let empty = Discovery { points: vec![point(0, 0, 0)], phase_starts: Vec::new(), inferences: 0 };
+        assert!(discovery(&empty).unwrap().contains("inferences"));
+        let one = Discovery { points: vec![point(0, 0, 0), point(1, 1, 1)], phase_starts: Vec::new(), inferences: 1 };
+        assert!(discovery(&one).unwrap().contains("distinct cores"));
+        let big = Discovery {
+            points: vec![point(0, 0, 0), point(98_765, 412, 37)],
+            phase_starts: Vec::new(),
+            inferences: 98_765,
+        };
+        assert!(discovery(&big).unwrap().contains("100000"));
     }
 }
