@@ -2,10 +2,24 @@
 //! rows and journal records: per-concept failure F(c), pairwise failure rates, the discovery
 //! curve (failure modes and distinct cores found against inferences spent), the outcome
 //! breakdown, and — for runs that predate shrinking — cores approximated by the minimal failure
-//! modes. The report ([`crate::report`]) draws these; nothing here reads a file.
+//! modes. The report ([`crate::report`]) draws these; they read no file.
 //!
 //! Sets are handled by concept name (index order, as the journal and the summary write them), so
 //! a run can be analysed without recompiling its domain.
+//!
+//! The submodules go further: recognition vs. reasoning and lift ([`probe`]), transfer to other
+//! models ([`transfer`]), runs compared ([`compare`]), ablation sweeps and their plot
+//! ([`sweep`]), and the drivers that ask a run's sets again through the one observe pipeline
+//! ([`reask`]). Their computations are pure functions of observations; only `reask` does I/O
+//! (through `run`).
+
+pub mod compare;
+#[cfg(test)]
+mod pipeline_tests;
+pub mod probe;
+pub mod reask;
+pub mod sweep;
+pub mod transfer;
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -118,12 +132,14 @@ pub fn pair_rates(sets: &[SetRow], concepts: &[String]) -> PairRates {
 }
 
 /// The observations that count: a resumed run asks again after a failed call, so the journal
-/// may hold several lines for one (phase, set, observation); the newest wins, as it does for
-/// the run itself. Returned in journal order of the winning lines.
+/// may hold several lines for one (phase, set, observation, model); the newest wins, as it does
+/// for the run itself. Returned in journal order of the winning lines.
 pub fn latest_observations(records: &[Record]) -> Vec<&Record> {
-    let mut last: HashMap<(Phase, &[String], u32), usize> = HashMap::new();
+    // (phase, set, observation, the model when it is not the run's own)
+    type Line<'a> = (Phase, &'a [String], u32, Option<&'a str>);
+    let mut last: HashMap<Line, usize> = HashMap::new();
     for (i, r) in records.iter().enumerate() {
-        last.insert((r.phase, r.set.as_slice(), r.obs), i);
+        last.insert((r.phase, r.set.as_slice(), r.obs, r.model.as_deref()), i);
     }
     let mut keep: Vec<usize> = last.into_values().collect();
     keep.sort_unstable();
@@ -159,13 +175,14 @@ pub struct Discovery {
     pub inferences: u64,
 }
 
-/// The discovery curve over the observations of every phase but validation (which re-checks
-/// what was found and finds nothing new). A failure mode counts as found at its last
+/// The discovery curve over the observations of the search and shrink phases (validation
+/// re-checks what was found, and probe and transfer re-ask it: they find nothing new). A failure mode counts as found at its last
 /// observation in the phase that first evaluated it (shrinking re-tests failure modes later,
 /// which finds nothing new); a core counts as found when the first failure mode containing it
 /// is found.
 pub fn discovery(observations: &[&Record], failure_modes: &[Vec<String>], cores: &[Vec<String>]) -> Discovery {
-    let searched: Vec<&Record> = observations.iter().copied().filter(|r| r.phase != Phase::Validate).collect();
+    let searched: Vec<&Record> =
+        observations.iter().copied().filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink)).collect();
     let mut first_phase: HashMap<&[String], Phase> = HashMap::new();
     let mut last: HashMap<&[String], usize> = HashMap::new();
     for (i, r) in searched.iter().enumerate() {

@@ -36,6 +36,7 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         usage: Usage::default(),
         latency_ms: 0,
         cached: false,
+        model: None,
     }
 }
 

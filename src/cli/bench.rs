@@ -99,6 +99,13 @@ pub struct SearchBenchArgs {
     /// Interact: supersets of a confirmed core (exclude, fallback, keep)
     #[arg(long, default_value = "fallback")]
     pub supersets: Supersets,
+    /// Ablation: run every algorithm at each value of one parameter (beam_width, beam_budget,
+    /// samples, threshold, lambda), e.g. `beam_width=1,5,10`; prints a table and writes an SVG plot
+    #[arg(long, value_name = "PARAM=V1,V2,…")]
+    pub sweep: Option<crate::analysis::sweep::Sweep>,
+    /// Where `--sweep` writes its plot [default: sweep-PARAM.svg]
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -182,10 +189,10 @@ pub struct AlgoResult {
 }
 
 /// One run's figures (`None`: undefined for this run).
-struct RunFigures {
-    pfm: f64,
-    mfr: f64,
-    div: Option<f64>,
+pub(crate) struct RunFigures {
+    pub(crate) pfm: f64,
+    pub(crate) mfr: f64,
+    pub(crate) div: Option<f64>,
     failure_modes: f64,
     false_modes: f64,
     precision: Option<f64>,
@@ -245,6 +252,16 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let truth = profile.clone();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
+    if let Some(sweep) = &args.sweep {
+        let code = super::sweep::run(
+            &args,
+            sweep,
+            &base,
+            &super::sweep::Bench { domain, world, model, space, planted, truth, tmp: tmp.clone() },
+        );
+        let _ = std::fs::remove_dir_all(&tmp);
+        return code;
+    }
     let mut results = Vec::new();
     let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
     for algo in algos {
@@ -301,7 +318,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn bench_one(
+pub(crate) fn bench_one(
     args: &SearchBenchArgs,
     domain: &Arc<Domain>,
     world: &Arc<dyn World>,

@@ -8,17 +8,21 @@ use clap::{Parser, Subcommand};
 pub mod ask;
 pub mod bench;
 pub mod check;
+pub mod compare;
 pub mod describe;
 pub mod emit;
 pub mod fmt;
 pub mod lattice;
 pub mod lsp;
 pub mod oracle;
+pub mod probe;
 pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod report;
 pub mod search;
+pub mod sweep;
+pub mod transfer;
 pub mod validate;
 
 #[derive(Parser, Debug)]
@@ -55,6 +59,12 @@ pub enum Command {
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     #[cfg(feature = "render")]
     Render(render::RenderArgs),
+    /// Recognition vs. reasoning: re-ask a run's top sets with true/false probe statements
+    Probe(probe::ProbeArgs),
+    /// Replay a run's top sets on other models with the same images (failure-mode transfer)
+    Transfer(transfer::TransferArgs),
+    /// Compare finished runs: PFM, MFR and Div with intervals (terminal, CSV, HTML)
+    Compare(compare::CompareArgs),
     /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
     Report(report::ReportArgs),
 }
@@ -82,6 +92,9 @@ pub fn main() -> ExitCode {
         Command::Ask(a) => ask::run(a),
         #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
+        Command::Probe(a) => probe::run(a),
+        Command::Transfer(a) => transfer::run(a),
+        Command::Compare(a) => compare::run(a),
         Command::Report(a) => report::run(a),
     }
 }

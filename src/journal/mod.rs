@@ -45,6 +45,10 @@ pub enum Phase {
     /// Shrinking failure modes to cores after the search (more observations of search sets
     /// continue their indices; subsets start at 0).
     Shrink,
+    /// `revelio probe`: the safety question with the recognition statements (paper appendix G).
+    Probe,
+    /// `revelio transfer`: a run's top sets and random sets asked of other models.
+    Transfer,
 }
 
 /// One observation, as one journal line.
@@ -74,6 +78,9 @@ pub struct Record {
     pub usage: Usage,
     pub latency_ms: u64,
     pub cached: bool,
+    /// The model that answered, when it is not the run's own (phase `transfer`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
 }
 
 /// What can go wrong with a run folder.
@@ -306,6 +313,7 @@ mod tests {
             usage: Usage::default(),
             latency_ms: 3,
             cached: false,
+            model: None,
         }
     }
 

@@ -235,7 +235,9 @@ impl Run {
                 })
                 .collect()
         };
-        let observations = analysis::latest_observations(&self.records);
+        // `transfer` journals other models' answers in the run: the report is about its own model.
+        let observations: Vec<&Record> =
+            analysis::latest_observations(&self.records).into_iter().filter(|r| r.model.is_none()).collect();
         let core_observations = cores
             .iter()
             .map(|c| {

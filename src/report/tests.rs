@@ -92,6 +92,7 @@ fn fixture(renderer: &str) -> Fixture {
                     usage: Usage::default(),
                     latency_ms: 1,
                     cached: false,
+                    model: None,
                 })
                 .unwrap();
             stats.add(outcome);

@@ -49,6 +49,8 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
         Phase::Search => 0x5345_4152_4348,
         Phase::Validate => 0x5641_4c49_4441,
         Phase::Shrink => 0x5348_5249_4e4b,
+        Phase::Probe => 0x0050_524f_4245,
+        Phase::Transfer => 0x5452_414e_5346,
     };
     let mut h = mix(run_seed ^ p);
     h = mix(h ^ key.set.0 as u64);
@@ -172,6 +174,11 @@ impl Evaluator {
         for (i, r) in c.journal.records.iter().enumerate() {
             // A failed call is not a paid answer: a resumed run asks again (the newer line wins).
             if r.outcome == Outcome::ApiError {
+                continue;
+            }
+            // Probe and transfer replies are read by their own commands (another prompt, or
+            // another model), never replayed as this evaluator's answers.
+            if matches!(r.phase, Phase::Probe | Phase::Transfer) {
                 continue;
             }
             let set = domain.parse_set(&r.set).map_err(|e| ResumeError::UnknownSet {

@@ -191,6 +191,7 @@ impl Observer {
                 concepts: self.domain.set_names(stimulus.set).into_iter().map(String::from).collect(),
                 expected: task.expected,
                 key: stimulus.seed,
+                statements: Vec::new(),
             }),
         }
     }
@@ -226,6 +227,7 @@ impl Observer {
             usage: reply.as_ref().map(|r| r.usage).unwrap_or_default(),
             latency_ms: reply.as_ref().map_or(0, |r| r.latency_ms),
             cached: reply.as_ref().is_some_and(|r| r.cached),
+            model: None,
         };
         Observation { key, outcome, reply, record }
     }

@@ -36,6 +36,19 @@ pub struct Truth {
     /// A deterministic per-observation key (run seed, set, observation index mixed), so a
     /// simulated answer is the same on a resumed run.
     pub key: u64,
+    /// The recognition statements the prompt lists (`revelio probe`), in prompt order; empty
+    /// for the plain safety question.
+    pub statements: Vec<Statement>,
+}
+
+/// One true/false statement of a probe prompt: a concept's probe or its counterfactual.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Statement {
+    /// The concept the statement is about.
+    pub concept: String,
+    /// `true`: the positive statement (true of the scene); `false`: the counterfactual.
+    pub positive: bool,
+    pub text: String,
 }
 
 /// A model's reply to one query.
@@ -103,3 +116,4 @@ pub mod registry;
 #[cfg(feature = "net")]
 pub mod sigv4;
 pub mod sim;
+pub mod statements;

@@ -25,9 +25,41 @@ pub fn build(question: &str, options: &[String]) -> String {
     s
 }
 
+/// The instruction that fixes the statement format of a probe prompt; `vlm::statements` reads it
+/// strictly first.
+pub const STATEMENT_FORMAT: &str = "First write one line per statement of the form `S1: True` or `S1: False`, saying whether the statement is true of the image.";
+
+/// Build the probe prompt (paper appendix G): the true/false statements `S1`, `S2`, … before the
+/// question, answered in the same reply as the option.
+pub fn build_probe(question: &str, options: &[String], statements: &[String]) -> String {
+    let mut s = String::from("Decide whether each statement about the image is true or false:\n");
+    for (i, t) in statements.iter().enumerate() {
+        s.push_str(&format!("S{}. {}\n", i + 1, t.trim()));
+    }
+    s.push('\n');
+    let plain = build(question, options);
+    let body = plain.strip_suffix(ANSWER_FORMAT).unwrap_or(&plain);
+    s.push_str(body);
+    s.push_str(STATEMENT_FORMAT);
+    s.push(' ');
+    s.push_str(ANSWER_FORMAT);
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn probe_prompt_lists_statements_before_the_question() {
+        let p = build_probe("Is it safe?", &["Yes".into(), "No".into()], &["A cone.".into(), "No cone.".into()]);
+        assert_eq!(
+            p,
+            format!(
+                "Decide whether each statement about the image is true or false:\nS1. A cone.\nS2. No cone.\n\nIs it safe?\n(A) Yes\n(B) No\n{STATEMENT_FORMAT} {ANSWER_FORMAT}"
+            )
+        );
+    }
 
     #[test]
     fn lettered_options_and_format_line() {

@@ -14,7 +14,14 @@
 //! [[mode]]
 //! concepts = ["debris_far", "town_town02"]  # matches a set that holds all of them
 //! error = 0.9
+//! [recognition]       # chance the model recognises a concept (default 1.0)
+//! debris_far = 0.1
 //! ```
+//! Probe statements (`revelio probe`) are answered per concept: a recognised concept gets its
+//! positive statement marked True and its counterfactual False; an unrecognised one the inverse,
+//! so a concept with recognition r has a recognition rate R near r. Whether a concept is
+//! recognised is drawn independently of the safety answer, which stays the one the plain prompt
+//! gets for the same observation.
 //! The most specific matching mode wins (most concepts; ties: the highest error). With
 //! `dilution = d`, a set holding k concepts beyond the winning mode's is answered wrongly with
 //! chance `base_error + (error − base_error)·(1 − d)^k`: other things in the scene draw the
@@ -48,6 +55,8 @@ struct ProfileFile {
     dilution: f64,
     #[serde(default)]
     mode: Vec<ModeFile>,
+    #[serde(default)]
+    recognition: std::collections::BTreeMap<String, f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -79,6 +88,8 @@ pub struct Profile {
     /// Share of a mode's excess error lost per concept beyond the mode's (0 = none).
     pub dilution: f64,
     pub modes: Vec<Mode>,
+    /// Chance the model recognises a concept in a probe statement (concepts not listed: 1).
+    pub recognition: std::collections::BTreeMap<String, f64>,
     /// SHA-256 hex of the profile text, so that editing a profile changes the model id (and a
     /// run folder refuses to resume with different answers).
     pub hash: String,
@@ -116,8 +127,22 @@ impl Profile {
             }
             modes.push(Mode { concepts: set, error: rate("error", m.error)? });
         }
+        let mut recognition = std::collections::BTreeMap::new();
+        for (name, &r) in &file.recognition {
+            domain.parse_set(&[name]).map_err(|e| format!("invalid sim profile `{origin}`: {e}"))?;
+            recognition.insert(name.clone(), rate("recognition", r)?);
+        }
         let hash = crate::hash::sha256_hex(text.as_bytes());
-        Ok(Profile { name: file.name, base_error, unparsed, latency_ms: file.latency_ms, dilution, modes, hash })
+        Ok(Profile {
+            name: file.name,
+            base_error,
+            unparsed,
+            latency_ms: file.latency_ms,
+            dilution,
+            modes,
+            recognition,
+            hash,
+        })
     }
 
     /// The chance of a wrong answer for a set: the most specific matching mode's error (most
@@ -170,7 +195,10 @@ impl SimModel {
             let letter = crate::vlm::prompt::letter(pick as usize);
             let text = query.options.get(pick as usize).map_or("", |s| s.as_str());
             (
-                format!("Looking at the scene, the best match is option {letter}: {text}\nAnswer: {letter}"),
+                format!(
+                    "{}Looking at the scene, the best match is option {letter}: {text}\nAnswer: {letter}",
+                    self.marks(truth)
+                ),
                 Answer::Option(pick),
             )
         };
@@ -181,6 +209,24 @@ impl SimModel {
             cost_usd: 0.0,
         };
         Reply { raw, thinking: None, answer, usage, latency_ms: self.profile.latency_ms, cached: false, attempts: 1 }
+    }
+}
+
+impl SimModel {
+    /// The `Sk: True/False` lines of a probe reply (empty for the plain prompt). Drawn from
+    /// their own stream, so the safety answer is the one the plain prompt gets.
+    fn marks(&self, truth: &crate::vlm::Truth) -> String {
+        let mut out = String::new();
+        let mut rng = ChaCha8Rng::seed_from_u64(truth.key ^ 0x5245_434f_474e_4953);
+        let mut recognised = std::collections::BTreeMap::new();
+        for (i, s) in truth.statements.iter().enumerate() {
+            let r = self.profile.recognition.get(&s.concept).copied().unwrap_or(1.0);
+            // One draw per concept and observation: both of its statements agree.
+            let seen = *recognised.entry(s.concept.as_str()).or_insert_with(|| rng.random_bool(r));
+            let mark = if seen == s.positive { "True" } else { "False" };
+            out.push_str(&format!("S{}: {mark}\n", i + 1));
+        }
+        out
     }
 }
 
@@ -222,7 +268,7 @@ pub(crate) mod tests {
             image_hash: String::new(),
             prompt: "Q?".into(),
             options: vec!["stop".into(), "slow".into(), "go".into()],
-            truth: Some(Truth { set, concepts: vec![], expected, key }),
+            truth: Some(Truth { set, concepts: vec![], expected, key, statements: vec![] }),
         }
     }
 
@@ -326,6 +372,25 @@ error = 0.7
         // No mode and no base error: always right.
         let other = d.parse_set(&["b"]).unwrap();
         assert!((0..200).all(|k| m.answer(&query(other, 2, k)).answer == Answer::Option(2)));
+    }
+
+    #[test]
+    fn probe_statements_follow_the_recognition_table() {
+        use crate::vlm::Statement;
+        let d = names_domain(&["a", "b"]);
+        let text = "name = \"t\"\n[recognition]\na = 0.0\n";
+        let m = SimModel { profile: Profile::parse(text, "p", &d).unwrap() };
+        let st = |c: &str, positive: bool| Statement { concept: c.into(), positive, text: String::new() };
+        let mut q = query(d.parse_set(&["a", "b"]).unwrap(), 0, 3);
+        let plain = m.answer(&q);
+        q.truth.as_mut().unwrap().statements = vec![st("a", true), st("a", false), st("b", true), st("b", false)];
+        let r = m.answer(&q);
+        assert!(r.raw.starts_with("S1: False\nS2: True\nS3: True\nS4: False\n"), "{}", r.raw);
+        assert_eq!(r.answer, plain.answer, "the safety answer does not depend on the statements");
+        let e = Profile::parse("name = \"t\"\n[recognition]\nzz = 0.5\n", "p", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p`: unknown concept `zz` in domain `test`");
+        let e = Profile::parse("name = \"t\"\n[recognition]\na = 2.0\n", "p", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p`: `recognition` must be between 0 and 1, got 2");
     }
 
     #[test]

@@ -1,0 +1,187 @@
+//! The paper's Table 2 across runs: per run its domain, model and algorithm, PFM, MFR and Div
+//! with 95 % intervals, its failure modes, its distinct cores (the shrink phase's, from
+//! `summary.json`; for a run that did not shrink, its failure modes with no smaller failure mode
+//! inside them) and its spend.
+//!
+//! Intervals: Wilson score intervals for PFM (failure modes among evaluated sets) and MFR (wrong
+//! answers among inferences); for Div, the mean pairwise Jaccard distance, ± 1.96 jackknife
+//! standard errors over the failure modes (clamped to [0, 1]).
+
+use std::collections::BTreeSet;
+
+use serde::{Deserialize, Serialize};
+
+/// What comparing needs from one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunFacts {
+    pub run: String,
+    pub domain: String,
+    pub model: String,
+    pub algo: String,
+    pub sets: usize,
+    pub inferences: u64,
+    pub failures: u64,
+    /// The failure modes' concept names.
+    pub failure_modes: Vec<Vec<String>>,
+    /// The shrink phase's distinct cores (`summary.json`'s `cores`); `None` for a run that did
+    /// not shrink, whose cores are counted as its failure modes with no smaller one inside.
+    pub shrunk_cores: Option<usize>,
+    pub calls: u64,
+    pub cost_usd: f64,
+}
+
+/// A rate with its 95 % interval, all in [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Rate {
+    pub value: f64,
+    pub low: f64,
+    pub high: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub run: String,
+    pub domain: String,
+    pub model: String,
+    pub algo: String,
+    pub pfm: Rate,
+    pub mfr: Rate,
+    /// `None` with fewer than two failure modes.
+    pub div: Option<Rate>,
+    pub failure_modes: usize,
+    /// Failure modes with no smaller failure mode inside them.
+    pub cores: usize,
+    pub sets: usize,
+    pub inferences: u64,
+    pub calls: u64,
+    pub cost_usd: f64,
+}
+
+/// Wilson score interval of `k` successes in `n` at 95 %.
+pub fn wilson(k: u64, n: u64) -> Rate {
+    if n == 0 {
+        return Rate { value: 0.0, low: 0.0, high: 1.0 };
+    }
+    let (k, n) = (k as f64, n as f64);
+    let z = 1.959_964;
+    let p = k / n;
+    let denom = 1.0 + z * z / n;
+    let centre = (p + z * z / (2.0 * n)) / denom;
+    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / denom;
+    Rate { value: p, low: (centre - half).max(0.0), high: (centre + half).min(1.0) }
+}
+
+fn jaccard_distance(a: &BTreeSet<&str>, b: &BTreeSet<&str>) -> f64 {
+    let union = a.union(b).count();
+    if union == 0 { 0.0 } else { 1.0 - a.intersection(b).count() as f64 / union as f64 }
+}
+
+fn mean_distance(sets: &[BTreeSet<&str>], skip: Option<usize>) -> f64 {
+    let (mut sum, mut pairs) = (0.0, 0u64);
+    for i in 0..sets.len() {
+        for j in i + 1..sets.len() {
+            if Some(i) == skip || Some(j) == skip {
+                continue;
+            }
+            sum += jaccard_distance(&sets[i], &sets[j]);
+            pairs += 1;
+        }
+    }
+    if pairs == 0 { 0.0 } else { sum / pairs as f64 }
+}
+
+/// Div with a jackknife interval; `None` for fewer than two modes.
+pub fn diversity(modes: &[Vec<String>]) -> Option<Rate> {
+    let sets: Vec<BTreeSet<&str>> = modes.iter().map(|m| m.iter().map(String::as_str).collect()).collect();
+    let n = sets.len();
+    if n < 2 {
+        return None;
+    }
+    let value = mean_distance(&sets, None);
+    if n < 3 {
+        return Some(Rate { value, low: 0.0, high: 1.0 });
+    }
+    let loo: Vec<f64> = (0..n).map(|i| mean_distance(&sets, Some(i))).collect();
+    let mean = loo.iter().sum::<f64>() / n as f64;
+    let var = (n as f64 - 1.0) / n as f64 * loo.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+    let half = 1.959_964 * var.sqrt();
+    Some(Rate { value, low: (value - half).max(0.0), high: (value + half).min(1.0) })
+}
+
+/// How many failure modes hold no other failure mode as a proper subset.
+pub fn cores(modes: &[Vec<String>]) -> usize {
+    let sets: Vec<BTreeSet<&str>> = modes.iter().map(|m| m.iter().map(String::as_str).collect()).collect();
+    sets.iter().filter(|a| !sets.iter().any(|b| b.len() < a.len() && b.is_subset(a))).count()
+}
+
+pub fn row(f: &RunFacts) -> Row {
+    Row {
+        run: f.run.clone(),
+        domain: f.domain.clone(),
+        model: f.model.clone(),
+        algo: f.algo.clone(),
+        pfm: wilson(f.failure_modes.len() as u64, f.sets as u64),
+        mfr: wilson(f.failures, f.inferences),
+        div: diversity(&f.failure_modes),
+        failure_modes: f.failure_modes.len(),
+        cores: f.shrunk_cores.unwrap_or_else(|| cores(&f.failure_modes)),
+        sets: f.sets,
+        inferences: f.inferences,
+        calls: f.calls,
+        cost_usd: f.cost_usd,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(v: &[&[&str]]) -> Vec<Vec<String>> {
+        v.iter().map(|s| s.iter().map(|c| c.to_string()).collect()).collect()
+    }
+
+    #[test]
+    fn wilson_matches_known_values() {
+        let r = wilson(5, 10);
+        assert!((r.low - 0.2366).abs() < 1e-3 && (r.high - 0.7634).abs() < 1e-3, "{r:?}");
+        let z = wilson(0, 20);
+        assert_eq!((z.value, z.low), (0.0, 0.0));
+        assert!(z.high > 0.1 && z.high < 0.2);
+        assert_eq!(wilson(0, 0).high, 1.0);
+    }
+
+    #[test]
+    fn cores_are_modes_without_a_smaller_mode_inside() {
+        let m = names(&[&["a"], &["a", "b"], &["c", "d"], &["c", "d", "e"], &["f", "g"]]);
+        assert_eq!(cores(&m), 3);
+    }
+
+    #[test]
+    fn a_shrunk_run_counts_its_own_cores() {
+        let facts = |shrunk_cores| RunFacts {
+            run: "r".into(),
+            domain: "d".into(),
+            model: "m".into(),
+            algo: "beam".into(),
+            sets: 10,
+            inferences: 50,
+            failures: 20,
+            failure_modes: names(&[&["a", "b"], &["a", "c"], &["d", "e"]]),
+            shrunk_cores,
+            calls: 50,
+            cost_usd: 0.0,
+        };
+        assert_eq!(row(&facts(None)).cores, 3, "no smaller failure mode inside any of them");
+        assert_eq!(row(&facts(Some(2))).cores, 2, "the shrink found `a` and `d`");
+        assert_eq!(row(&facts(Some(0))).cores, 0, "a shrink that confirmed nothing");
+    }
+
+    #[test]
+    fn diversity_and_its_interval() {
+        assert_eq!(diversity(&names(&[&["a"]])), None);
+        let same = diversity(&names(&[&["a"], &["a"], &["a"]])).unwrap();
+        assert_eq!((same.value, same.low, same.high), (0.0, 0.0, 0.0));
+        let d = diversity(&names(&[&["a"], &["b"], &["a", "b"], &["c"]])).unwrap();
+        assert!(d.low <= d.value && d.value <= d.high && d.value > 0.5, "{d:?}");
+    }
+}

@@ -1,0 +1,336 @@
+//! Asking a finished run's sets again through the one observe pipeline (`run::observe`): with
+//! the probe prompt (`revelio probe`), or of other models (`revelio transfer`). Each observation
+//! is journaled in the run folder the moment it ends (phase `probe` or `transfer`, the latter
+//! with its model), and a second invocation serves what the journal holds instead of asking
+//! again. Scene seeds are a pure function of the run seed and (phase, set, index), never of the
+//! model: every target of a transfer sees the same images, rendered once.
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tokio::sync::Semaphore;
+
+use crate::ir::{ConceptSet, Domain};
+use crate::journal::{Journal, Phase, Record};
+use crate::outcome::Outcome;
+use crate::run::eval::{Spend, observation_seed};
+use crate::run::progress::{Progress, ProgressTo};
+use crate::run::{ObsKey, Observer, RunError, Stimulus, Stop, StopReason};
+use crate::search::SetStats;
+use crate::vlm::{Model, Statement};
+
+use super::probe::ProbedSet;
+
+/// What re-asking needs: the run's observe pipeline, its journal and seed.
+pub struct Reask {
+    pub observer: Arc<Observer>,
+    pub journal: Arc<Journal>,
+    /// The run seed (`config.json`).
+    pub seed: u64,
+    pub concurrency: usize,
+    pub stop: Stop,
+    pub progress: ProgressTo,
+}
+
+/// The probe statements of a set's observation, in prompt order: each concept's positive
+/// statement and its counterfactual, shuffled by the observation's seed so a statement's
+/// position says nothing about its truth. Concepts without a probe are left out.
+pub fn statements(domain: &Domain, set: ConceptSet, seed: u64) -> Vec<Statement> {
+    let mut out = Vec::new();
+    for id in set.iter() {
+        let c = &domain.concepts[id.index()];
+        if c.probe.positive.trim().is_empty() || c.probe.negative.trim().is_empty() {
+            continue;
+        }
+        out.push(Statement { concept: c.name.clone(), positive: true, text: c.probe.positive.clone() });
+        out.push(Statement { concept: c.name.clone(), positive: false, text: c.probe.negative.clone() });
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5354_4154_454d_454e);
+    for i in (1..out.len()).rev() {
+        let j = rng.random_range(0..=i);
+        out.swap(i, j);
+    }
+    out
+}
+
+/// A journal line's place: (phase, set names, index, model).
+type LineKey = (Phase, Vec<String>, u32, Option<String>);
+
+/// The journaled lines of `phase`, last one winning; failed calls are left out (asked again).
+fn journaled(journal: &Journal, phase: Phase) -> HashMap<LineKey, Record> {
+    journal
+        .records
+        .iter()
+        .filter(|r| r.phase == phase && r.outcome != Outcome::ApiError)
+        .map(|r| ((r.phase, r.set.clone(), r.obs, r.model.clone()), r.clone()))
+        .collect()
+}
+
+fn stopped(stop: &Stop) -> Result<(), RunError> {
+    match stop.reason() {
+        Some(r) => Err(RunError::Stopped(r)),
+        None => Ok(()),
+    }
+}
+
+/// One finished probe observation: its outcome and its statement marks.
+struct ProbeObs {
+    set: usize,
+    outcome: Outcome,
+    statements: Vec<Statement>,
+    marks: Vec<Option<bool>>,
+}
+
+/// Ask `samples` observations of each set with the probe prompt (phase `probe`).
+pub async fn probe(
+    r: &Reask,
+    model: Arc<dyn Model>,
+    sets: &[ConceptSet],
+    samples: u32,
+) -> Result<(Vec<ProbedSet>, Spend), RunError> {
+    let domain = r.observer.domain().clone();
+    let done = journaled(&r.journal, Phase::Probe);
+    let mut spend = Spend::default();
+    let mut progress = Progress::start(&r.progress, "probe", sets.len() as u64 * u64::from(samples), r.concurrency);
+    let semaphore = Arc::new(Semaphore::new(r.concurrency.max(1)));
+    let mut tasks: tokio::task::JoinSet<Result<Option<(ProbeObs, Record)>, RunError>> = tokio::task::JoinSet::new();
+    let mut finished: Vec<ProbeObs> = Vec::new();
+    for (i, &set) in sets.iter().enumerate() {
+        let names: Vec<String> = domain.set_names(set).into_iter().map(String::from).collect();
+        let task = Arc::new(r.observer.task(set)?);
+        for index in 0..samples {
+            let key = ObsKey { phase: Phase::Probe, set, index };
+            let seed = observation_seed(r.seed, key);
+            let st = statements(&domain, set, seed);
+            if let Some(rec) = done.get(&(Phase::Probe, names.clone(), index, None)) {
+                let marks = crate::vlm::statements::parse(&rec.raw, st.len());
+                if rec.outcome != Outcome::ImageBlocked {
+                    spend.add(&rec.usage, rec.cached);
+                }
+                progress.inc(&spend);
+                finished.push(ProbeObs { set: i, outcome: rec.outcome, statements: st, marks });
+                continue;
+            }
+            let (observer, model, journal, task) = (r.observer.clone(), model.clone(), r.journal.clone(), task.clone());
+            let (sem, stop) = (semaphore.clone(), r.stop.clone());
+            tasks.spawn(async move {
+                let _permit = sem.acquire_owned().await.expect("the semaphore is never closed");
+                if stop.requested() {
+                    return Ok(None);
+                }
+                let stimulus = observer.stimulus(set, seed).await?;
+                if let Some(png) = &stimulus.image {
+                    journal.store_image(png)?;
+                }
+                let mut query = observer.query(&stimulus, &task);
+                let texts: Vec<String> = st.iter().map(|s| s.text.clone()).collect();
+                query.prompt = crate::vlm::prompt::build_probe(&task.question, &task.options, &texts);
+                if let Some(t) = query.truth.as_mut() {
+                    t.statements = st.clone();
+                }
+                let reply = match stimulus.blocked {
+                    Some(_) => None,
+                    None => Some(model.ask(&query).await),
+                };
+                let o = observer.record(key, &stimulus, &task, &query, reply);
+                journal.append(&o.record)?;
+                let marks = match &o.reply {
+                    Some(rep) => crate::vlm::statements::parse(&rep.raw, st.len()),
+                    None => vec![None; st.len()],
+                };
+                Ok(Some((ProbeObs { set: i, outcome: o.outcome, statements: st, marks }, o.record)))
+            });
+        }
+    }
+    let mut first_error = None;
+    while let Some(joined) = tasks.join_next().await {
+        match joined {
+            Ok(Ok(Some((o, rec)))) => {
+                if rec.outcome != Outcome::ImageBlocked {
+                    spend.add(&rec.usage, rec.cached);
+                }
+                progress.inc(&spend);
+                finished.push(o);
+            }
+            Ok(Ok(None)) => {}
+            Ok(Err(e)) => {
+                r.stop.request(StopReason::Interrupted);
+                first_error.get_or_insert(e);
+            }
+            Err(e) => {
+                first_error.get_or_insert(RunError::Search(format!("a probe task failed: {e}")));
+            }
+        }
+    }
+    progress.finish();
+    r.journal.sync()?;
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    stopped(&r.stop)?;
+    let mut out: Vec<ProbedSet> = sets
+        .iter()
+        .map(|&s| ProbedSet {
+            concepts: domain.set_names(s).into_iter().map(String::from).collect(),
+            ..ProbedSet::default()
+        })
+        .collect();
+    for o in finished {
+        let p = &mut out[o.set];
+        match o.outcome {
+            Outcome::Wrong => {
+                p.wrong += 1;
+                p.answered += 1;
+            }
+            Outcome::Correct => p.answered += 1,
+            _ => {}
+        }
+        for (s, m) in o.statements.iter().zip(&o.marks) {
+            p.marks.entry(s.concept.clone()).or_default().add(s.positive, *m);
+        }
+    }
+    Ok((out, spend))
+}
+
+/// Ask `samples` observations of each set of each model (phase `transfer`, the model recorded on
+/// every line). Each scene is rendered once and shown to every model that has not answered it
+/// yet. Returns, per model, the stats of each set, and per model the spend.
+pub async fn transfer(
+    r: &Reask,
+    models: &[Arc<dyn Model>],
+    sets: &[ConceptSet],
+    samples: u32,
+) -> Result<(Vec<Vec<SetStats>>, Vec<Spend>), RunError> {
+    let domain = r.observer.domain().clone();
+    let done = journaled(&r.journal, Phase::Transfer);
+    let ids: Vec<String> = models.iter().map(|m| m.id()).collect();
+    let mut stats: Vec<Vec<SetStats>> =
+        models.iter().map(|_| sets.iter().map(|&s| SetStats::new(s)).collect()).collect();
+    let mut spend = vec![Spend::default(); models.len()];
+    let mut total = Spend::default();
+    let mut progress = Progress::start(
+        &r.progress,
+        "transfer",
+        (models.len() * sets.len()) as u64 * u64::from(samples),
+        r.concurrency,
+    );
+    let semaphore = Arc::new(Semaphore::new(r.concurrency.max(1)));
+    type Done = Vec<(usize, Record)>;
+    let mut tasks: tokio::task::JoinSet<Result<(usize, Done), RunError>> = tokio::task::JoinSet::new();
+    for (i, &set) in sets.iter().enumerate() {
+        let names: Vec<String> = domain.set_names(set).into_iter().map(String::from).collect();
+        let task = Arc::new(r.observer.task(set)?);
+        for index in 0..samples {
+            let mut missing = Vec::new();
+            for (m, id) in ids.iter().enumerate() {
+                match done.get(&(Phase::Transfer, names.clone(), index, Some(id.clone()))) {
+                    Some(rec) => {
+                        stats[m][i].add(rec.outcome);
+                        if rec.outcome != Outcome::ImageBlocked {
+                            spend[m].add(&rec.usage, rec.cached);
+                            total.add(&rec.usage, rec.cached);
+                        }
+                        progress.inc(&total);
+                    }
+                    None => missing.push(m),
+                }
+            }
+            if missing.is_empty() {
+                continue;
+            }
+            let key = ObsKey { phase: Phase::Transfer, set, index };
+            let seed = observation_seed(r.seed, key);
+            let targets: Vec<(usize, Arc<dyn Model>, String)> =
+                missing.iter().map(|&m| (m, models[m].clone(), ids[m].clone())).collect();
+            let (observer, journal, task) = (r.observer.clone(), r.journal.clone(), task.clone());
+            let (sem, stop) = (semaphore.clone(), r.stop.clone());
+            tasks.spawn(async move {
+                let _permit = sem.acquire_owned().await.expect("the semaphore is never closed");
+                if stop.requested() {
+                    return Ok((i, Vec::new()));
+                }
+                // One scene, one render, every target model.
+                let stimulus: Stimulus = observer.stimulus(set, seed).await?;
+                if let Some(png) = &stimulus.image {
+                    journal.store_image(png)?;
+                }
+                let query = observer.query(&stimulus, &task);
+                let asked = futures_all(&targets, &query, stimulus.blocked.is_some()).await;
+                let mut out = Vec::new();
+                for ((m, _, id), reply) in targets.iter().zip(asked) {
+                    let mut o = observer.record(key, &stimulus, &task, &query, reply);
+                    o.record.model = Some(id.clone());
+                    journal.append(&o.record)?;
+                    out.push((*m, o.record));
+                }
+                Ok((i, out))
+            });
+        }
+    }
+    let mut first_error = None;
+    while let Some(joined) = tasks.join_next().await {
+        match joined {
+            Ok(Ok((i, recs))) => {
+                for (m, rec) in recs {
+                    stats[m][i].add(rec.outcome);
+                    if rec.outcome != Outcome::ImageBlocked {
+                        spend[m].add(&rec.usage, rec.cached);
+                        total.add(&rec.usage, rec.cached);
+                    }
+                    progress.inc(&total);
+                }
+            }
+            Ok(Err(e)) => {
+                r.stop.request(StopReason::Interrupted);
+                first_error.get_or_insert(e);
+            }
+            Err(e) => {
+                first_error.get_or_insert(RunError::Search(format!("a transfer task failed: {e}")));
+            }
+        }
+    }
+    progress.finish();
+    r.journal.sync()?;
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    stopped(&r.stop)?;
+    Ok((stats, spend))
+}
+
+/// Ask every target concurrently (a blocked image asks none).
+async fn futures_all(
+    targets: &[(usize, Arc<dyn Model>, String)],
+    query: &crate::vlm::Query,
+    blocked: bool,
+) -> Vec<Option<crate::vlm::Reply>> {
+    if blocked {
+        return targets.iter().map(|_| None).collect();
+    }
+    let mut set = tokio::task::JoinSet::new();
+    for (k, (_, model, _)) in targets.iter().enumerate() {
+        let (model, query) = (model.clone(), query.clone());
+        set.spawn(async move { (k, model.ask(&query).await) });
+    }
+    let mut out: BTreeMap<usize, crate::vlm::Reply> = BTreeMap::new();
+    while let Some(j) = set.join_next().await {
+        if let Ok((k, reply)) = j {
+            out.insert(k, reply);
+        }
+    }
+    // `Model::ask` never fails; a task that died anyway is a failed call, asked again on resume.
+    (0..targets.len())
+        .map(|k| {
+            Some(out.remove(&k).unwrap_or_else(|| crate::vlm::Reply {
+                raw: "the model call ended abnormally".into(),
+                thinking: None,
+                answer: crate::outcome::Answer::ApiError,
+                usage: Default::default(),
+                latency_ms: 0,
+                cached: false,
+                attempts: 0,
+            }))
+        })
+        .collect()
+}

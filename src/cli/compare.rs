@@ -1,0 +1,223 @@
+//! `revelio compare RUN_DIR… [--csv FILE] [--html FILE]`: the paper's Table 2 across finished
+//! runs (domain, model, algorithm, PFM, MFR, Div with 95 % intervals, failure modes, minimal
+//! failure modes, spend), as a terminal table, a CSV file and a standalone HTML page.
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use crate::analysis::compare::{Rate, Row, RunFacts, row};
+use crate::run::runner;
+
+#[derive(clap::Args, Debug)]
+pub struct CompareArgs {
+    /// Finished `revelio search` run folders
+    #[arg(required = true)]
+    pub run_dirs: Vec<PathBuf>,
+    /// Also write the table as CSV to FILE
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Also write the table as an HTML page to FILE
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
+    /// Print JSON instead of the table
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn rows(dirs: &[PathBuf]) -> Result<Vec<Row>, crate::run::RunError> {
+    dirs.iter()
+        .map(|dir| {
+            let (config, s) = runner::load_run(dir)?;
+            Ok(row(&RunFacts {
+                run: dir.display().to_string(),
+                domain: s.domain.clone(),
+                model: config.model.clone(),
+                algo: s.algo.name().to_string(),
+                sets: s.metrics.sets,
+                inferences: s.metrics.inferences,
+                failures: s.metrics.failures,
+                failure_modes: s.failure_modes.iter().map(|r| r.concepts.clone()).collect(),
+                shrunk_cores: s.shrink.is_some().then_some(s.cores.len()),
+                calls: s.spend.calls,
+                cost_usd: s.spend.cost_usd,
+            }))
+        })
+        .collect()
+}
+
+pub fn run(args: CompareArgs) -> ExitCode {
+    let rows = match rows(&args.run_dirs) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(e.exit_code());
+        }
+    };
+    type Render = fn(&[Row]) -> String;
+    let files: [(Option<&PathBuf>, Render); 2] = [(args.csv.as_ref(), csv), (args.html.as_ref(), html)];
+    for (path, render) in files {
+        if let Some(p) = path
+            && let Err(e) = std::fs::write(p, render(&rows))
+        {
+            eprintln!("error: cannot write `{}`: {}", p.display(), e.to_string().to_lowercase());
+            return ExitCode::from(1);
+        }
+    }
+    let mut out = std::io::stdout().lock();
+    let written = if args.json {
+        serde_json::to_writer_pretty(&mut out, &rows).map_err(std::io::Error::from).and_then(|_| writeln!(out))
+    } else {
+        print_table(&mut out, &rows)
+    };
+    match written {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            eprintln!("error: cannot write the table: {e}");
+            ExitCode::from(1)
+        }
+        _ => ExitCode::SUCCESS,
+    }
+}
+
+fn rate(r: &Rate) -> String {
+    format!("{:.1}% [{:.1}, {:.1}]", 100.0 * r.value, 100.0 * r.low, 100.0 * r.high)
+}
+
+fn div(r: &Option<Rate>) -> String {
+    r.as_ref().map_or_else(|| "-".into(), |r| format!("{:.2} [{:.2}, {:.2}]", r.value, r.low, r.high))
+}
+
+pub fn print_table(w: &mut impl Write, rows: &[Row]) -> std::io::Result<()> {
+    let mw = rows.iter().map(|r| r.model.len()).max().unwrap_or(5).max(5);
+    writeln!(
+        w,
+        "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  run",
+        "domain", "model", "algo", "PFM [95% CI]", "MFR [95% CI]", "Div [95% CI]", "modes", "cores", "calls", "cost"
+    )?;
+    for r in rows {
+        writeln!(
+            w,
+            "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  {}",
+            r.domain,
+            r.model,
+            r.algo,
+            rate(&r.pfm),
+            rate(&r.mfr),
+            div(&r.div),
+            r.failure_modes,
+            r.cores,
+            r.calls,
+            format!("${:.4}", r.cost_usd),
+            r.run
+        )?;
+    }
+    Ok(())
+}
+
+/// A CSV field, quoted when it holds a comma, quote or newline.
+fn field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+}
+
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "run,domain,model,algo,pfm,pfm_low,pfm_high,mfr,mfr_low,mfr_high,div,div_low,div_high,failure_modes,cores,sets,inferences,calls,cost_usd\n",
+    );
+    for r in rows {
+        let d = |f: fn(&Rate) -> f64| r.div.as_ref().map_or_else(String::new, |x| format!("{:.4}", f(x)));
+        s.push_str(&format!(
+            "{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{:.4}\n",
+            field(&r.run),
+            field(&r.domain),
+            field(&r.model),
+            field(&r.algo),
+            r.pfm.value,
+            r.pfm.low,
+            r.pfm.high,
+            r.mfr.value,
+            r.mfr.low,
+            r.mfr.high,
+            d(|x| x.value),
+            d(|x| x.low),
+            d(|x| x.high),
+            r.failure_modes,
+            r.cores,
+            r.sets,
+            r.inferences,
+            r.calls,
+            r.cost_usd
+        ));
+    }
+    s
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+pub fn html(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>Revelio: runs compared</title>\n<style>\nbody{font-family:system-ui,sans-serif;margin:2rem;color:#222}\ntable{border-collapse:collapse}\nth,td{padding:.35rem .7rem;border-bottom:1px solid #ddd;text-align:right;white-space:nowrap}\nth{background:#f4f4f4}\ntd.t,th.t{text-align:left}\n.ci{color:#777;font-size:.85em}\n</style>\n</head>\n<body>\n<h1>Runs compared</h1>\n<p>PFM: share of evaluated sets that are failure modes; MFR: share of inferences answered wrongly; Div: mean pairwise Jaccard distance of the failure modes. Brackets: 95&nbsp;% intervals (Wilson for PFM and MFR, jackknife for Div). Cores: failure modes with no smaller failure mode inside them.</p>\n<table>\n<thead><tr><th class=\"t\">domain</th><th class=\"t\">model</th><th class=\"t\">algorithm</th><th>PFM</th><th>MFR</th><th>Div</th><th>failure modes</th><th>cores</th><th>calls</th><th>cost</th><th class=\"t\">run</th></tr></thead>\n<tbody>\n",
+    );
+    let cell = |r: &Rate| {
+        format!("{:.1}%<br><span class=\"ci\">[{:.1}, {:.1}]</span>", 100.0 * r.value, 100.0 * r.low, 100.0 * r.high)
+    };
+    for r in rows {
+        let d = r.div.as_ref().map_or_else(
+            || "-".to_string(),
+            |x| format!("{:.2}<br><span class=\"ci\">[{:.2}, {:.2}]</span>", x.value, x.low, x.high),
+        );
+        s.push_str(&format!(
+            "<tr><td class=\"t\">{}</td><td class=\"t\">{}</td><td class=\"t\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>${:.4}</td><td class=\"t\">{}</td></tr>\n",
+            esc(&r.domain),
+            esc(&r.model),
+            esc(&r.algo),
+            cell(&r.pfm),
+            cell(&r.mfr),
+            d,
+            r.failure_modes,
+            r.cores,
+            r.calls,
+            r.cost_usd,
+            esc(&r.run)
+        ));
+    }
+    s.push_str("</tbody>\n</table>\n</body>\n</html>\n");
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::compare::RunFacts;
+
+    fn sample() -> Vec<Row> {
+        vec![row(&RunFacts {
+            run: "runs/a,b".into(),
+            domain: "driving".into(),
+            model: "sim:<x>".into(),
+            algo: "gpts".into(),
+            sets: 200,
+            inferences: 1000,
+            failures: 250,
+            failure_modes: vec![vec!["a".into()], vec!["b".into(), "c".into()], vec!["a".into(), "c".into()]],
+            shrunk_cores: None,
+            calls: 1000,
+            cost_usd: 0.5,
+        })]
+    }
+
+    #[test]
+    fn csv_quotes_fields_and_html_escapes() {
+        let c = csv(&sample());
+        let line = c.lines().nth(1).unwrap();
+        assert!(line.starts_with("\"runs/a,b\",driving,sim:<x>,gpts,0.0150,"), "{line}");
+        assert_eq!(line.split(',').count(), c.lines().next().unwrap().split(',').count() + 1, "one quoted comma");
+        let h = html(&sample());
+        assert!(h.contains("sim:&lt;x&gt;") && !h.contains("sim:<x>"));
+        assert!(h.contains("<td>3</td><td>2</td>"), "3 failure modes, 2 cores");
+        let mut t = Vec::new();
+        print_table(&mut t, &sample()).unwrap();
+        let t = String::from_utf8(t).unwrap();
+        assert!(t.contains("25.0% [22.4, 27.8]"), "{t}");
+    }
+}
