@@ -131,6 +131,7 @@ impl<'a> Checker<'a> {
                 rules: Vec::new(),
                 camera: Camera::default(),
                 allow: Vec::new(),
+                visibility: Default::default(),
             },
             units: Namespace::default(),
             types: Namespace::default(),

@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::outcome::{Answer, Outcome, Usage};
+use crate::render::EntityVisibility;
 
 pub use lock::RunLock;
 
@@ -65,13 +66,26 @@ pub struct Record {
     pub raw: String,
     /// The parsed option, when the reply named exactly one.
     pub parsed: Option<u32>,
-    /// How the model's reply ended; `None` when no model was asked (`image_blocked`).
+    /// How the model's reply ended; `None` when no model was asked (`image_blocked`,
+    /// `invisible`).
     pub answer: Option<Answer>,
     pub expected: u32,
     pub outcome: Outcome,
     pub usage: Usage,
     pub latency_ms: u64,
     pub cached: bool,
+    /// How visible each entity the concepts placed was in the image shown (builtin renderer;
+    /// empty for renderers that cannot tell and in journals written before it was measured).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub visibility: Vec<EntityVisibility>,
+    /// Scenes drawn again with the next seed because an entity was not visible; `seed` is the
+    /// scene finally used.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub resamples: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// What can go wrong with a run folder.
@@ -295,6 +309,8 @@ mod tests {
             usage: Usage::default(),
             latency_ms: 3,
             cached: false,
+            visibility: vec![],
+            resamples: 0,
         }
     }
 

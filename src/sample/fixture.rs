@@ -239,6 +239,7 @@ pub(crate) fn tiny_domain() -> Domain {
         rules: vec![],
         camera: Camera::default(),
         allow: vec![],
+        visibility: Default::default(),
     }
 }
 
