@@ -19,6 +19,8 @@ pub mod stop;
 mod testkit;
 #[cfg(test)]
 mod tests;
+#[cfg(feature = "render")]
+pub mod visible;
 
 use std::path::PathBuf;
 

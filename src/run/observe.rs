@@ -214,7 +214,8 @@ impl Observer {
                     stimulus.image_hash = sha256(&img.png);
                     stimulus.image = Some(Arc::new(img.png));
                     if let Some(seen) = img.visibility {
-                        stimulus.invisible = unseen(&self.domain, &stimulus.scene, &seen);
+                        stimulus.invisible =
+                            unseen(&self.domain, &stimulus.scene, &seen).map(|why| format!("not visible: {why}"));
                         stimulus.visibility = seen;
                     }
                 }
@@ -322,7 +323,7 @@ impl Observer {
 }
 
 /// The entities a concept placed that `seen` reports as not visible by the domain's thresholds,
-/// as the journal's `raw` text (`None`: all visible).
+/// with their figures (`None`: all visible).
 pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Option<String> {
     let hidden: Vec<String> = scene
         .entities
@@ -333,16 +334,11 @@ pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Opti
             let t = domain.visibility.threshold(&e.kind, e.concept.as_deref());
             (!t.holds(v.pixels, v.contrast)).then(|| {
                 format!(
-                    "`{}` of `{}`: {} px, contrast {:.3} (needs {} px, {:.3})",
-                    e.name,
-                    e.concept.as_deref().unwrap_or_default(),
-                    v.pixels,
-                    v.contrast,
-                    t.pixels,
-                    t.contrast
+                    "`{}` ({}) has {} px at contrast {:.3}, needs {} px at {:.3}",
+                    e.name, e.kind, v.pixels, v.contrast, t.pixels, t.contrast
                 )
             })
         })
         .collect();
-    (!hidden.is_empty()).then(|| format!("not visible: {}", hidden.join("; ")))
+    (!hidden.is_empty()).then(|| hidden.join("; "))
 }
