@@ -193,6 +193,11 @@ fn check_render_flags_a_concept_drawn_under_the_ground() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/render/invisible.rev");
     let text = std::fs::read_to_string(&path).unwrap();
     let d = revelio::check::compile_source("invisible.rev", &text).unwrap();
+    // The file's `visible` items: a default, and a kind that inherits its contrast.
+    let v = &d.visibility;
+    assert_eq!((v.default.pixels, v.default.contrast), (25, 0.03));
+    assert_eq!((v.kinds["BuriedCrate"].pixels, v.kinds["BuriedCrate"].contrast), (10, 0.03));
+    assert_eq!(v.threshold("Crate", Some("shown")), v.default);
     let r = BuiltinRenderer::new(None).unwrap();
     let tallies =
         revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None }).unwrap();
