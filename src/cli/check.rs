@@ -480,7 +480,16 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let lib = write(dir.path(), "lib.rev", "/// A tag.\ntag Shiny\n");
         let bad = write(dir.path(), "bad.rev", "kind K: Shinny {}\n");
-        let run_on = |paths: Vec<PathBuf>| run(CheckArgs { paths, format: Format::Plain, stdin_filename: None });
+        let run_on = |paths: Vec<PathBuf>| {
+            run(CheckArgs {
+                paths,
+                format: Format::Plain,
+                stdin_filename: None,
+                render: None,
+                render_sample: None,
+                seed: 0,
+            })
+        };
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);
         assert_eq!(run_on(vec![lib, bad]), ExitCode::from(1));
         assert_eq!(run_on(vec![dir.path().to_path_buf()]), ExitCode::from(1), "folders are searched");
