@@ -216,13 +216,70 @@ pub struct Unit {
     pub scale: f64,
 }
 
-/// A relation name usable in `add … RELATION ego` (`ahead_of`, `on`, `near` …).
+/// A relation usable in `add … RELATION (ego | ENTITY)` (`ahead_of`, `on`, `near` …) and in
+/// rule conditions (`e near g`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RelationDef {
     pub name: String,
     /// How it reads ("is ahead of").
     pub text: String,
+    /// Where the relation puts an entity relative to its target.
+    pub placement: Placement,
     pub span: Span,
+}
+
+/// Ground-position bounds: x (ahead) and y (left) ranges, in the scene frame (metres).
+pub type GroundBounds = ((f64, f64), (f64, f64));
+
+/// Where a relation puts an entity relative to its target, in the scene frame (x ahead of the
+/// camera, y to its left): every given bound holds at once. Offsets are between the two
+/// entities' origins (on the ground under their centres; ego's is the scene origin).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Placement {
+    /// Ground-plane distance between the two origins (metres, inclusive).
+    pub distance: Option<(f64, f64)>,
+    /// How far ahead of the target (along x; negative: behind it).
+    pub ahead: Option<(f64, f64)>,
+    /// How far to the left of the target (along y; negative: to its right).
+    pub left: Option<(f64, f64)>,
+    /// Standing on top of the target: at its ground position, on its highest face.
+    pub on_top: bool,
+}
+
+impl Placement {
+    /// The box of ground offsets `(dx, dy)` from the target that the placement can allow
+    /// (tight for `ahead`/`left`/`on_top`; a disc's bounding square for `distance`).
+    pub fn offset_box(&self) -> ((f64, f64), (f64, f64)) {
+        let mut x = (f64::NEG_INFINITY, f64::INFINITY);
+        let mut y = x;
+        let meet = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.min(b.1));
+        if let Some((_, hi)) = self.distance {
+            x = meet(x, (-hi, hi));
+            y = meet(y, (-hi, hi));
+        }
+        if let Some(r) = self.ahead {
+            x = meet(x, r);
+        }
+        if let Some(r) = self.left {
+            y = meet(y, r);
+        }
+        if self.on_top {
+            x = meet(x, (0.0, 0.0));
+            y = meet(y, (0.0, 0.0));
+        }
+        (x, y)
+    }
+
+    /// Whether the ground offset `(dx, dy)` from the target satisfies the placement (with a
+    /// nanometre of slack for rounding).
+    pub fn allows(&self, dx: f64, dy: f64) -> bool {
+        const EPS: f64 = 1e-9;
+        let within = |v: f64, (lo, hi): (f64, f64)| v >= lo - EPS && v <= hi + EPS;
+        self.distance.is_none_or(|r| within(dx.hypot(dy), r))
+            && self.ahead.is_none_or(|r| within(dx, r))
+            && self.left.is_none_or(|r| within(dy, r))
+            && (!self.on_top || (dx.abs() <= EPS && dy.abs() <= EPS))
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -298,6 +355,9 @@ pub struct Kind {
     pub attrs: Vec<AttrDef>,
     /// Default look in the builtin renderer.
     pub shape: Vec<ShapePart>,
+    /// The only regions an entity of this kind may stand in (`in REGION, …`); empty: any.
+    #[serde(default)]
+    pub regions: Vec<RegionId>,
     pub span: Span,
 }
 
@@ -307,6 +367,10 @@ impl Kind {
     }
     pub fn has_tag(&self, t: TagId) -> bool {
         self.tags.contains(&t)
+    }
+    /// Whether an entity of this kind may stand in region `r`.
+    pub fn may_stand_in(&self, r: RegionId) -> bool {
+        self.regions.is_empty() || self.regions.contains(&r)
     }
 }
 
@@ -325,6 +389,20 @@ pub struct Region {
     pub scenic: Option<String>,
     pub span: Span,
 }
+
+/// The parameters a preset may set: the environment the renderers and the Scenic emitter read,
+/// named after CARLA's `carla.WeatherParameters` fields (percentages 0–100 unless said).
+pub const ENVIRONMENT_PARAMS: &[(&str, &str)] = &[
+    ("cloudiness", "cloud cover, 0–100"),
+    ("precipitation", "rain intensity, 0–100"),
+    ("precipitation_deposits", "puddles on the ground, 0–100"),
+    ("wind_intensity", "wind, 0–100 (Scenic/CARLA only)"),
+    ("sun_azimuth_angle", "sun azimuth in degrees"),
+    ("sun_altitude_angle", "sun altitude in degrees, -90–90 (below 0: night)"),
+    ("fog_density", "fog thickness, 0–100"),
+    ("fog_distance", "where fog starts, metres"),
+    ("wetness", "wet surfaces, 0–100"),
+];
 
 /// A named bundle of numeric parameters (e.g. a CARLA weather preset: cloudiness,
 /// precipitation, fog_density, wetness, sun_altitude_angle, …). World attributes of an enum type
@@ -351,13 +429,21 @@ pub struct ShapePart {
     pub at: [f64; 3],
     /// sRGB colour components in 0..=1 (as written in `#rrggbb[aa]`) plus alpha.
     pub color: [f64; 4],
-    /// Rotation about z in degrees (yaw), then about x (roll, e.g. a tipped glass).
+    /// Rotation in degrees: `roll` about x (a tipped glass; positive tips the top to the
+    /// right, towards -y), then `pitch` about y (positive tilts the top forward, towards +x),
+    /// then `yaw` about z (positive turns x towards y). As a matrix: R = Rz(yaw)·Ry(pitch)·Rx(roll).
     pub yaw_deg: f64,
     pub roll_deg: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pitch_deg: f64,
     /// Material hint: `matte`, `metal`, `glass`, `emissive`, `water`, `flame`, `smoke`.
     pub material: String,
     /// Only draw this part when the condition holds for the entity/world (e.g. a lit lamp).
     pub when: Option<Expr>,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -468,7 +554,8 @@ pub enum Effect {
     MoveTarget { region: RegionId, span: Span },
 }
 
-/// An edge of the anchor scene graph from an entity to ego / another entity.
+/// An edge of the anchor scene graph from an entity to ego / another entity; the relation's
+/// [`Placement`] says where the sampler puts the entity.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Relation {
     /// Relation name from the stdlib (`ahead_of`, `on`, `near`, `in`, `reaching_into` …).
@@ -588,6 +675,27 @@ pub enum Expr {
         var: String,
         region: RegionId,
     },
+    /// Two attributes compared (`a.distance < b.distance`), three-valued like [`Expr::Cmp`]:
+    /// ranges that overlap where the comparison flips are unknown.
+    CmpAttrs {
+        left: AttrRef,
+        op: CmpOp,
+        right: AttrRef,
+    },
+    /// The entity bound to `var` was added with `relation` to the entity bound to `to`
+    /// (`None`: to ego). Reads the scene graph's edges, not positions.
+    Related {
+        var: String,
+        relation: String,
+        to: Option<String>,
+    },
+}
+
+/// An attribute in a condition: of the entity bound to `var`, or of the world (`None`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AttrRef {
+    pub var: Option<String>,
+    pub attr: String,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -1,12 +1,14 @@
 //! Revelio: find interpretable failure modes of vision-language models.
 //!
 //! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
-//! [`diag`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
+//! [`diag`], [`hash`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
-//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`] → [`render`] → [`vlm`] →
-//! [`journal`] → [`run`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network
-//! and GPU live in `net`, `render`, `vlm`, `journal`, `run` and `cli`.
+//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`], [`source`] → [`render`] → [`vlm`] →
+//! [`journal`] → [`run`] → [`analysis`] → [`report`] → [`fmt`] → [`lsp`] → [`cli`]. The core
+//! (`diag` … `search`) does no I/O; files, network and GPU live in `net`, `source`, `render`,
+//! `vlm`, `journal`, `run`, `report` and `cli`.
 
+pub mod analysis;
 pub mod anchor;
 pub mod check;
 pub mod cli;
@@ -15,6 +17,7 @@ pub mod diag;
 mod editor_sync;
 pub mod emit;
 pub mod fmt;
+pub mod hash;
 pub mod ir;
 pub mod journal;
 pub mod lattice;
@@ -24,9 +27,11 @@ pub mod net;
 pub mod oracle;
 pub mod outcome;
 pub mod render;
+pub mod report;
 pub mod run;
 pub mod sample;
 pub mod scene;
 pub mod search;
+pub mod source;
 pub mod syntax;
 pub mod vlm;

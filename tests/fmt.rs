@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use revelio::check;
 use revelio::fmt::format;
 use revelio::syntax::{self, lexer};
 
@@ -109,7 +108,7 @@ fn formatting_is_idempotent_and_keeps_tokens_and_comments() {
 /// What a file compiles to, through `revelio describe --json` and the whole IR (spans and file
 /// texts removed: they move when the layout changes).
 fn meaning(path: &Path, text: &str) -> (String, String) {
-    let c = check::compile(&path.display().to_string(), text, &|p| std::fs::read_to_string(p).ok());
+    let c = revelio::source::compile_text(path, text, &|_| None);
     let d = c.domain.unwrap_or_else(|| panic!("{} does not compile: {:?}", name(path), c.diagnostics));
     let describe = revelio::cli::describe::to_json(&d).to_string();
     let mut ir = serde_json::to_value(&d).unwrap();
@@ -247,6 +246,30 @@ fn statements_go_one_per_line_and_settings_fill_lines() {
         "rules priority {\n  rule r {\n    when exists e: A | B where e.d <= 4m and (has c)\n    expect q.a\n  }\n}\n"
     );
     assert_eq!(layout("constraint c = at_most( 2 , a , b_* )"), "constraint c = at_most(2, a, b_*)\n");
+}
+
+#[test]
+fn relations_regions_pitch_and_two_entity_conditions_are_laid_out() {
+    let input = "relation near \"is near\"{distance 0m .. 1.5m\n}\n\
+                 relation on \"is on\" {\n on_top }\n\
+                 kind Tree:Extra{in verge ,far_kerb}\n\
+                 kind Car{in far_kerb\n d: length = 1m\n}\n\
+                 look Tree{box size(1m,1m,1m) pitch 10deg yaw 5deg}\n\
+                 rules priority{rule r{when exists a:Car where exists b:Car where a near b and a.d<b.d expect q.a}}\n";
+    let want = "relation near \"is near\" { distance 0m..1.5m }\n\
+                relation on \"is on\" { on_top }\n\
+                kind Tree: Extra { in verge, far_kerb }\n\
+                kind Car {\n  in far_kerb\n  d: length = 1m\n}\n\
+                look Tree {\n  box size (1m, 1m, 1m) pitch 10deg yaw 5deg\n}\n\
+                rules priority {\n  rule r {\n    when exists a: Car where exists b: Car where a near b and a.d < b.d\n    expect q.a\n  }\n}\n";
+    let out = layout(input);
+    assert_eq!(out, want);
+    assert_eq!(layout(&out), out, "formatting twice changes nothing");
+    // Many placements fill lines, like a preset's settings.
+    let long = "relation beside \"is right beside the thing it stands next to\" { distance 0m..1.5m  ahead -0.5m..0.5m  left 0.2m..1.5m }";
+    let out = layout(long);
+    assert!(out.lines().count() > 1 && out.lines().all(|l| l.chars().count() <= revelio::fmt::MAX_WIDTH), "{out}");
+    assert_eq!(layout(&out), out);
 }
 
 #[test]

@@ -4,10 +4,10 @@
 //! may reach anywhere.
 //!
 //! The floors, bottom first (README "Architecture" draws the same line): `diag` (spans,
-//! diagnostics, codes, suggestions) and `outcome` → `ir` → `syntax` → `check` → `anchor`,
+//! diagnostics, codes, suggestions), `hash` and `outcome` → `ir` → `syntax` → `check` → `anchor`,
 //! `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure algorithms) →
-//! `net` → `render` → `vlm` → `journal` → `run` → `analysis`, `report` → `fmt` → `lsp` → `cli`
-//! (the language server formats through `fmt`).
+//! `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis` → `report` → `fmt` → `lsp` →
+//! `cli` (the language server formats through `fmt`).
 //! `ir` is the compiler's output but plain data: it sits below the front end that builds it.
 
 use std::collections::BTreeMap;
@@ -16,6 +16,7 @@ use std::path::Path;
 /// Floors of the modules; a module not listed here fails the test until it is placed.
 const FLOORS: &[(&str, u32)] = &[
     ("diag", 0),
+    ("hash", 0),
     ("outcome", 0),
     ("ir", 1),
     ("syntax", 2),
@@ -29,21 +30,22 @@ const FLOORS: &[(&str, u32)] = &[
     ("emit", 8),
     ("search", 9),
     ("net", 10),
+    ("source", 10),
     ("render", 11),
     ("vlm", 12),
     ("journal", 13),
     ("run", 14),
     ("analysis", 15),
-    ("report", 15),
-    ("fmt", 16),
-    ("lsp", 17),
-    ("cli", 18),
+    ("report", 16),
+    ("fmt", 17),
+    ("lsp", 18),
+    ("cli", 19),
 ];
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.
 const CORE: &[&str] = &[
-    "diag", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample", "emit",
-    "search",
+    "diag", "hash", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample",
+    "emit", "search",
 ];
 
 /// Paths whose use in the core means I/O.

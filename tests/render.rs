@@ -55,6 +55,11 @@ fn changed(a: &RgbaImage, b: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32))
 /// the pixels inside its own projected box when it is removed; a concept that adds nothing
 /// (town, weather, junction, lighting, a modifier) changes the image against the same set
 /// without it.
+///
+/// A concept must show in at least two of its first three scenes. One scene may hide it (a
+/// spill under a spill, a plant before the outlet): which one depends on the domain's text
+/// through the scene stream, and the run-time visibility guard resamples such scenes. A concept
+/// that never shows fails here whatever the seeds.
 fn every_concept_is_visible(path: &str) {
     let d = domain(path);
     let r = renderer();
@@ -63,43 +68,68 @@ fn every_concept_is_visible(path: &str) {
     let mut failures = Vec::new();
     for (concept, set) in d.concepts.iter().zip(sets) {
         let names = d.set_names(set).join("+");
-        let scene = revelio::sample::sample(&d, set, 0).unwrap();
-        let img = r.render_rgba(&scene).unwrap();
-        let (w, h) = img.dimensions();
-        // Only the entities of the concept the set stands for: the others may stand in front.
-        let own = |e: &SceneEntity| e.concept.as_deref() == Some(concept.name.as_str());
-        for (i, e) in scene.entities.iter().enumerate().filter(|(_, e)| own(e)) {
-            let Some(bbox) = screen_box(&scene, e, w, h) else {
-                failures.push(format!("{names}: `{}` is off screen", e.name));
-                continue;
-            };
-            let mut without = scene.clone();
-            without.entities.remove(i);
-            let n = changed(&img, &r.render_rgba(&without).unwrap(), bbox);
-            let area = ((bbox.2 - bbox.0 + 1) * (bbox.3 - bbox.1 + 1)) as usize;
-            if n < 6 || n * 100 < area * 3 {
-                failures.push(format!("{names}: `{}` changes {n} of {area} pixels of its box", e.name));
+        let mut misses = Vec::new();
+        for seed in 0..3u64 {
+            let problems = concept_problems(&d, &r, concept, set, seed);
+            if !problems.is_empty() {
+                misses.push(format!("seed {seed}: {}", problems.join("; ")));
+            }
+            if misses.len() >= 2 || seed + 1 - misses.len() as u64 >= 2 {
+                break;
             }
         }
-        // A concept that only sets world attributes to their defaults (`town_town01`) looks
-        // like the set without it by construction.
-        let sets_defaults = concept.effects.iter().all(|e| match e {
-            Effect::SetWorld { attr, value, .. } => d.world_attr(attr).is_some_and(|a| a.default == *value),
-            _ => false,
-        });
-        if !scene.entities.iter().any(own) && !sets_defaults {
-            // Against the same set without the concept (a modifier moves its target; a world
-            // concept changes the scenery or the light).
-            let base = revelio::sample::sample(&d, set.without(concept.id), 0)
-                .or_else(|_| revelio::sample::Sampler::new(&d).backdrop(0))
-                .unwrap();
-            let n = changed(&img, &r.render_rgba(&base).unwrap(), (0, 0, w - 1, h - 1));
-            if n * 100 < (w * h) as usize {
-                failures.push(format!("{names}: only {n} pixels differ without `{}`", concept.name));
-            }
+        if misses.len() >= 2 {
+            failures.push(format!("{names}: {}", misses.join(" | ")));
         }
     }
     assert!(failures.is_empty(), "invisible concepts in `{path}`:\n{}", failures.join("\n"));
+}
+
+/// Why `concept` (in `set`) does not show in the scene of `seed` (empty: it shows).
+fn concept_problems(
+    d: &Domain,
+    r: &BuiltinRenderer,
+    concept: &revelio::ir::Concept,
+    set: revelio::ir::ConceptSet,
+    seed: u64,
+) -> Vec<String> {
+    let mut failures = Vec::new();
+    let scene = revelio::sample::sample(d, set, seed).unwrap();
+    let img = r.render_rgba(&scene).unwrap();
+    let (w, h) = img.dimensions();
+    // Only the entities of the concept the set stands for: the others may stand in front.
+    let own = |e: &SceneEntity| e.concept.as_deref() == Some(concept.name.as_str());
+    for (i, e) in scene.entities.iter().enumerate().filter(|(_, e)| own(e)) {
+        let Some(bbox) = screen_box(&scene, e, w, h) else {
+            failures.push(format!("`{}` is off screen", e.name));
+            continue;
+        };
+        let mut without = scene.clone();
+        without.entities.remove(i);
+        let n = changed(&img, &r.render_rgba(&without).unwrap(), bbox);
+        let area = ((bbox.2 - bbox.0 + 1) * (bbox.3 - bbox.1 + 1)) as usize;
+        if n < 6 || n * 100 < area * 3 {
+            failures.push(format!("`{}` changes {n} of {area} pixels of its box", e.name));
+        }
+    }
+    // A concept that only sets world attributes to their defaults (`town_town01`) looks
+    // like the set without it by construction.
+    let sets_defaults = concept.effects.iter().all(|e| match e {
+        Effect::SetWorld { attr, value, .. } => d.world_attr(attr).is_some_and(|a| a.default == *value),
+        _ => false,
+    });
+    if !scene.entities.iter().any(own) && !sets_defaults {
+        // Against the same set without the concept (a modifier moves its target; a world
+        // concept changes the scenery or the light).
+        let base = revelio::sample::sample(d, set.without(concept.id), seed)
+            .or_else(|_| revelio::sample::Sampler::new(d).backdrop(seed))
+            .unwrap();
+        let n = changed(&img, &r.render_rgba(&base).unwrap(), (0, 0, w - 1, h - 1));
+        if n * 100 < (w * h) as usize {
+            failures.push(format!("only {n} pixels differ without `{}`", concept.name));
+        }
+    }
+    failures
 }
 
 #[test]

@@ -108,7 +108,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     assert_eq!(a_config["endpoint"], json!(server.uri()));
     assert_eq!(a_config["model_settings"]["base_url"], json!(server.uri()));
 
-    // Same settings, new folder: every reply from the shared cache, nothing paid twice.
+    // Same settings, new folder: every reply from the shared cache, nothing paid twice (without
+    // the shrink phase, so the journal holds the search's 30 lines).
     let before = server.received_requests().await.unwrap().len();
     let d = dir.path().to_path_buf();
     let (c, cache2, w) = (cache.clone(), cache.clone(), with_config.map(String::from));
@@ -127,6 +128,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
             "30",
             "--samples",
             "3",
+            "--shrink",
+            "0",
             "--out",
         ]);
         cmd.arg(d.join("again")).args(&w).args(["--cache-dir", c.to_str().unwrap()]);
@@ -139,7 +142,40 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let lines = journal(&dir.path().join("again"));
     assert_eq!(lines.len(), 30);
     assert!(lines.iter().all(|l| l["cached"] == json!(true)));
-    let _ = cache2;
+
+    // Another algorithm, same model and seed: GPTS's beam phase (15 of its 30 inferences) is the
+    // beam run's first 5 sets, and only the rest is paid for (no shrink phase: its re-tests would
+    // hit the cache or not depending on what the beam run's shrink phase asked).
+    let before = server.received_requests().await.unwrap().len();
+    let (d, w) = (dir.path().to_path_buf(), with_config.map(String::from));
+    let gpts = tokio::task::spawn_blocking(move || {
+        let w: Vec<&str> = w.iter().map(String::as_str).collect();
+        let mut cmd = revelio(&[
+            "search",
+            "domains/driving.rev",
+            "--model",
+            "openai:vlm-test",
+            "--renderer",
+            "none",
+            "--algo",
+            "gpts",
+            "--budget",
+            "30",
+            "--samples",
+            "3",
+            "--shrink",
+            "0",
+            "--out",
+        ]);
+        cmd.arg(d.join("gpts")).args(&w).args(["--cache-dir", cache2.to_str().unwrap()]);
+        text(&cmd.output().unwrap())
+    })
+    .await
+    .unwrap();
+    assert_eq!(gpts.0, 0, "{}", gpts.2);
+    let lines = journal(&dir.path().join("gpts"));
+    assert_eq!(lines.iter().filter(|l| l["cached"] == json!(true)).count(), 15, "the beam phase is shared");
+    assert_eq!(server.received_requests().await.unwrap().len(), before + 15, "only the GP rounds are paid for");
 
     // Two processes filling one fresh cache at once: both finish with the same answers.
     let shared = dir.path().join("shared-cache");
@@ -263,8 +299,12 @@ fn ctrl_c_journals_the_calls_in_flight_and_the_run_resumes() {
     assert!(err.contains(&format!("{kept} observations replayed")), "{err}");
     let (code, fresh, err) = text(&slow_search(&model, &dir.path().join("fresh"), "60").output().unwrap());
     assert_eq!(code, 0, "{err}");
-    assert_eq!(serde_json::from_str::<Value>(&resumed).unwrap(), serde_json::from_str::<Value>(&fresh).unwrap());
-    assert_eq!(journal(&out).len(), 60);
+    let summary: Value = serde_json::from_str(&resumed).unwrap();
+    assert_eq!(summary, serde_json::from_str::<Value>(&fresh).unwrap());
+    // The search's 60 inferences, then the shrink phase's (default: a quarter of the budget).
+    let shrunk = summary["shrink"]["inferences"].as_u64().unwrap_or(0);
+    assert!(shrunk <= 15, "{summary}");
+    assert_eq!(journal(&out).len() as u64, 60 + shrunk);
 }
 
 /// One exit-code policy: a bad flag value is a usage error (2) for every command.

@@ -1,4 +1,5 @@
-//! Real-Scenic peer test: every program Revelio emits for the driving domain must compile and
+//! Real-Scenic peer test: every program Revelio emits for the driving domain (and for a domain of
+//! entities placed relative to each other, `tests/corpus/good/walk_the_dog.rev`) must compile and
 //! sample in Scenic 3.1.1 (2D mode, the CARLA Town01/Town02 maps, Scenic's default iteration
 //! limit). Needs Python 3 with `venv`; the first run installs Scenic into
 //! `$CARGO_TARGET_DIR/scenic-venv` (or `target/scenic-venv`), later runs reuse it. The maps are
@@ -92,19 +93,42 @@ fn sets_to_check(d: &Domain) -> Vec<ConceptSet> {
 
 #[test]
 fn emitted_driving_programs_compile_and_sample_in_scenic() {
-    let maps = maps_dir();
-    let python = scenic_python();
     let domain = revelio::cli::load_domain(&repo().join("domains").join("driving.rev"))
         .unwrap_or_else(|code| panic!("domains/driving.rev does not compile (exit {code:?})"));
+    let sets = sets_to_check(&domain);
+    compile_and_sample(&domain, &sets);
+}
+
+/// Entities placed relative to other entities (a dog `near` its owner, a cone `behind` a
+/// barrier, fragments that place them from their target with `{target}` and `{rel_…}`): every
+/// valid set with such a relation, each program holding `require`s that Scenic checks.
+#[test]
+fn emitted_relation_programs_compile_and_sample_in_scenic() {
+    let domain = revelio::cli::load_domain(&repo().join("tests").join("corpus").join("good").join("walk_the_dog.rev"))
+        .unwrap_or_else(|code| panic!("walk_the_dog.rev does not compile (exit {code:?})"));
+    let lattice = revelio::lattice::Lattice::enumerate(&domain, domain.concepts.len());
+    let sets: Vec<ConceptSet> = lattice
+        .sets
+        .iter()
+        .copied()
+        .filter(|s| revelio::anchor::build(&domain, *s).is_ok_and(|g| g.entities.iter().any(|e| e.target.is_some())))
+        .collect();
+    assert!(sets.len() >= 30, "only {} sets with a relation", sets.len());
+    compile_and_sample(&domain, &sets);
+}
+
+/// Emit one program per set (seed = its position), then compile and sample them all in Scenic.
+fn compile_and_sample(domain: &Domain, sets: &[ConceptSet]) {
+    let maps = maps_dir();
+    let python = scenic_python();
     let opts = ScenicOptions { map_dir: maps.to_string_lossy().into_owned() };
     let dir = tempfile::tempdir().unwrap();
-    let sets = sets_to_check(&domain);
     let mut jobs = String::new();
     let mut names = Vec::new();
     for (i, set) in sets.iter().enumerate() {
         let label = domain.set_names(*set).join(" + ");
-        let scene = revelio::sample::sample(&domain, *set, i as u64).unwrap_or_else(|e| panic!("{label}: {e}"));
-        let program = scenic(&domain, &scene, &opts).unwrap_or_else(|e| panic!("{label}: {e}"));
+        let scene = revelio::sample::sample(domain, *set, i as u64).unwrap_or_else(|e| panic!("{label}: {e}"));
+        let program = scenic(domain, &scene, &opts).unwrap_or_else(|e| panic!("{label}: {e}"));
         let town = program.lines().find_map(|l| l.strip_prefix("param carla_map = '")?.strip_suffix('\'')).unwrap();
         let path = dir.path().join(format!("set{i}.scenic"));
         std::fs::write(&path, &program).unwrap();

@@ -148,7 +148,10 @@ fn search_command_resumes_refuses_other_configs_and_validates() {
     json.push("--json");
     let (code, stdout, err) = revelio(&json);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("100 observations replayed"), "{err}");
+    let lines = std::fs::read_to_string(Path::new(out).join("journal.jsonl")).unwrap().lines().count();
+    // Every journaled observation replays, the shrink phase's (if the search found anything) too.
+    assert!(lines >= 100, "{lines}");
+    assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
     let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(printed, serde_json::from_slice::<serde_json::Value>(&summary).unwrap());
 
@@ -188,6 +191,61 @@ fn bad_profiles_and_flags_are_usage_errors() {
     ]);
     assert_eq!(code, 2);
     assert!(err.contains("invalid `--threshold`: must be between 0 and 1, got 2"), "{err}");
+    let sim = ["search", "domains/driving.rev", "--model", "sim:examples/sim/driving_paper.toml"];
+    let (code, _, err) = revelio(&[&sim[..], &["--max-samples", "3"]].concat());
+    assert_eq!(code, 2);
+    assert!(err.contains("invalid `--max-samples`: must be at least `--samples` (5), got 3"), "{err}");
+    let (code, _, err) = revelio(&[&sim[..], &["--shrink", "2"]].concat());
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("invalid `--shrink`: 2 inferences cannot test one subset of 5 samples (0 turns shrinking off)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn sequential_search_with_cores_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let out = out.to_str().unwrap();
+    let (code, table, err) = revelio(&[
+        "search",
+        "domains/driving.rev",
+        "--model",
+        "sim:examples/sim/driving_paper.toml",
+        "--algo",
+        "gpts",
+        "--budget",
+        "400",
+        "--max-samples",
+        "20",
+        "--renderer",
+        "none",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(table.contains("minimal failure modes (cores)"), "{table}");
+    assert!(table.contains("shrink: "), "{table}");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(Path::new(out).join("summary.json")).unwrap()).unwrap();
+    assert!(summary["metrics"]["inferences"].as_u64().unwrap() <= 400);
+    assert!(summary["shrink"]["inferences"].as_u64().unwrap() <= 100);
+    let cores = summary["cores"].as_array().unwrap();
+    assert!(!cores.is_empty(), "{summary}");
+    for c in cores {
+        assert!(c["ci95"][0].as_f64().unwrap() <= c["fr"].as_f64().unwrap());
+        assert!(c["supersets"].as_u64().is_some() && c["answered"].as_u64().unwrap() >= 5);
+        let line = format!(
+            " {}",
+            c["concepts"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect::<Vec<_>>().join(" + ")
+        );
+        assert!(table.contains(&line), "{line} in {table}");
+    }
+    // Sequential validation against the run's τ.
+    let (code, report, err) = revelio(&["validate", out, "--top", "3", "--samples", "5", "--max-samples", "20"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(report.contains("5–20 samples (sequential)"), "{report}");
 }
 
 /// Bug 1 of issue 13: the scene stream hashed the domain file's path as typed. Every spelling of
@@ -218,7 +276,11 @@ fn the_spelling_of_the_domain_path_does_not_change_the_scenes() {
     other.extend(["--budget", "20", "--out", out]);
     let (code, _, err) = revelio(&other);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("20 observations replayed"), "{err}");
+    // Everything the first run observed — its 20 search inferences and its shrink phase's — is
+    // replayed, nothing asked again.
+    let lines = std::fs::read_to_string(dir.path().join("run/journal.jsonl")).unwrap().lines().count();
+    assert!(lines > 20, "the shrink phase ran too");
+    assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
 }
 
 /// Issue 18: a concept drawn under the road is never seen. The search resamples its scenes, then

@@ -60,7 +60,7 @@ fn options() -> Vec<String> {
 fn query(tag: &str) -> Query {
     let image = png(64, 48);
     Query {
-        image_hash: hex::encode(<sha2::Sha256 as sha2::Digest>::digest(&image)),
+        image_hash: revelio::hash::sha256_hex(&image),
         image: Some(Arc::new(image)),
         prompt: prompt::build(&format!("tag:{tag}; What should the ego vehicle do?"), &options()),
         options: options(),
@@ -343,7 +343,7 @@ async fn gemini_generate_content() {
     let req = &server.received_requests().await.unwrap()[0];
     assert_eq!(req.headers.get("x-goog-api-key").unwrap(), KEY);
     let b = body_of(req);
-    assert_eq!(b["generationConfig"]["thinkingConfig"], json!({"thinkingLevel": "minimal"}));
+    assert_eq!(b["generationConfig"]["thinkingConfig"], json!({"thinkingLevel": "MINIMAL"}));
     let inline = &b["contents"][0]["parts"][0]["inlineData"];
     assert_eq!(inline["mimeType"], "image/jpeg");
     let bytes = base64::engine::general_purpose::STANDARD.decode(inline["data"].as_str().unwrap()).unwrap();

@@ -199,7 +199,11 @@ impl Checker<'_> {
                 return None;
             }
         };
+        let region_name = region;
         let region = self.resolve_region(region)?;
+        let stands = self.check_stand(k, region, region_name);
+        // Where relation diagnostics point: the relation as written, else the region.
+        let relation_span = relation.map_or(region_name.span, |(r, t)| super::lower::join(r.span, t.span));
         let relation = match relation {
             None => Relation { name: "ahead_of".to_string(), to: None },
             Some((rel, to)) => {
@@ -210,6 +214,17 @@ impl Checker<'_> {
                 }
                 let to = if to.name == "ego" {
                     None
+                } else if to.name == name.name {
+                    self.error(
+                        Diagnostic::error(
+                            codes::UNPLACEABLE_RELATION,
+                            to.span,
+                            format!("`{}` is placed relative to itself", name.name),
+                        )
+                        .with_label("the entity being added")
+                        .with_help("relate it to `ego` or to another entity"),
+                    );
+                    return None;
                 } else if self.entity_names.contains(&to.name) {
                     Some(to.name.clone())
                 } else {
@@ -251,7 +266,14 @@ impl Checker<'_> {
                 }
             }
         }
-        ok.then(|| Effect::Add { name: name.name.clone(), kind: k, region, relation, attrs: values, span })
+        self.related_adds.push(super::relations::RelatedAdd {
+            entity: name.name.clone(),
+            region,
+            relation: relation.name.clone(),
+            target: relation.to.clone(),
+            span: relation_span,
+        });
+        (ok && stands).then(|| Effect::Add { name: name.name.clone(), kind: k, region, relation, attrs: values, span })
     }
 
     fn resolve_region(&mut self, region: &Ident) -> Option<RegionId> {

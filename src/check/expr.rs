@@ -4,7 +4,7 @@ use super::lower::Checker;
 use super::names::unknown;
 use crate::diag::Diagnostic;
 use crate::diag::codes;
-use crate::ir::{AttrType, CmpOp, Expr, KindId};
+use crate::ir::{AttrRef, AttrType, CmpOp, Expr, KindId};
 use crate::syntax::ast::{self, ExprKind, Ident};
 
 /// What names an expression can see: variables bound by `exists` (with the kinds they may
@@ -70,6 +70,22 @@ impl Checker<'_> {
                 }
             }
             ExprKind::Cmp { path, op, value } => self.lower_cmp(path, *op, value, scope),
+            ExprKind::CmpAttrs { left, op, right } => self.lower_cmp_attrs(left, *op, right, scope),
+            ExprKind::Related { var, relation, to } => {
+                let var_ok = self.bound_var(var, scope).is_some();
+                let known = self.relations.get(&relation.name).is_some();
+                if !known {
+                    let d = unknown("relation", relation, self.relations.names());
+                    self.error(d);
+                }
+                let to = if to.name == "ego" {
+                    None
+                } else {
+                    self.bound_var(to, scope)?;
+                    Some(to.name.clone())
+                };
+                (var_ok && known).then(|| Expr::Related { var: var.name.clone(), relation: relation.name.clone(), to })
+            }
         }
     }
 
@@ -109,6 +125,94 @@ impl Checker<'_> {
     }
 
     fn lower_cmp(&mut self, path: &ast::Path, op: CmpOp, value: &ast::ValueLit, scope: &Scope) -> Option<Expr> {
+        let (r, ty) = self.attr_ref(path, scope)?;
+        let attr = &path.parts[1];
+        if matches!(ty, AttrType::Bool | AttrType::Enum(_)) && !matches!(op, CmpOp::Eq | CmpOp::Ne) {
+            let t = self.type_name(&ty);
+            self.error(
+                Diagnostic::error(
+                    codes::TYPE_MISMATCH,
+                    path.span,
+                    format!("`{}` is {t} and can only be compared with `==` or `!=`", attr.name),
+                )
+                .with_label("ordered comparison of a non-number"),
+            );
+            return None;
+        }
+        // Thresholds may lie outside the attribute's bounds (`distance > 200m` is simply never
+        // true), so compare against the type without its bounds.
+        let unbounded = match &ty {
+            AttrType::Number { dimension, .. } => {
+                AttrType::Number { dimension: dimension.clone(), min: f64::MIN, max: f64::MAX }
+            }
+            other => other.clone(),
+        };
+        let value = self.lower_value(value, &unbounded, &attr.name)?;
+        Some(Expr::Cmp { var: r.var, attr: r.attr, op, value })
+    }
+
+    /// `a.distance < b.distance`: both sides must have one type (numbers of one dimension, or
+    /// one enum, or booleans); only numbers are ordered.
+    fn lower_cmp_attrs(&mut self, left: &ast::Path, op: CmpOp, right: &ast::Path, scope: &Scope) -> Option<Expr> {
+        let l = self.attr_ref(left, scope);
+        let r = self.attr_ref(right, scope);
+        let ((lr, lt), (rr, rt)) = (l?, r?);
+        let span = super::lower::join(left.span, right.span);
+        let text = |p: &ast::Path| p.parts.iter().map(|i| i.name.as_str()).collect::<Vec<_>>().join(".");
+        let same = match (&lt, &rt) {
+            (AttrType::Number { dimension: a, .. }, AttrType::Number { dimension: b, .. }) => {
+                if a != b {
+                    let (ta, tb) = (self.type_name(&lt), self.type_name(&rt));
+                    self.error(
+                        Diagnostic::error(
+                            codes::DIMENSION_MISMATCH,
+                            span,
+                            format!("cannot compare `{}` ({ta}) with `{}` ({tb})", text(left), text(right)),
+                        )
+                        .with_label("different dimensions")
+                        .with_help("compare attributes that measure the same thing"),
+                    );
+                    return None;
+                }
+                true
+            }
+            (AttrType::Bool, AttrType::Bool) => true,
+            (AttrType::Enum(a), AttrType::Enum(b)) => a == b,
+            _ => false,
+        };
+        if !same {
+            let (ta, tb) = (self.type_name(&lt), self.type_name(&rt));
+            self.error(
+                Diagnostic::error(
+                    codes::TYPE_MISMATCH,
+                    span,
+                    format!("cannot compare `{}` ({ta}) with `{}` ({tb})", text(left), text(right)),
+                )
+                .with_label("different types"),
+            );
+            return None;
+        }
+        if !matches!(lt, AttrType::Number { .. }) && !matches!(op, CmpOp::Eq | CmpOp::Ne) {
+            let t = self.type_name(&lt);
+            self.error(
+                Diagnostic::error(
+                    codes::TYPE_MISMATCH,
+                    span,
+                    format!(
+                        "`{}` and `{}` are {t} and can only be compared with `==` or `!=`",
+                        text(left),
+                        text(right)
+                    ),
+                )
+                .with_label("ordered comparison of non-numbers"),
+            );
+            return None;
+        }
+        Some(Expr::CmpAttrs { left: lr, op, right: rr })
+    }
+
+    /// Resolve `VAR.ATTR`, `world.ATTR` or `self.ATTR` to a reference and its type.
+    fn attr_ref(&mut self, path: &ast::Path, scope: &Scope) -> Option<(AttrRef, AttrType)> {
         let [head, attr] = path.parts.as_slice() else {
             self.error(
                 Diagnostic::error(codes::BAD_REFERENCE, path.span, "expected `VAR.ATTR`, `world.ATTR` or `self.ATTR`")
@@ -131,28 +235,7 @@ impl Checker<'_> {
             let kinds = self.bound_var(head, scope)?;
             (Some(head.name.clone()), self.entity_attr_type(&kinds, attr)?)
         };
-        if matches!(ty, AttrType::Bool | AttrType::Enum(_)) && !matches!(op, CmpOp::Eq | CmpOp::Ne) {
-            let t = self.type_name(&ty);
-            self.error(
-                Diagnostic::error(
-                    codes::TYPE_MISMATCH,
-                    path.span,
-                    format!("`{}` is {t} and can only be compared with `==` or `!=`", attr.name),
-                )
-                .with_label("ordered comparison of a non-number"),
-            );
-            return None;
-        }
-        // Thresholds may lie outside the attribute's bounds (`distance > 200m` is simply never
-        // true), so compare against the type without its bounds.
-        let unbounded = match &ty {
-            AttrType::Number { dimension, .. } => {
-                AttrType::Number { dimension: dimension.clone(), min: f64::MIN, max: f64::MAX }
-            }
-            other => other.clone(),
-        };
-        let value = self.lower_value(value, &unbounded, &attr.name)?;
-        Some(Expr::Cmp { var, attr: attr.name.clone(), op, value })
+        Some((AttrRef { var, attr: attr.name.clone() }, ty))
     }
 
     /// The type of attribute `attr` on entities of `kinds`; it must exist on at least one.

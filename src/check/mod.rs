@@ -4,14 +4,20 @@
 //! parsed ([`crate::syntax`]); their items are gathered in *load order* — a module's items come
 //! before those of the file that uses it, `std::core` first — and [`lower`] resolves names,
 //! checks types and builds the [`ir::Domain`]. The core does no I/O: files named by
-//! `use "path"` are read through the `load` callback the caller passes in.
+//! `use "path"` are read through the `load` callback the caller passes in (`crate::source` is
+//! the one on disk: it decides which files a domain may read, and reads them safely). The core
+//! bounds what it is handed: [`MAX_FILE_BYTES`] per file, [`MAX_DOMAIN_BYTES`] in all.
 
 mod concepts;
 mod expr;
 mod lower;
 mod names;
+mod relations;
 mod rules;
+mod scene;
 mod shapes;
+mod types;
+mod values;
 
 use std::collections::{HashMap, HashSet};
 
@@ -29,6 +35,74 @@ pub const STDLIB: &[(&str, &str)] = &[
     ("kitchen", include_str!("../../stdlib/kitchen.rev")),
     ("kitchen_look", include_str!("../../stdlib/kitchen_look.rev")),
 ];
+
+/// The largest `.rev` file the front end takes (1 MiB, some 40 times the largest shipped file).
+/// A larger text is reported as too large (R0004) and not parsed.
+pub const MAX_FILE_BYTES: usize = 1 << 20;
+
+/// The most source text one compilation loads, all files together (8 MiB).
+pub const MAX_DOMAIN_BYTES: usize = 8 << 20;
+
+/// A `use "PATH"` item, as handed to the `load` callback of [`compile`].
+#[derive(Debug, Clone, Copy)]
+pub struct UseRequest<'a> {
+    /// The path as written.
+    pub path: &'a str,
+    /// The path resolved against the using file's name, `.` and `..` collapsed: the name the
+    /// file has in diagnostics.
+    pub name: &'a str,
+}
+
+/// A file the `load` callback read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Loaded {
+    /// What identifies the file (its canonical path): two spellings of one file give one key,
+    /// and the file is loaded once.
+    pub key: String,
+    pub text: String,
+}
+
+/// Why the `load` callback did not read a file. The message never quotes the file's content.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Refused {
+    pub code: &'static str,
+    pub message: String,
+    pub help: Option<String>,
+}
+
+impl Refused {
+    /// R0004 for the file `name` of `len` bytes (`None`: past the limit, read no further).
+    pub fn too_large(name: &str, len: Option<usize>) -> Refused {
+        let size = match len {
+            Some(n) => format!("is {}; a `.rev` file may be at most", size_text(n)),
+            None => "is larger than the most a `.rev` file may be,".to_string(),
+        };
+        Refused {
+            code: codes::FILE_TOO_LARGE,
+            message: format!("`{name}` {size} {}", size_text(MAX_FILE_BYTES)),
+            help: Some("split the file into modules joined with `use \"…\"`".into()),
+        }
+    }
+
+    /// The refusal as an error diagnostic at `span` (none: about a whole file).
+    pub fn diagnostic(self, span: Option<crate::diag::Span>) -> Diagnostic {
+        let mut d = Diagnostic::new(self.code, crate::diag::Severity::Error, span, self.message);
+        d.help = self.help;
+        d
+    }
+}
+
+/// The `load` callback's answer.
+pub type Load = Result<Loaded, Refused>;
+
+/// A `load` callback that reads no file: for texts that may only use the standard library.
+pub fn std_only(req: &UseRequest) -> Load {
+    Err(Refused {
+        code: codes::FILE_NOT_FOUND,
+        message: format!("cannot read `{}`", req.name),
+        help: Some("this text is compiled on its own: only `use std::…` modules are available".into()),
+    })
+}
 
 /// The result of compiling a domain (or a library module).
 #[derive(Debug, Clone)]
@@ -48,20 +122,33 @@ impl Compiled {
     }
 }
 
-/// Compile the file `entry_name` with text `entry_text`. `load(path)` returns the text of a
-/// file named by `use "…"` (the path is already resolved against the using file's folder), or
-/// `None` when it cannot be read.
-pub fn compile(entry_name: &str, entry_text: &str, load: &dyn Fn(&str) -> Option<String>) -> Compiled {
+/// Compile the file `entry_name` with text `entry_text`. `load` reads the files named by
+/// `use "…"` (or refuses to, saying why).
+pub fn compile(entry_name: &str, entry_text: &str, load: &dyn Fn(&UseRequest) -> Load) -> Compiled {
+    compile_entry(entry_name, entry_name, entry_text, load)
+}
+
+/// [`compile`] for an entry file identified by `entry_key` (its canonical path, as `load` gives
+/// keys), so that a module using it back does not load it a second time.
+pub fn compile_entry(
+    entry_name: &str,
+    entry_key: &str,
+    entry_text: &str,
+    load: &dyn Fn(&UseRequest) -> Load,
+) -> Compiled {
     let mut loader = Loader {
         load,
         files: Vec::new(),
         parsed: Vec::new(),
         by_name: HashMap::new(),
+        by_key: HashMap::new(),
+        total_bytes: 0,
         order: Vec::new(),
         visited: HashSet::new(),
         diagnostics: Vec::new(),
     };
     let entry = loader.add(entry_name.to_string(), entry_text.to_string());
+    loader.by_key.insert(entry_key.to_string(), entry);
     // Checking a stdlib file itself: it stands for its module, so it is not loaded twice.
     if let Some(module) = stdlib_module_of(entry_name) {
         loader.by_name.insert(std_file_name(module), entry);
@@ -88,7 +175,7 @@ pub fn compile(entry_name: &str, entry_text: &str, load: &dyn Fn(&str) -> Option
 
 /// Compile one text that may only `use` standard-library modules (for tests and examples).
 pub fn compile_source(name: &str, text: &str) -> Result<ir::Domain, Vec<Diagnostic>> {
-    let c = compile(name, text, &|_| None);
+    let c = compile(name, text, &std_only);
     c.domain.ok_or(c.diagnostics)
 }
 
@@ -115,10 +202,14 @@ pub fn std_file_name(module: &str) -> String {
 }
 
 struct Loader<'l> {
-    load: &'l dyn Fn(&str) -> Option<String>,
+    load: &'l dyn Fn(&UseRequest) -> Load,
     files: Vec<SourceFile>,
     parsed: Vec<ast::File>,
     by_name: HashMap<String, u32>,
+    /// Files by the key `load` gave them: another spelling of a loaded file is that file.
+    by_key: HashMap<String, u32>,
+    /// Source bytes loaded so far, against [`MAX_DOMAIN_BYTES`].
+    total_bytes: usize,
     /// Files in item order (post-order: used modules before their user).
     order: Vec<u32>,
     visited: HashSet<u32>,
@@ -128,6 +219,15 @@ struct Loader<'l> {
 impl Loader<'_> {
     fn add(&mut self, name: String, text: String) -> u32 {
         let id = self.files.len() as u32;
+        // Too large to parse: say so (the parser would only run out of its call budget and
+        // blame nesting), keep no text, and go on without its items.
+        let text = if text.len() > MAX_FILE_BYTES {
+            self.diagnostics.push(Refused::too_large(&name, Some(text.len())).diagnostic(None));
+            String::new()
+        } else {
+            text
+        };
+        self.total_bytes += text.len();
         let parsed = syntax::parse(id, &text);
         self.diagnostics.extend(parsed.diagnostics);
         self.parsed.push(parsed.file);
@@ -203,20 +303,55 @@ impl Loader<'_> {
                 if let Some(&id) = self.by_name.get(&name) {
                     return Some(id);
                 }
-                match (self.load)(&name) {
-                    Some(text) => (name, text),
-                    None => {
-                        self.diagnostics.push(
-                            Diagnostic::error(codes::FILE_NOT_FOUND, path.span, format!("cannot read `{name}`"))
-                                .with_label("used here")
-                                .with_help("paths in `use \"…\"` are relative to the file that uses them"),
-                        );
+                let refuse = |r: Refused| {
+                    Diagnostic::error(r.code, path.span, r.message).with_label("used here").with_help(
+                        r.help.unwrap_or_else(|| "paths in `use \"…\"` are relative to the file that uses them".into()),
+                    )
+                };
+                match (self.load)(&UseRequest { path: &path.value, name: &name }) {
+                    Ok(loaded) => {
+                        if let Some(&id) = self.by_key.get(&loaded.key) {
+                            self.by_name.insert(name, id);
+                            return Some(id);
+                        }
+                        if self.total_bytes + loaded.text.len() > MAX_DOMAIN_BYTES {
+                            self.diagnostics.push(refuse(Refused {
+                                code: codes::FILE_TOO_LARGE,
+                                message: format!(
+                                    "cannot load `{name}`: the domain's files would pass {} together",
+                                    size_text(MAX_DOMAIN_BYTES)
+                                ),
+                                help: Some(format!(
+                                    "a domain's source files may hold at most {} in all",
+                                    size_text(MAX_DOMAIN_BYTES)
+                                )),
+                            }));
+                            return None;
+                        }
+                        let id = self.add(name, loaded.text);
+                        self.by_key.insert(loaded.key, id);
+                        return Some(id);
+                    }
+                    Err(r) => {
+                        self.diagnostics.push(refuse(r));
                         return None;
                     }
                 }
             }
         };
         Some(self.add(name, text))
+    }
+}
+
+/// A byte count for messages: `512 bytes`, `1 MiB`, `10.0 MB`.
+pub fn size_text(bytes: usize) -> String {
+    const MIB: usize = 1 << 20;
+    if bytes.is_multiple_of(MIB) && bytes > 0 {
+        format!("{} MiB", bytes / MIB)
+    } else if bytes >= 100_000 {
+        format!("{:.1} MB", bytes as f64 / 1e6)
+    } else {
+        format!("{bytes} bytes")
     }
 }
 
@@ -274,12 +409,49 @@ mod tests {
             "d/sub/deep.rev" => Some("use \"../lib.rev\"\ntag Deep".to_string()),
             _ => None,
         };
-        let c = compile("d/main.rev", "use \"lib.rev\"\nuse \"sub/deep.rev\"\nkind K: Deep { e: E = a }", &files);
+        let c = compile("d/main.rev", "use \"lib.rev\"\nuse \"sub/deep.rev\"\nkind K: Deep { e: E = a }", &|r| {
+            files(r.name).map(|text| Loaded { key: r.name.into(), text }).ok_or_else(|| std_only(r).unwrap_err())
+        });
         assert!(c.diagnostics.is_empty(), "{:?}", c.diagnostics);
         let names: Vec<&str> = c.files.iter().map(|f| f.name.as_str()).collect();
         assert_eq!(names, ["d/main.rev", "std/core.rev", "d/lib.rev", "d/sub/deep.rev"]);
         let d = c.domain.unwrap();
         assert_eq!(d.name, "", "a library module compiles to a nameless domain");
+    }
+
+    #[test]
+    fn two_spellings_of_one_file_load_it_once() {
+        // `lib.rev` and `link.rev` are one file, and `main.rev` is the entry spelled otherwise:
+        // the callback gives one key per file, so nothing is declared twice.
+        let load = |r: &UseRequest| match r.name {
+            "d/lib.rev" | "d/link.rev" => {
+                Ok(Loaded { key: "/abs/d/lib.rev".into(), text: "use \"main.rev\"\ntag T".into() })
+            }
+            "d/main.rev" => Ok(Loaded { key: "/abs/d/main.rev".into(), text: "tag M".into() }),
+            _ => std_only(r),
+        };
+        let c = compile_entry("./d/main.rev", "/abs/d/main.rev", "use \"lib.rev\"\nuse \"link.rev\"\ntag M", &load);
+        assert!(c.diagnostics.is_empty(), "{:?}", c.diagnostics);
+        assert_eq!(c.files.len(), 3, "entry, std/core.rev and one library file");
+    }
+
+    #[test]
+    fn oversized_texts_are_refused_not_parsed() {
+        // A comment past the file limit: too large (R0004), not "nests too deeply" (R0003).
+        let text = format!("// {}\ntag T", "x".repeat(MAX_FILE_BYTES));
+        let c = compile("big.rev", &text, &std_only);
+        let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+        assert_eq!(codes, [codes::FILE_TOO_LARGE], "{:?}", c.diagnostics);
+        assert!(c.diagnostics[0].message.starts_with("`big.rev` is 1.0 MB; a `.rev` file may be at most 1 MiB"));
+        assert!(c.files[0].text.is_empty(), "the text is not kept");
+        // Used files together past the domain limit: the one that passes it is refused.
+        let chunk = format!("// {}\n", "y".repeat(MAX_FILE_BYTES - 10));
+        let load = |r: &UseRequest| Ok(Loaded { key: r.name.into(), text: chunk.clone() });
+        let uses: String = (0..10).map(|i| format!("use \"m{i}.rev\"\n")).collect();
+        let c = compile("d.rev", &uses, &load);
+        let refused: Vec<&Diagnostic> = c.diagnostics.iter().filter(|d| d.code == codes::FILE_TOO_LARGE).collect();
+        assert_eq!(refused.len(), 3, "{:?}", c.diagnostics);
+        assert!(refused[0].message.contains("would pass 8 MiB together"));
     }
 
     #[test]

@@ -112,6 +112,7 @@ impl Checker<'_> {
             color: [0.0, 0.0, 0.0, 1.0],
             yaw_deg: 0.0,
             roll_deg: 0.0,
+            pitch_deg: 0.0,
             material: "matte".to_string(),
             when: None,
         };
@@ -143,6 +144,7 @@ impl Checker<'_> {
                 }
                 ast::PartProp::Yaw(n) => self.number(n, "angle").map(|v| part.yaw_deg = v),
                 ast::PartProp::Roll(n) => self.number(n, "angle").map(|v| part.roll_deg = v),
+                ast::PartProp::Pitch(n) => self.number(n, "angle").map(|v| part.pitch_deg = v),
                 ast::PartProp::When(e, _) => self.lower_expr(e, scope).map(|e| part.when = Some(e)),
             };
             ok &= done.is_some();
@@ -173,6 +175,7 @@ fn prop_key(p: &ast::PartProp) -> (&'static str, Span) {
         ast::PartProp::Material(m) => ("material", m.span),
         ast::PartProp::Yaw(n) => ("yaw", n.span),
         ast::PartProp::Roll(n) => ("roll", n.span),
+        ast::PartProp::Pitch(n) => ("pitch", n.span),
         ast::PartProp::When(_, s) => ("when", *s),
     }
 }

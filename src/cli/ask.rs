@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
+use crate::diag::terminal_safe;
 use crate::ir::{ConceptSet, Domain};
 use crate::journal::Phase;
 use crate::outcome::{Answer, Outcome};
@@ -95,9 +96,15 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         )),
         None => Err((
             1,
-            format!("the image generator blocked this scene, so `{}` was not asked: {}", model.id(), o.record.raw),
+            format!(
+                "the image generator blocked this scene, so `{}` was not asked: {}",
+                model.id(),
+                terminal_safe(&o.record.raw)
+            ),
         )),
-        Some(reply) if reply.answer == Answer::ApiError => Err((1, format!("`{}` failed: {}", model.id(), reply.raw))),
+        Some(reply) if reply.answer == Answer::ApiError => {
+            Err((1, format!("`{}` failed: {}", model.id(), terminal_safe(&reply.raw))))
+        }
         Some(reply) => Ok(report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule)),
     }
 }
@@ -109,7 +116,8 @@ fn option_label(i: u32, options: &[String]) -> String {
 
 /// The human-readable result of one question.
 fn report(model: &str, prompt_text: &str, options: &[String], reply: &Reply, expected: u32, rule: &str) -> String {
-    let indent = |s: &str| s.trim().lines().collect::<Vec<_>>().join("\n           ");
+    // Reply and thinking are the model's text: escaped before they reach the terminal.
+    let indent = |s: &str| terminal_safe(s.trim()).lines().collect::<Vec<_>>().join("\n           ");
     let parsed = match reply.answer {
         Answer::Option(i) => option_label(i, options),
         other => serde_json::to_value(other).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default(),

@@ -1,7 +1,15 @@
-//! `revelio bench search --profile P --seeds K --budget N [--domain FILE]`: Random, Beam and
-//! GPTS over K seeds against a sim profile (no renderer), reporting mean ± sd of PFM, MFR, Div,
-//! the fraction of the profile's planted failure modes recovered, and Revelio's own time per
-//! inference. `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
+//! `revelio bench search --profile P --seeds K --budget N [--domain FILE] [--max-samples M]
+//! [--shrink B]`: Random, Beam and GPTS over K seeds against a sim profile (no renderer),
+//! reporting the mean and 95 % interval over seeds of PFM, MFR, Div, the failure modes reported
+//! and how many of them are false (true error under the profile below τ), their precision, the
+//! fraction of the profile's planted failure modes recovered, and Revelio's own time per
+//! inference. With `--max-samples` every algorithm runs twice at the same budget: with the
+//! paper's fixed m and with sequential sampling up to M. With `--shrink` every run shrinks its
+//! failure modes to cores. Every run reports its cores — the shrink phase's, or without one the
+//! evaluated failure modes whose every valid one-smaller subset was evaluated and passes (what
+//! `--algo interact` confirms as it searches) — with their precision, the share of planted modes
+//! some core holds (recovered) and the share reported exactly as a core (exact).
+//! `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
 //! latencies (see `src/lsp/bench.rs`).
 use std::io::Write;
 use std::path::PathBuf;
@@ -11,11 +19,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::ir::ConceptSet;
 use crate::ir::Domain;
 use crate::lattice::Lattice;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
 use crate::run::setup::ModelSettings;
+use crate::search::interact::{Supersets, Surrogate};
+use crate::search::interval::mean_ci95;
 use crate::search::metrics::mean_sd;
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
@@ -63,6 +74,13 @@ pub struct SearchBenchArgs {
     pub budget: u64,
     #[arg(long, default_value_t = 5)]
     pub samples: u32,
+    /// Also run every algorithm with sequential sampling up to M observations per set, at the
+    /// same budget
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
+    /// Shrink each run's failure modes to cores with this many extra inferences (0: off)
+    #[arg(long, value_name = "B", default_value_t = 0)]
+    pub shrink: u64,
     #[arg(long, default_value_t = 0.6)]
     pub threshold: f64,
     /// Beam diversity weight λ (beam and the beam phase of GPTS)
@@ -72,6 +90,15 @@ pub struct SearchBenchArgs {
     pub beam_width: usize,
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
+    /// Algorithms to run, comma-separated [default: all]
+    #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
+    pub algos: Vec<Algo>,
+    /// Interact: the surrogate (horseshoe, ridge, linear)
+    #[arg(long, default_value = "horseshoe")]
+    pub surrogate: Surrogate,
+    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
+    #[arg(long, default_value = "fallback")]
+    pub supersets: Supersets,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -106,32 +133,68 @@ fn lsp(args: LspBenchArgs) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-/// Mean and sample sd of one metric over seeds.
+/// Mean, sample sd and 95 % interval of the mean (Student's t) of one metric over seeds.
 #[derive(Debug, Serialize)]
 pub struct Stat {
     pub mean: f64,
     pub sd: f64,
-    /// Seeds the metric was defined for (Div needs two failure modes).
+    pub ci95: [f64; 2],
+    /// Seeds the metric was defined for (Div needs two failure modes, precision one).
     pub n: usize,
 }
 
 impl Stat {
-    fn of(xs: &[f64]) -> Stat {
+    /// The t interval, clipped to the metric's range `[lo, hi]` (a share cannot exceed 100 %
+    /// however few the seeds).
+    fn of(xs: &[f64], [lo, hi]: [f64; 2]) -> Stat {
         let (mean, sd) = mean_sd(xs);
-        Stat { mean, sd, n: xs.len() }
+        let ci95 = mean_ci95(xs).map_or([0.0, 0.0], |(_, ci)| [ci[0].max(lo), ci[1].min(hi)]);
+        Stat { mean, sd, ci95, n: xs.len() }
     }
 }
 
 #[derive(Debug, Serialize)]
 pub struct AlgoResult {
     pub algo: Algo,
+    /// Most observations per set: `samples` for the paper's fixed count.
+    pub max_samples: u32,
     pub pfm: Stat,
     pub mfr: Stat,
     pub div: Stat,
+    /// Failure modes reported per run.
+    pub failure_modes: Stat,
+    /// Of them, how many have a true error (under the profile) below τ.
+    pub false_modes: Stat,
+    /// Share of reported failure modes whose true error is ≥ τ.
+    pub precision: Stat,
     /// Fraction of planted modes (error ≥ τ) recovered.
     pub recovered: Stat,
+    /// Cores per run (the shrink phase's, or without one the failure modes whose every valid
+    /// one-smaller subset was evaluated and passes) and the share whose true error is ≥ τ.
+    pub cores: Stat,
+    pub core_precision: Stat,
+    /// Share of planted modes that some core with observed FR ≥ τ contains.
+    pub core_recovered: Stat,
+    /// Share of planted modes reported exactly as a core.
+    pub exact: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
+}
+
+/// One run's figures (`None`: undefined for this run).
+struct RunFigures {
+    pfm: f64,
+    mfr: f64,
+    div: Option<f64>,
+    failure_modes: f64,
+    false_modes: f64,
+    precision: Option<f64>,
+    recovered: Option<f64>,
+    cores: f64,
+    core_precision: Option<f64>,
+    core_recovered: Option<f64>,
+    exact: Option<f64>,
+    us: f64,
 }
 
 fn search(args: SearchBenchArgs) -> ExitCode {
@@ -160,43 +223,66 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         lambda: args.lambda,
         beam_width: args.beam_width,
         beam_budget: args.budget / 2,
+        shrink: args.shrink,
+        surrogate: args.surrogate,
+        supersets: args.supersets,
         ..Params::default()
     };
-    if let Err(e) = base.validate() {
+    let sequential = Params { max_samples: args.max_samples, ..base.clone() };
+    if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
         eprintln!("error: {e}");
         return ExitCode::from(2);
+    }
+    let mut modes = vec![base.clone()];
+    if args.max_samples.is_some_and(|m| m > args.samples) {
+        modes.push(sequential);
     }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = Lattice::enumerate(&domain, base.max_size);
     let (space, _) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     let tmp = std::env::temp_dir().join(format!("revelio-bench-{}", std::process::id()));
     let planted: Vec<_> = profile.modes.iter().filter(|m| m.error >= args.threshold).map(|m| m.concepts).collect();
+    let truth = profile.clone();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     let mut results = Vec::new();
-    for algo in Algo::ALL {
-        let mut rows: Vec<[Option<f64>; 5]> = Vec::new();
-        for seed in 0..args.seeds {
-            let params = Params { algo, seed, ..base.clone() };
-            let out = tmp.join(format!("{}-{seed}", algo.name()));
-            match bench_one(&args, &domain, &world, &model, &space, params, out, &planted) {
-                Ok(r) => rows.push(r),
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    let _ = std::fs::remove_dir_all(&tmp);
-                    return ExitCode::from(1);
+    let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
+    for algo in algos {
+        for mode in &modes {
+            let mut rows: Vec<RunFigures> = Vec::new();
+            for seed in 0..args.seeds {
+                let params = Params { algo, seed, ..mode.clone() };
+                let out = tmp.join(format!("{}-{}-{seed}", algo.name(), params.rule().max_samples));
+                match bench_one(&args, &domain, &world, &model, &space, params, out, &planted, &truth) {
+                    Ok(r) => rows.push(r),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        let _ = std::fs::remove_dir_all(&tmp);
+                        return ExitCode::from(1);
+                    }
                 }
             }
+            let col = |f: &dyn Fn(&RunFigures) -> Option<f64>, range: [f64; 2]| {
+                Stat::of(&rows.iter().filter_map(f).collect::<Vec<_>>(), range)
+            };
+            let (percent, share, count) = ([0.0, 100.0], [0.0, 1.0], [0.0, f64::INFINITY]);
+            results.push(AlgoResult {
+                algo,
+                max_samples: mode.rule().max_samples,
+                pfm: col(&|r| Some(r.pfm), percent),
+                mfr: col(&|r| Some(r.mfr), percent),
+                div: col(&|r| r.div, share),
+                failure_modes: col(&|r| Some(r.failure_modes), count),
+                false_modes: col(&|r| Some(r.false_modes), count),
+                precision: col(&|r| r.precision, share),
+                recovered: col(&|r| r.recovered, share),
+                cores: col(&|r| Some(r.cores), count),
+                core_precision: col(&|r| r.core_precision, share),
+                core_recovered: col(&|r| r.core_recovered, share),
+                exact: col(&|r| r.exact, share),
+                us_per_inference: col(&|r| Some(r.us), count),
+            });
         }
-        let col = |i: usize| Stat::of(&rows.iter().filter_map(|r| r[i]).collect::<Vec<_>>());
-        results.push(AlgoResult {
-            algo,
-            pfm: col(0),
-            mfr: col(1),
-            div: col(2),
-            recovered: col(3),
-            us_per_inference: col(4),
-        });
     }
     let _ = std::fs::remove_dir_all(&tmp);
     let mut w = std::io::stdout().lock();
@@ -224,7 +310,8 @@ fn bench_one(
     params: Params,
     out: PathBuf,
     planted: &[crate::ir::ConceptSet],
-) -> Result<[Option<f64>; 5], String> {
+    truth: &Profile,
+) -> Result<RunFigures, String> {
     let spec = format!("sim:{}", args.profile.display());
     let config = RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
     let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), None, out);
@@ -233,9 +320,57 @@ fn bench_one(
     let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
-    let rec = recovered(&r.history, planted, args.threshold);
-    let us = 1e6 * elapsed.as_secs_f64() / (m.inferences.max(1) as f64);
-    Ok([Some(m.pfm), Some(m.mfr), m.div, rec, Some(us)])
+    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.threshold)).map(|s| s.set).collect();
+    let cores: Vec<_> = if r.summary.shrink.is_some() {
+        r.found.cores.iter().map(|c| c.stats.set).collect()
+    } else {
+        reported_cores(&r.history, space, args.threshold)
+    };
+    let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
+    let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
+    Ok(RunFigures {
+        pfm: m.pfm,
+        mfr: m.mfr,
+        div: m.div,
+        failure_modes: modes.len() as f64,
+        false_modes: (modes.len() - true_modes(truth, &modes, args.threshold)) as f64,
+        precision: precision(truth, &modes, args.threshold),
+        recovered: recovered(&r.history, planted, args.threshold),
+        cores: cores.len() as f64,
+        core_precision: precision(truth, &cores, args.threshold),
+        // Every core failed when it was confirmed (the shrink keeps failing subsets only).
+        core_recovered: share(planted.iter().filter(|p| cores.iter().any(|c| p.is_subset_of(*c))).count()),
+        exact: share(planted.iter().filter(|p| cores.contains(p)).count()),
+        us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
+    })
+}
+
+/// How many of `sets` truly fail: their error under the profile is ≥ τ.
+pub fn true_modes(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> usize {
+    sets.iter().filter(|s| truth.error_for(**s) >= threshold).count()
+}
+
+/// The share of `sets` that truly fail (`None` for no sets).
+pub fn precision(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
+    (!sets.is_empty()).then(|| true_modes(truth, sets, threshold) as f64 / sets.len() as f64)
+}
+
+/// The cores a run without a shrink phase reports: evaluated failure modes whose every valid
+/// one-smaller subset was evaluated and passes.
+pub fn reported_cores(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
+    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
+    history
+        .iter()
+        .filter(|s| s.is_failure_mode(threshold))
+        .filter(|s| {
+            s.set
+                .iter()
+                .map(|c| s.set.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
+        })
+        .map(|s| s.set)
+        .collect()
 }
 
 /// Fraction of planted modes contained in some evaluated set with observed FR ≥ τ (`None` when
@@ -252,9 +387,11 @@ pub fn recovered(history: &[SetStats], planted: &[crate::ir::ConceptSet], thresh
 }
 
 fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], planted: usize) -> std::io::Result<()> {
+    let seq = args.max_samples.map_or_else(String::new, |m| format!(", sequential up to M = {m}"));
+    let shrink = if args.shrink > 0 { format!(", shrink {}", args.shrink) } else { String::new() };
     writeln!(
         w,
-        "{} seeds × budget {} (m = {}, τ = {}, λ = {}, w = {}) against `{}`, renderer none",
+        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
         args.seeds,
         args.budget,
         args.samples,
@@ -265,32 +402,102 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     )?;
     writeln!(
         w,
-        "{:<7} {:>15} {:>15} {:>13} {:>15} {:>14}",
-        "algo", "PFM %", "MFR %", "Div", "planted found", "µs/inference"
+        "mean [95% interval over seeds]; FMs: failure modes reported, false: true error < τ, precision: share ≥ τ; \
+         planted found: held by a failure mode; recovered: held by a core; exact: reported as a core"
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
-        if s.n == 0 { "-".to_string() } else { format!("{:.*} ± {:.*}", digits, s.mean * scale, digits, s.sd * scale) }
+        if s.n == 0 {
+            "-".to_string()
+        } else {
+            format!("{:.*} [{:.*}–{:.*}]", digits, s.mean * scale, digits, s.ci95[0] * scale, digits, s.ci95[1] * scale)
+        }
     };
+    let planted_col = |s: &Stat| if planted == 0 { "-".to_string() } else { f(s, 100.0, 0) };
+    writeln!(
+        w,
+        "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  µs/inference",
+        "algo",
+        "PFM %",
+        "MFR %",
+        "Div",
+        "FMs",
+        "false FMs",
+        "precision %",
+        "planted found %",
+        "cores",
+        "core precision %",
+        "recovered %",
+        "exact %"
+    )?;
     for r in results {
+        let name = if r.max_samples > args.samples {
+            format!("{} ≤{}", r.algo.name(), r.max_samples)
+        } else {
+            r.algo.name().into()
+        };
         writeln!(
             w,
-            "{:<7} {:>15} {:>15} {:>13} {:>15} {:>14}",
-            r.algo.name(),
+            "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
+            name,
             f(&r.pfm, 1.0, 1),
             f(&r.mfr, 1.0, 1),
             f(&r.div, 1.0, 2),
-            if planted == 0 { "-".into() } else { f(&r.recovered, 100.0, 0) + "%" },
-            f(&r.us_per_inference, 1.0, 0)
+            f(&r.failure_modes, 1.0, 1),
+            f(&r.false_modes, 1.0, 1),
+            f(&r.precision, 100.0, 0),
+            planted_col(&r.recovered),
+            f(&r.cores, 1.0, 1),
+            f(&r.core_precision, 100.0, 0),
+            planted_col(&r.core_recovered),
+            planted_col(&r.exact),
+            r.us_per_inference.mean
         )?;
     }
-    let pfm = |a: Algo| results.iter().find(|r| r.algo == a).map_or(0.0, |r| r.pfm.mean);
-    if pfm(Algo::Random) > 0.0 {
-        writeln!(
-            w,
-            "PFM vs random: beam {:.1}×, gpts {:.1}×",
-            pfm(Algo::Beam) / pfm(Algo::Random),
-            pfm(Algo::Gpts) / pfm(Algo::Random)
-        )?;
+    let pfm = |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.samples).map(|r| r.pfm.mean);
+    if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
+        let ratios: Vec<String> = Algo::ALL
+            .iter()
+            .filter(|a| **a != Algo::Random)
+            .filter_map(|a| pfm(*a).map(|p| format!("{} {:.1}×", a.name(), p / random)))
+            .collect();
+        writeln!(w, "PFM vs random (fixed m): {}", ratios.join(", "))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::ConceptId;
+    use crate::ir::testkit::lattice;
+    use crate::outcome::Outcome;
+
+    fn set(ids: &[u32]) -> ConceptSet {
+        ConceptSet::from_ids(ids.iter().map(|&i| ConceptId(i)))
+    }
+
+    fn stats(ids: &[u32], wrong: u32) -> SetStats {
+        let mut s = SetStats::new(set(ids));
+        (0..5).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
+        s
+    }
+
+    #[test]
+    fn a_core_is_a_failure_whose_every_valid_one_smaller_subset_was_seen_passing() {
+        // Concepts 0 and 1 exclude each other, so {0, 1, …} is not in the space.
+        let space = Space::new(lattice(5, 3), 5);
+        let history = vec![
+            stats(&[2], 1),
+            stats(&[3], 0),
+            stats(&[2, 3], 5),    // a core: {2} and {3} pass
+            stats(&[2, 3, 4], 5), // holds the core: {2, 3} fails
+            stats(&[0, 4], 4),    // {0} was never evaluated: not a core
+            stats(&[1], 3),       // a singleton that fails is a core
+            stats(&[4], 2),
+            stats(&[2, 4], 1),
+        ];
+        let mut cores = reported_cores(&history, &space, 0.6);
+        cores.sort();
+        assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
+    }
 }

@@ -13,6 +13,7 @@ use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, S
 use crate::check::{self, Compiled};
 use crate::diag::{Diagnostic, Severity};
 use crate::ir::{SourceFile, Span};
+use crate::source::{file_kind, io_reason};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -39,6 +40,12 @@ pub struct CheckArgs {
     /// Seed of `--render-sample`
     #[arg(long, default_value_t = 0, requires = "render_sample")]
     pub seed: u64,
+    /// Largest concept set the lattice lints judge
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
+    pub max_size: u32,
+    /// Most valid sets the lattice lints enumerate; a larger lattice is reported (R0070)
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,15 +73,14 @@ pub fn run(args: CheckArgs) -> ExitCode {
         eprintln!("error: `--render` needs at least 1 scene per set");
         return ExitCode::from(2);
     }
-    let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path(f, true)).collect();
+    let limits = crate::lint::Limits { max_size: args.max_size as usize, max_sets: args.max_sets };
+    let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
     if stdin == 1 {
         let name = args.stdin_filename.unwrap_or_else(|| PathBuf::from("<stdin>"));
-        let mut text = String::new();
-        if let Err(e) = std::io::Read::read_to_string(&mut std::io::stdin(), &mut text) {
-            eprintln!("error: cannot read standard input: {}", io_reason(&e));
-            return ExitCode::from(1);
-        }
-        compiled.push(compile_text(&name.to_string_lossy(), &text, true));
+        compiled.push(match crate::source::read_bounded(std::io::stdin(), &name.to_string_lossy()) {
+            Ok(text) => compile_text_with(&name, &text, Some(limits)),
+            Err(r) => Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() },
+        });
         files.push(name);
     }
     if let Some(scenes) = args.render {
@@ -173,68 +179,68 @@ pub fn reports_of(c: &Compiled) -> Vec<Report<'_>> {
         .collect()
 }
 
-/// Compile one file from disk: `use "…"` paths are read relative to it. With `lints`, the
-/// lattice lints run on domain files that compiled without errors.
+/// Compile one file from disk (`use "…"` paths are read relative to it, under the policy of
+/// [`crate::source`]). With `lints`, the lattice lints run on domain files that compiled without
+/// errors.
 pub fn compile_path(path: &Path, lints: bool) -> Compiled {
-    let name = path.to_string_lossy().into_owned();
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) => {
-            let d = Diagnostic::new(
-                crate::diag::codes::FILE_NOT_FOUND,
-                Severity::Error,
-                None,
-                format!("cannot read `{name}`: {}", io_reason(&e)),
-            );
-            return Compiled { domain: None, diagnostics: vec![d], files: Vec::new() };
-        }
-    };
-    compile_text(&name, &text, lints)
+    compile_path_with(path, lints.then(crate::lint::Limits::default))
 }
 
-/// Compile `text` as the file `name` (its `use "…"` paths are read from disk relative to it);
-/// with `lints`, as [`compile_path`].
-pub fn compile_text(name: &str, text: &str, lints: bool) -> Compiled {
-    let mut compiled = check::compile(name, text, &|p| std::fs::read_to_string(p).ok());
-    if let Some(domain) = compiled.domain.as_ref().filter(|d| lints && !d.name.is_empty()) {
-        compiled.diagnostics.extend(crate::lint::lint_domain(domain));
+/// [`compile_path`] with the lattice lints' limits (none: no lints), showing their progress.
+pub fn compile_path_with(path: &Path, lints: Option<crate::lint::Limits>) -> Compiled {
+    with_lints(crate::source::compile_file(path), lints)
+}
+
+/// Compile `text` as the file `path` (standard input named by `--stdin-filename`): its
+/// `use "…"` paths are read from disk relative to it, under the policy of [`crate::source`];
+/// lints as [`compile_path_with`].
+pub fn compile_text_with(path: &Path, text: &str, lints: Option<crate::lint::Limits>) -> Compiled {
+    with_lints(crate::source::compile_text(path, text, &|_| None), lints)
+}
+
+/// `compiled` with the lattice lints' diagnostics added (none: as it is), showing their progress.
+fn with_lints(mut compiled: Compiled, lints: Option<crate::lint::Limits>) -> Compiled {
+    if let (Some(domain), Some(limits)) = (compiled.domain.as_ref().filter(|d| !d.name.is_empty()), lints) {
+        let mut work = super::progress::Work::new();
+        compiled.diagnostics.extend(crate::lint::lint_domain_with(domain, limits, &mut |w, d, t| work.report(w, d, t)));
         check::sort_diagnostics(&mut compiled.diagnostics);
     }
     compiled
-}
-
-fn io_reason(e: &std::io::Error) -> String {
-    match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file".to_string(),
-        std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
-        std::io::ErrorKind::InvalidData => "not UTF-8 text".to_string(),
-        _ => e.to_string().to_lowercase(),
-    }
 }
 
 /// The `.rev` files named by `paths`, folders searched recursively, sorted within a folder.
 pub fn collect_rev_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     let mut out = Vec::new();
     for p in paths {
-        if p.is_dir() {
-            walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
-        } else if p.is_file() {
-            out.push(p.clone());
-        } else {
-            return Err(format!("`{}` does not exist", p.display()));
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => {
+                walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
+            }
+            Ok(m) if m.is_file() => out.push(p.clone()),
+            Ok(m) => return Err(format!("`{}` is {}, not a `.rev` file or a folder", p.display(), file_kind(&m))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(format!("`{}` does not exist", p.display()));
+            }
+            Err(e) => return Err(format!("cannot read `{}`: {}", p.display(), io_reason(&e))),
         }
     }
     Ok(out)
 }
 
+/// The `.rev` files below `dir`. Links to folders are not followed (a link to `..` would never
+/// end); links to files are listed, and [`crate::source`] judges where they lead.
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)?.map(|e| e.map(|e| e.path())).collect::<Result<_, _>>()?;
+    let mut entries = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let e = e?;
+        entries.push((e.path(), e.file_type()?.is_dir()));
+    }
     entries.sort();
-    for e in entries {
-        if e.is_dir() {
-            walk(&e, out)?;
-        } else if e.extension().is_some_and(|x| x == "rev") {
-            out.push(e);
+    for (path, is_dir) in entries {
+        if is_dir {
+            walk(&path, out)?;
+        } else if path.extension().is_some_and(|x| x == "rev") {
+            out.push(path);
         }
     }
     Ok(())
@@ -483,8 +489,10 @@ mod tests {
         let run_on = |paths: Vec<PathBuf>| {
             run(CheckArgs {
                 paths,
-                format: Format::Plain,
                 stdin_filename: None,
+                format: Format::Plain,
+                max_size: crate::lattice::DEFAULT_MAX_SIZE as u32,
+                max_sets: crate::lattice::DEFAULT_MAX_SETS,
                 render: None,
                 render_sample: None,
                 seed: 0,

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use serde_json::{Value as Json, json};
 
 use crate::ir::*;
+use crate::oracle::explain::{self, expr_text};
 use crate::vlm::prompt::letter;
 
 #[derive(clap::Args, Debug)]
@@ -57,8 +58,17 @@ pub fn to_json(d: &Domain) -> Json {
             "name": k.name,
             "tags": k.tags.iter().map(|t| d.tags[t.index()].name.clone()).collect::<Vec<_>>(),
             "attributes": k.attrs.iter().map(|a| a.name.clone()).collect::<Vec<_>>(),
+            "regions": k.regions.iter().map(|r| d.regions[r.index()].name.clone()).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
-        "world": d.world.iter().map(|a| json!({ "name": a.name, "default": value_text(d, &a.default) })).collect::<Vec<_>>(),
+        "relations": d.relations.iter().map(|r| json!({
+            "name": r.name,
+            "text": r.text,
+            "distance": r.placement.distance,
+            "ahead": r.placement.ahead,
+            "left": r.placement.left,
+            "on_top": r.placement.on_top,
+        })).collect::<Vec<_>>(),
+        "world": d.world.iter().map(|a| json!({ "name": a.name, "default": default_text(d, a) })).collect::<Vec<_>>(),
     })
 }
 
@@ -114,7 +124,7 @@ fn selection_word(s: Selection) -> &'static str {
     }
 }
 
-/// A readable one-line summary of the domain.
+/// A readable summary of the domain.
 pub fn summary(d: &Domain) -> String {
     let mut s = String::new();
     let n_mod = d.concepts.iter().filter(|c| c.kind == ConceptKind::Modifier).count();
@@ -122,7 +132,7 @@ pub fn summary(d: &Domain) -> String {
     let _ = writeln!(
         s,
         "  concepts: {}, modifiers: {}, kinds: {}, constraints: {}, questions: {}, rules: {} ({})",
-        d.concepts.len(),
+        d.concepts.len() - n_mod,
         n_mod,
         d.kinds.len(),
         d.constraints.len(),
@@ -179,66 +189,43 @@ fn filter_text(d: &Domain, f: &TargetFilter) -> String {
 fn effect_text(d: &Domain, e: &Effect) -> String {
     match e {
         Effect::Add { name, kind, region, relation, attrs, .. } => {
+            let k = &d.kinds[kind.index()];
             let to = relation.to.as_deref().unwrap_or("ego");
-            let mut s = format!(
-                "add {name}: {} in {} {} {to}",
-                d.kinds[kind.index()].name,
-                d.regions[region.index()].name,
-                relation.name
-            );
+            let mut s = format!("add {name}: {} in {} {} {to}", k.name, d.regions[region.index()].name, relation.name);
             if !attrs.is_empty() {
-                let a: Vec<String> = attrs.iter().map(|(n, v)| format!("{n} = {}", value_text(d, v))).collect();
+                let a: Vec<String> = attrs
+                    .iter()
+                    .map(|(n, v)| {
+                        let dim = k.attr(n).and_then(|i| dimension(&k.attrs[i].ty));
+                        format!("{n} = {}", explain::value_text(d, v, dim))
+                    })
+                    .collect();
                 let _ = write!(s, " {{ {} }}", a.join(", "));
             }
             s
         }
-        Effect::SetWorld { attr, value, .. } => format!("set world.{attr} = {}", value_text(d, value)),
-        Effect::SetTarget { attr, value, .. } => format!("set {attr} = {}", value_text(d, value)),
+        Effect::SetWorld { attr, value, .. } => {
+            let dim = d.world_attr(attr).and_then(|a| dimension(&a.ty));
+            format!("set world.{attr} = {}", explain::value_text(d, value, dim))
+        }
+        Effect::SetTarget { attr, value, .. } => {
+            let dim = d.kinds.iter().find_map(|k| k.attr(attr).and_then(|i| dimension(&k.attrs[i].ty)));
+            format!("set {attr} = {}", explain::value_text(d, value, dim))
+        }
         Effect::MoveTarget { region, .. } => format!("move {}", d.regions[region.index()].name),
     }
 }
 
-/// A value in base units (`2..4`, `true`, `foggy`).
-pub fn value_text(d: &Domain, v: &Value) -> String {
-    match v {
-        Value::Bool(b) => b.to_string(),
-        Value::Number(x) => format!("{x}"),
-        Value::Range(a, b) => format!("{a}..{b}"),
-        Value::Enum(e, i) => d.variant_name(*e, *i).to_string(),
+fn dimension(ty: &AttrType) -> Option<&str> {
+    match ty {
+        AttrType::Number { dimension, .. } => Some(dimension),
+        _ => None,
     }
 }
 
-fn op_text(op: CmpOp) -> &'static str {
-    match op {
-        CmpOp::Eq => "==",
-        CmpOp::Ne => "!=",
-        CmpOp::Lt => "<",
-        CmpOp::Le => "<=",
-        CmpOp::Gt => ">",
-        CmpOp::Ge => ">=",
-    }
-}
-
-/// An expression in source-like syntax (numbers in base units).
-pub fn expr_text(d: &Domain, e: &Expr) -> String {
-    let join =
-        |es: &[Expr], sep: &str| es.iter().map(|x| format!("({})", expr_text(d, x))).collect::<Vec<_>>().join(sep);
-    match e {
-        Expr::Bool(b) => b.to_string(),
-        Expr::Not(x) => format!("not ({})", expr_text(d, x)),
-        Expr::And(es) => join(es, " and "),
-        Expr::Or(es) => join(es, " or "),
-        Expr::Has(c) => format!("has {}", d.concepts[c.index()].name),
-        Expr::Exists { var, filter, cond } => match cond {
-            Some(c) => format!("exists {var}: {} where {}", filter_text(d, filter), expr_text(d, c)),
-            None => format!("exists {var}: {}", filter_text(d, filter)),
-        },
-        Expr::Count { filter, op, n } => format!("count({}) {} {n}", filter_text(d, filter), op_text(*op)),
-        Expr::Cmp { var, attr, op, value } => {
-            format!("{}.{attr} {} {}", var.as_deref().unwrap_or("world"), op_text(*op), value_text(d, value))
-        }
-        Expr::InRegion { var, region } => format!("{var} in {}", d.regions[region.index()].name),
-    }
+/// A world attribute's default as written in source, with its unit (`2m..4m`, `true`, `foggy`).
+fn default_text(d: &Domain, a: &AttrDef) -> String {
+    explain::value_text(d, &a.default, dimension(&a.ty))
 }
 
 #[cfg(test)]
@@ -264,7 +251,14 @@ mod tests {
         let rules: Vec<&str> = j["rules"].as_array().unwrap().iter().map(|r| r["name"].as_str().unwrap()).collect();
         assert_eq!(rules, ["near_in_lane", "hazard_ahead", "clear"]);
         assert_eq!(j["rules"][0]["expect"], "stop");
-        assert_eq!(j["rules"][0]["when"], "exists e: Collidable | LaneHazard where (e in lane) and (e.distance <= 4)");
+        // Conditions and values print as written, with their units.
+        assert_eq!(j["rules"][0]["when"], "exists e: Collidable | LaneHazard where e in lane and e.distance <= 4m");
+        assert_eq!(
+            j["concepts"][0]["effects"][0],
+            "add barrier: ChainBarrier in lane ahead_of ego { distance = 2m..4m }"
+        );
+        assert_eq!(j["relations"][2]["name"], "near");
+        assert_eq!(j["relations"][2]["distance"], serde_json::json!([0.0, 1.5]));
         assert_eq!(j["questions"][0]["options"][2]["letter"], "C");
         insta::assert_json_snapshot!("describe_small_driving", j);
     }
@@ -277,6 +271,9 @@ mod tests {
             assert!(s.contains(&c.name), "{} missing from the summary", c.name);
         }
         assert!(s.contains("(C) go: Continue"));
+        // Concepts and modifiers are counted apart: 6 + 3 = the 9 listed.
+        assert!(s.contains("concepts: 6, modifiers: 3,"), "{s}");
+        assert!(s.contains("e.distance <= 4m"), "{s}");
         assert!(s.contains("one_town: at most 1 of town_town01, town_town02"));
         assert!(s.contains("child_needs_ped: child_near_ped requires one of pedestrian_crossing"));
     }

@@ -22,6 +22,9 @@ pub struct LatticeArgs {
     /// Print every valid set, one per line, smallest first, then by concept declaration order
     #[arg(long)]
     pub list: bool,
+    /// Most valid sets counted or listed; a larger lattice is refused with the ways out
+    #[arg(long, default_value_t = lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
 }
 
 pub fn run(args: LatticeArgs) -> ExitCode {
@@ -29,10 +32,25 @@ pub fn run(args: LatticeArgs) -> ExitCode {
         Ok(d) => d,
         Err(code) => return code,
     };
-    let out = &mut io::BufWriter::new(io::stdout().lock());
     let max = args.max_size as usize;
-    let result =
-        if args.list { write_list(&domain, max, args.json, out) } else { write_counts(&domain, max, args.json, out) };
+    let validity = Validity::new(&domain);
+    let counted = {
+        let mut work = super::progress::Work::new();
+        lattice::count_within(&domain, &validity, max, args.max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let counted = match counted {
+        Ok(c) => c,
+        Err(too_large) => {
+            eprintln!("{}", too_large.plain());
+            return ExitCode::from(1);
+        }
+    };
+    let out = &mut io::BufWriter::new(io::stdout().lock());
+    let result = if args.list {
+        write_list(&domain, max, args.json, out)
+    } else {
+        write_counts(&domain, &counted, args.json, out)
+    };
     match result.and_then(|()| out.flush()) {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`revelio lattice --list … | head`) is the reader's choice, not an error.
@@ -45,11 +63,10 @@ pub fn run(args: LatticeArgs) -> ExitCode {
 }
 
 /// Counts per size and the total.
-pub fn write_counts(domain: &Domain, max_size: usize, json: bool, out: &mut impl Write) -> io::Result<()> {
-    let validity = Validity::new(domain);
-    let mut counts = vec![0usize; max_size + 1];
-    lattice::for_each_valid(&validity, max_size, |s| counts[s.len()] += 1);
-    let total: usize = counts.iter().sum();
+pub fn write_counts(domain: &Domain, counted: &lattice::Count, json: bool, out: &mut impl Write) -> io::Result<()> {
+    let counts = &counted.per_size;
+    let max_size = counts.len() - 1;
+    let total = counted.total();
     if json {
         let sizes: Vec<_> = (1..=max_size).map(|k| serde_json::json!({ "size": k, "sets": counts[k] })).collect();
         let v = serde_json::json!({
@@ -109,8 +126,9 @@ mod tests {
     #[test]
     fn counts_human_and_json() {
         let d = driving();
-        insta::assert_snapshot!(text(|o| write_counts(&d, 5, false, o)));
-        insta::assert_snapshot!(text(|o| write_counts(&d, 3, true, o)));
+        let counted = |size| lattice::count(&Validity::new(&d), size, u64::MAX, &mut lattice::quiet);
+        insta::assert_snapshot!(text(|o| write_counts(&d, &counted(5), false, o)));
+        insta::assert_snapshot!(text(|o| write_counts(&d, &counted(3), true, o)));
     }
 
     #[test]

@@ -14,8 +14,10 @@ pub mod fmt;
 pub mod lattice;
 pub mod lsp;
 pub mod oracle;
+pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod report;
 pub mod search;
 pub mod validate;
 
@@ -53,6 +55,8 @@ pub enum Command {
     /// Draw a concept set with the builtin renderer (or a contact sheet)
     #[cfg(feature = "render")]
     Render(render::RenderArgs),
+    /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
+    Report(report::ReportArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -78,6 +82,7 @@ pub fn main() -> ExitCode {
         Command::Ask(a) => ask::run(a),
         #[cfg(feature = "render")]
         Command::Render(args) => render::run(args),
+        Command::Report(a) => report::run(a),
     }
 }
 

@@ -15,7 +15,8 @@ pub struct RenderArgs {
     /// The domain file (`domains/driving.rev`).
     #[arg(required_unless_present = "info")]
     pub file: Option<PathBuf>,
-    /// Concepts of the set to draw (none: the empty scene).
+    /// Concepts of the set to draw (none: the domain's baseline scene — its world defaults,
+    /// stage and seeded extras, with no concept).
     pub concepts: Vec<String>,
     /// Scene seed (positions, extras, rain pattern).
     #[arg(long, default_value_t = 0)]
@@ -116,7 +117,7 @@ pub fn plan(domain: &Domain, args: &RenderArgs) -> Result<Vec<Job>, String> {
             .collect());
     }
     let set = domain.parse_set(&args.concepts).map_err(|e| e.to_string())?;
-    let label = if args.concepts.is_empty() { "(empty)".to_string() } else { args.concepts.join(" ") };
+    let label = if args.concepts.is_empty() { "(baseline)".to_string() } else { args.concepts.join(" ") };
     match args.grid {
         None => Ok(vec![Job { set, seed: args.seed, caption: label }]),
         Some(k) if k == 0 || k > MAX_TILES => Err(format!("`--grid {k}` is out of range: expected 1..={MAX_TILES}")),
@@ -152,8 +153,10 @@ fn caption(domain: &Domain, set: ConceptSet) -> String {
 /// Render the jobs: one image, or a captioned contact sheet.
 pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet: bool) -> Result<RgbaImage, String> {
     let mut tiles = Vec::with_capacity(jobs.len());
+    let sampler = crate::sample::Sampler::new(domain);
     for job in jobs {
-        let scene = crate::sample::sample(domain, job.set, job.seed)
+        // No concept: the baseline every concept is seen against (outside the lattice).
+        let scene = if job.set.is_empty() { sampler.backdrop(job.seed) } else { sampler.sample(job.set, job.seed) }
             .map_err(|e| format!("cannot sample `{}` with seed {}: {e}", job.caption, job.seed))?;
         let mut img = renderer.render_rgba(&scene).map_err(|e| e.message)?;
         if as_sheet {
@@ -174,6 +177,36 @@ pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn args(concepts: &[&str], grid: Option<u32>) -> RenderArgs {
+        RenderArgs {
+            file: None,
+            concepts: concepts.iter().map(|s| s.to_string()).collect(),
+            seed: 4,
+            output: PathBuf::from("x.png"),
+            size: None,
+            grid,
+            all: false,
+            info: false,
+        }
+    }
+
+    #[test]
+    fn no_concepts_plan_the_baseline_scene() {
+        let d = crate::sample::fixture::driving();
+        let jobs = plan(&d, &args(&[], None)).unwrap();
+        assert_eq!(jobs, [Job { set: ConceptSet::EMPTY, seed: 4, caption: "(baseline)".into() }]);
+        let grid = plan(&d, &args(&[], Some(2))).unwrap();
+        assert!(grid.iter().all(|j| j.set.is_empty()) && grid.len() == 2);
+        // The baseline samples (as the backdrop) where the empty set has no scene.
+        assert!(crate::sample::sample(&d, ConceptSet::EMPTY, 4).is_err());
+        let scene = crate::sample::Sampler::new(&d).backdrop(4).unwrap();
+        assert!(scene.entities.is_empty() && !scene.stage.is_empty());
+        assert_eq!(
+            plan(&d, &args(&["pedestrain"], None)).unwrap_err(),
+            d.parse_set(&["pedestrain"]).unwrap_err().to_string()
+        );
+    }
 
     #[test]
     fn sizes_parse_and_reject_nonsense() {

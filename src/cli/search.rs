@@ -32,6 +32,14 @@ pub struct SearchArgs {
     /// Observations per concept set (m)
     #[arg(long, default_value_t = 5)]
     pub samples: u32,
+    /// Sequential sampling: a set whose 95 % interval still straddles τ after m observations
+    /// gets more, a batch at a time, up to M [default: m, the paper's fixed count]
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
+    /// Inferences for shrinking failure modes to minimal cores after the search, on top of the
+    /// budget; 0 turns it off [default: budget / 4; on a resumed run at least the recorded value]
+    #[arg(long, value_name = "B")]
+    pub shrink: Option<u64>,
     /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
     #[arg(long, default_value_t = 0.6)]
     pub threshold: f64,
@@ -53,6 +61,9 @@ pub struct SearchArgs {
     /// Largest concept set searched
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
     pub max_size: usize,
+    /// Most valid concept sets searched over; a larger lattice is refused with the ways out
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
+    pub max_sets: u64,
     #[command(flatten)]
     pub run: RunFlags,
     /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
@@ -83,13 +94,17 @@ pub struct RunFlags {
     pub max_api_errors: u32,
 }
 
-/// Flags that configure model clients (shared with `validate` and `ask`). On an existing run
-/// folder, the ones not given are taken from its `config.json`.
+/// Flags that configure the model and image-generation clients (shared with `validate` and
+/// `ask`). On an existing run folder, the ones not given are taken from its `config.json`.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
-    /// Override the provider endpoint
+    /// Override the model provider's endpoint (the model only; never the renderer's)
     #[arg(long)]
     pub base_url: Option<String>,
+    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
+    /// `OPENAI_BASE_URL`)
+    #[arg(long)]
+    pub renderer_base_url: Option<String>,
     /// Per-model settings (TOML)
     #[arg(long)]
     pub model_config: Option<PathBuf>,
@@ -110,6 +125,7 @@ impl ModelFlags {
     pub fn settings(&self) -> ModelSettings {
         ModelSettings {
             base_url: self.base_url.clone(),
+            renderer_base_url: self.renderer_base_url.clone(),
             model_config: self.model_config.as_deref().map(setup::absolute),
             thinking: self.thinking.clone(),
         }
@@ -131,7 +147,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
     // What an existing run folder recorded: its beam budget (so a raised `--budget` extends the
-    // run rather than moving the GPTS phase boundary) and its model flags.
+    // run rather than moving the GPTS phase boundary), its shrink budget and its model flags.
     let previous = match runner::read_config(&out) {
         Ok(p) => p,
         Err(e) => return fail(&e),
@@ -152,6 +168,12 @@ pub fn run(args: SearchArgs) -> ExitCode {
         batch: args.batch,
         seed: args.seed,
         max_size: args.max_size,
+        max_samples: args.max_samples,
+        // Never below the recorded one, so that raising `--budget` alone extends a run.
+        shrink: args.shrink.unwrap_or_else(|| {
+            Params::default_shrink(args.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
+        }),
+        ..Params::default()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
@@ -173,7 +195,17 @@ pub fn run(args: SearchArgs) -> ExitCode {
         };
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = Lattice::enumerate(&domain, config.params.max_size);
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let lattice = match lattice {
+        Ok(l) => l,
+        Err(too_large) => {
+            eprintln!("{}", too_large.plain());
+            return ExitCode::from(1);
+        }
+    };
     let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(
@@ -209,6 +241,9 @@ pub fn run(args: SearchArgs) -> ExitCode {
     } else {
         print_summary(&mut stdout, &report.summary, args.top, &out, started.elapsed())
     };
+    if written.is_ok() {
+        super::report::refresh(&out, &setup.domain, args.json);
+    }
     match written {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
@@ -263,7 +298,13 @@ fn fr_text(fr: Option<f64>) -> String {
     fr.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
 }
 
-/// The human summary: metrics, then the top failure modes.
+/// `FR [lo–hi]`, e.g. ` 80% [38–96]`: the failure rate and its 95 % interval, in percent.
+pub(crate) fn fr_ci_text(fr: Option<f64>, ci: [f64; 2]) -> String {
+    format!("{:>4} [{:.0}–{:.0}]", fr_text(fr), 100.0 * ci[0], 100.0 * ci[1])
+}
+
+/// The human summary: metrics, then the distinct cores (with their supersets) and the failure
+/// modes no core explains.
 pub fn print_summary(
     w: &mut impl Write,
     s: &Summary,
@@ -293,18 +334,75 @@ pub fn print_summary(
         let parts: Vec<String> = m.unanswered.iter().map(|(o, n)| format!("{n} {}", outcome_name(*o))).collect();
         writeln!(w, "not answered (excluded from FR): {}", parts.join(", "))?;
     }
+    if let Some(sh) = &s.shrink {
+        let refuted = match sh.refuted.len() {
+            0 => String::new(),
+            n => format!("; {n} failure mode{} refuted when re-tested", if n == 1 { "" } else { "s" }),
+        };
+        writeln!(
+            w,
+            "shrink: {} cores from {} inferences of {} (up to {} observations per set){refuted}",
+            s.cores.len(),
+            sh.inferences,
+            sh.budget,
+            sh.max_samples
+        )?;
+    }
     writeln!(w, "spend: {}", s.spend.line())?;
-    if s.failure_modes.is_empty() {
+    let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
+    let rest: Vec<&crate::run::runner::SetRow> =
+        s.failure_modes.iter().filter(|r| r.core.is_none() && !refuted.contains(&&r.concepts)).collect();
+    if s.cores.is_empty() && s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
-    } else {
+    }
+    if !s.cores.is_empty() {
         writeln!(w)?;
-        writeln!(w, "{:>4}  {:>5}  {:>5}  concepts", "#", "FR", "n")?;
-        for (i, row) in s.failure_modes.iter().take(top).enumerate() {
-            writeln!(w, "{:>4}  {:>5}  {:>5}  {}", i + 1, fr_text(row.fr), row.answered, row.concepts.join(" + "))?;
+        writeln!(
+            w,
+            "{:>4}  {:<14}  {:>4}  {:>9}  minimal failure modes (cores)",
+            "#", "FR [95% CI]", "n", "supersets"
+        )?;
+        for (i, c) in s.cores.iter().take(top).enumerate() {
+            let star = if c.minimal { "" } else { "  (not fully shrunk)" };
+            writeln!(
+                w,
+                "{:>4}  {:<14}  {:>4}  {:>9}  {}{star}",
+                i + 1,
+                fr_ci_text(c.set.fr, c.set.ci95),
+                c.set.answered,
+                c.supersets,
+                c.set.concepts.join(" + ")
+            )?;
         }
-        if s.failure_modes.len() > top {
-            writeln!(w, "      … {} more in summary.json", s.failure_modes.len() - top)?;
+        if s.cores.len() > top {
+            writeln!(w, "      … {} more cores in summary.json", s.cores.len() - top)?;
         }
+    }
+    if !rest.is_empty() {
+        writeln!(w)?;
+        let title = if s.cores.is_empty() { "failure modes" } else { "failure modes no core explains" };
+        writeln!(w, "{:>4}  {:<14}  {:>4}  {title}", "#", "FR [95% CI]", "n")?;
+        for (i, row) in rest.iter().take(top).enumerate() {
+            writeln!(
+                w,
+                "{:>4}  {:<14}  {:>4}  {}",
+                i + 1,
+                fr_ci_text(row.fr, row.ci95),
+                row.answered,
+                row.concepts.join(" + ")
+            )?;
+        }
+        if rest.len() > top {
+            writeln!(w, "      … {} more in summary.json", rest.len() - top)?;
+        }
+    }
+    if !refuted.is_empty() {
+        writeln!(
+            w,
+            "      ({} failure mode{} of the search failed less than τ when re-tested: `shrink.refuted` in summary.json)",
+            refuted.len(),
+            if refuted.len() == 1 { "" } else { "s" }
+        )?;
     }
     writeln!(w)?;
     writeln!(
@@ -323,26 +421,28 @@ pub(crate) fn outcome_name(o: crate::outcome::Outcome) -> String {
 mod tests {
     use std::collections::BTreeMap;
 
+    use std::time::Duration;
+
     use super::*;
     use crate::outcome::Outcome;
-    use crate::run::runner::SetRow;
+    use crate::run::runner::{CoreRow, SetRow, ShrinkSummary};
     use crate::search::metrics::Metrics;
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
         SetRow {
             concepts: concepts.iter().map(|c| c.to_string()).collect(),
             fr: Some(f64::from(wrong) / f64::from(answered)),
+            ci95: crate::search::interval::wilson(wrong, answered),
             wrong,
             answered,
             observations: 5,
             unanswered: BTreeMap::new(),
+            core: None,
         }
     }
 
-    #[test]
-    fn summary_table() {
-        let modes = vec![row(&["debris_far", "town_town02"], 5, 5), row(&["obstruction_near", "light_green"], 3, 4)];
-        let s = Summary {
+    fn summary(failure_modes: Vec<SetRow>, cores: Vec<CoreRow>, shrink: Option<ShrinkSummary>) -> Summary {
+        Summary {
             domain: "driving".into(),
             model: "sim:driving-paper@3daf41a26cd5".into(),
             algo: Algo::Gpts,
@@ -352,14 +452,16 @@ mod tests {
                 sets: 200,
                 inferences: 1000,
                 failures: 212,
-                failure_modes: 2,
+                failure_modes: failure_modes.len(),
                 pfm: 1.0,
                 mfr: 21.2,
                 div: Some(1.0),
                 unanswered: BTreeMap::from([(Outcome::Unparsed, 1)]),
             },
-            failure_modes: modes.clone(),
-            sets: modes,
+            cores,
+            sets: failure_modes.clone(),
+            failure_modes,
+            shrink,
             spend: crate::run::eval::Spend {
                 calls: 1000,
                 cached: 12,
@@ -368,9 +470,47 @@ mod tests {
                 thinking_tokens: 250_000,
                 cost_usd: 1.43,
             },
+        }
+    }
+
+    #[test]
+    fn summary_table() {
+        let modes = vec![row(&["debris_far", "town_town02"], 5, 5), row(&["obstruction_near", "light_green"], 3, 4)];
+        let mut out = Vec::new();
+        print_summary(&mut out, &summary(modes, vec![], None), 1, Path::new("runs/x"), Duration::from_millis(1500))
+            .unwrap();
+        insta::assert_snapshot!(String::from_utf8(out).unwrap());
+    }
+
+    #[test]
+    fn summary_table_lists_cores_first_then_the_rest() {
+        let in_core = |c: &[&str], w, n, core| SetRow { core: Some(core), ..row(c, w, n) };
+        let modes = vec![
+            in_core(&["light_green", "obstruction_near", "weather_wet"], 5, 5, 0),
+            in_core(&["debris_far", "town_town02", "pedestrian"], 5, 5, 1),
+            row(&["bus_stop", "cone"], 4, 5),
+            in_core(&["light_green", "obstruction_near", "cyclist"], 4, 5, 0),
+            row(&["chain_barrier_far", "far"], 3, 5),
+            row(&["cone", "weather_foggy"], 3, 5),
+        ];
+        let core = |c: &[&str], w, n, supersets, minimal| CoreRow {
+            set: SetRow { observations: n, ..row(c, w, n) },
+            supersets,
+            minimal,
+            shrunk_from: vec![],
+        };
+        let cores =
+            vec![core(&["light_green", "obstruction_near"], 19, 20, 2, true), core(&["debris_far"], 7, 9, 1, false)];
+        let shrink = ShrinkSummary {
+            budget: 250,
+            inferences: 243,
+            max_samples: 20,
+            new_sets: 9,
+            refuted: vec![row(&["cone", "weather_foggy"], 4, 20)],
         };
         let mut out = Vec::new();
-        print_summary(&mut out, &s, 1, Path::new("runs/x"), std::time::Duration::from_millis(1500)).unwrap();
+        let s = summary(modes, cores, Some(shrink));
+        print_summary(&mut out, &s, 2, Path::new("runs/x"), Duration::from_millis(1500)).unwrap();
         insta::assert_snapshot!(String::from_utf8(out).unwrap());
     }
 }

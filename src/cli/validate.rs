@@ -1,13 +1,15 @@
-//! `revelio validate RUN_DIR --top 10 --samples 20`: re-evaluate a run's top sets with fresh
-//! scenes (paper section 4), journaled in the run folder; reports mean ± sd FR and how many
-//! reach FR ≥ 0.8.
+//! `revelio validate RUN_DIR --top 10 --samples 20 [--max-samples M]`: re-evaluate a run's top
+//! sets with fresh scenes (paper section 4) — sequentially with `--max-samples`: a set whose
+//! 95 % interval still straddles the run's τ gets more, up to M — journaled in the run folder;
+//! reports each validated FR with its interval, mean ± sd FR and how many reach FR ≥ 0.8, then
+//! refreshes the run report.
 //!
 //! The sets are taken in the order of the search's table. The model is rebuilt from the settings
 //! recorded in `config.json` (model flags given here override them, as long as the model stays
-//! the same). Each setting writes its own file, `validation-top{K}-samples{M}.json`, so validating
-//! again with other options never overwrites an earlier result; the observations themselves are
-//! shared through the journal (the first 20 of `--samples 40` are those of `--samples 20`).
-//! Exit codes as for `search`.
+//! the same). Each setting writes its own file, `validation-top{K}-samples{m}.json` (with
+//! `-max{M}` before `.json` when sequential), so validating again with other options never
+//! overwrites an earlier result; the observations themselves are shared through the journal (the
+//! first 20 of `--samples 40` are those of `--samples 20`). Exit codes as for `search`.
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -17,7 +19,7 @@ use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
 use crate::run::setup::{self, Parts, SetupError};
 
-use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
+use super::search::{ModelFlags, RunFlags, fail_run, fr_ci_text, runtime, watch_ctrl_c};
 
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
@@ -29,6 +31,10 @@ pub struct ValidateArgs {
     /// Fresh observations per set
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
     pub samples: u32,
+    /// Sequential validation: a set whose 95 % interval still straddles the run's τ gets more
+    /// observations, up to M [default: --samples]
+    #[arg(long, value_name = "M")]
+    pub max_samples: Option<u32>,
     #[command(flatten)]
     pub run: RunFlags,
     #[command(flatten)]
@@ -83,7 +89,14 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     setup.max_api_errors = args.run.max_api_errors;
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
-    let v = match rt.block_on(runner::validate(&setup, &config, &summary, args.top as usize, args.samples)) {
+    let v = match rt.block_on(runner::validate(
+        &setup,
+        &config,
+        &summary,
+        args.top as usize,
+        args.samples,
+        args.max_samples,
+    )) {
         Ok(v) => v,
         Err(e) => return fail_run(&e, &args.run_dir),
     };
@@ -92,9 +105,16 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
     } else {
         print_validation(&mut out, &v).and_then(|()| {
-            writeln!(out, "written to {}", args.run_dir.join(runner::validation_file(v.top, v.samples)).display())
+            writeln!(
+                out,
+                "written to {}",
+                args.run_dir.join(runner::validation_file(v.top, v.samples, v.max_samples)).display()
+            )
         })
     };
+    if written.is_ok() {
+        super::report::refresh(&args.run_dir, &setup.domain, args.json);
+    }
     if let Err(e) = written
         && e.kind() != std::io::ErrorKind::BrokenPipe
     {
@@ -116,18 +136,28 @@ fn pct(f: Option<f64>) -> String {
 }
 
 pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<()> {
-    writeln!(w, "{:>4}  {:>9}  {:>9}  concepts", "#", "search FR", "valid. FR")?;
+    writeln!(w, "{:>4}  {:>9}  {:<18}  {:>4}  concepts", "#", "search FR", "valid. FR [95% CI]", "n")?;
     for (i, s) in v.sets.iter().enumerate() {
-        let fr = format!("{} /{}", pct(s.validation.fr), s.validation.answered);
-        writeln!(w, "{:>4}  {:>9}  {:>9}  {}", i + 1, pct(s.search.fr), fr, s.search.concepts.join(" + "))?;
+        writeln!(
+            w,
+            "{:>4}  {:>9}  {:<18}  {:>4}  {}",
+            i + 1,
+            pct(s.search.fr),
+            fr_ci_text(s.validation.fr, s.validation.ci95),
+            s.validation.answered,
+            s.search.concepts.join(" + ")
+        )?;
     }
+    let samples = match v.max_samples {
+        Some(max) => format!("{}–{max} samples (sequential)", v.samples),
+        None => format!("{} samples", v.samples),
+    };
     writeln!(
         w,
-        "validated FR {:.1}% ± {:.1}% over {} sets × {} samples; {} of {} reach FR ≥ {:.0}%",
+        "validated FR {:.1}% ± {:.1}% over {} sets × {samples}; {} of {} reach FR ≥ {:.0}%",
         100.0 * v.mean_fr,
         100.0 * v.sd_fr,
         v.sets.len(),
-        v.samples,
         v.consistent,
         v.sets.len(),
         100.0 * CONSISTENT_FR
@@ -144,10 +174,12 @@ mod tests {
         SetRow {
             concepts: concepts.iter().map(|c| c.to_string()).collect(),
             fr: Some(f64::from(wrong) / f64::from(answered)),
+            ci95: crate::search::interval::wilson(wrong, answered),
             wrong,
             answered,
             observations: answered,
             unanswered: Default::default(),
+            core: None,
         }
     }
 
@@ -156,6 +188,7 @@ mod tests {
         let v = Validation {
             top: 2,
             samples: 20,
+            max_samples: None,
             sets: vec![
                 ValidatedSet {
                     search: row(&["debris_far", "town_town02"], 5, 5),

@@ -22,9 +22,11 @@ codes! {
     SYNTAX = "R0001", "syntax-error", "the text does not follow the grammar";
     INVALID_LITERAL = "R0002", "invalid-literal", "a malformed literal: string escape, colour, number or image size";
     TOO_DEEP = "R0003", "nesting-too-deep", "the input nests too deeply to parse";
+    FILE_TOO_LARGE = "R0004", "file-too-large", "a `.rev` file over 1 MiB, or a domain whose files pass 8 MiB together";
     UNKNOWN_MODULE = "R0010", "unknown-module", "`use std::NAME` names no standard-library module";
     FILE_NOT_FOUND = "R0011", "file-not-found", "`use \"PATH\"` names a file that cannot be read";
     MISPLACED_DOMAIN = "R0012", "misplaced-domain", "a `domain` line in a used module, or two `domain` lines";
+    USE_REFUSED = "R0013", "use-refused", "`use \"PATH\"` names a file a domain may not read: outside its folder, not a `.rev` file, or not a regular file";
     UNKNOWN_NAME = "R0020", "unknown-name", "a name that is declared nowhere";
     DUPLICATE_NAME = "R0021", "duplicate-name", "a name declared twice in the same namespace";
     WRONG_SORT = "R0022", "wrong-sort-of-name", "a name of the wrong sort (e.g. an enum where a kind is expected)";
@@ -43,6 +45,9 @@ codes! {
     TOO_MANY_CONCEPTS = "R0044", "too-many-concepts", "more concepts than a concept set can hold (128)";
     PARTIAL_TARGET = "R0045", "partial-target-attribute", "(warning) a modifier sets an attribute that some of its target kinds lack";
     DUPLICATE_LOOK = "R0046", "duplicate-look", "a kind with both `shape { … }` and a `look`, or two `look`s";
+    RELATION_PLACEMENT = "R0047", "relation-placement", "a relation whose placement is missing, unknown or contradictory";
+    UNPLACEABLE_RELATION = "R0048", "unplaceable-relation", "an `add` whose relation can never hold: its region is out of reach of its target, or the entities are placed relative to each other in a cycle";
+    REGION_NOT_ALLOWED = "R0049", "region-not-allowed", "an entity added to or moved into a region its kind may not stand in";
     EMPTY_MEMBER = "R0050", "empty-member", "a constraint wildcard or category that matches no concept";
     UNKNOWN_CONSTRAINT = "R0051", "unknown-constraint", "a constraint that is not `exclusive`, `at_most`, `requires` or `forbids`";
     CONSTRAINT_ARITY = "R0052", "constraint-arity", "a constraint with the wrong number of members or a missing count";
@@ -52,6 +57,7 @@ codes! {
     BAD_REFERENCE = "R0063", "bad-reference", "a reference that is not `VAR.attr`, `world.attr` or `self.attr`, or an unbound variable";
     BAD_ALLOW = "R0064", "invalid-allow", "`allow` of a code that is not a lattice lint (`R0100`–`R0199`)";
     ALLOW_WITHOUT_REASON = "R0065", "allow-without-reason", "(warning) an `allow` with no `///` comment saying why";
+    LATTICE_TOO_LARGE = "R0070", "lattice-too-large", "more valid concept sets than the limit (`--max-sets`, 1 000 000 by default)";
 }
 
 /// The documented entry of a code.

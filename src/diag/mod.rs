@@ -1,9 +1,13 @@
 //! The bottom of the pipeline: source spans, the one neutral diagnostic type (produced by the
 //! parser, the checker and the lattice lints; rendered by the CLI as human, plain or JSON and
-//! converted by editors), the stable codes, and the one "did you mean" rule.
+//! converted by editors), the stable codes, the one "did you mean" rule, and the one way text
+//! from outside is made safe to print ([`terminal_safe`]).
 
 pub mod codes;
+mod escape;
 pub mod suggest;
+
+pub use escape::terminal_safe;
 
 use serde::{Deserialize, Serialize};
 

@@ -150,14 +150,24 @@ impl Layout<'_> {
             Rule::enum_item => self.enum_list(p, level)?,
             Rule::kind_item | Rule::world_item => {
                 let (open, close) = self.braces(p)?;
-                let stmts = of(&[Rule::attr_decl, Rule::shape_block]);
-                self.block(open, close, &stmts, level, Style::Lines, p)?;
+                let stmts = of(&[Rule::attr_decl, Rule::shape_block, Rule::stands_in]);
+                // `kind Tree: Extra { in verge }` stays on one line when it fits.
+                let style =
+                    if stmts.iter().all(|s| s.as_rule() == Rule::stands_in) { Style::Fill } else { Style::Lines };
+                self.block(open, close, &stmts, level, style, p)?;
                 for s in stmts.iter().filter(|s| s.as_rule() == Rule::shape_block) {
                     let parts = s.clone().into_inner().find(|c| c.as_rule() == Rule::parts)?;
                     self.parts(&parts, level + 1)?;
                 }
             }
             Rule::look_item | Rule::stage_item => self.parts(children.last()?, level)?,
+            // `relation near "is near" { distance 0m..1.5m }`: settings, filled.
+            Rule::relation_item => {
+                if let Some(body) = children.iter().find(|c| c.as_rule() == Rule::placements) {
+                    let stmts: Vec<Pair<Rule>> = body.clone().into_inner().collect();
+                    self.block(self.first(body)?, self.last(body)?, &stmts, level, Style::Fill, p)?;
+                }
+            }
             Rule::region_item | Rule::preset_item | Rule::camera_item | Rule::visible_item => {
                 let (open, close) = self.braces(p)?;
                 let stmts = of(&[Rule::region_stmt, Rule::preset_param, Rule::camera_stmt]);

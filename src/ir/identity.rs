@@ -11,8 +11,6 @@
 //! named by its path relative to the domain file's folder, with `.` and `..` collapsed. Names
 //! are kept, not only texts, because moving a file changes which `use` line reaches it.
 
-use sha2::{Digest, Sha256};
-
 use super::Domain;
 
 /// SHA-256 of a domain's canonical module names and texts (see the module docs).
@@ -32,16 +30,11 @@ impl Domain {
     /// The domain's identity (see [`DomainId`]).
     pub fn identity(&self) -> DomainId {
         let root = self.files.first().map(|f| parent(&normalize(&f.name))).unwrap_or_default();
-        let mut h = Sha256::new();
-        h.update(b"revelio.domain.v2");
-        for (i, f) in self.files.iter().enumerate() {
-            let name = if i == 0 { ENTRY.to_string() } else { module_name(&f.name, &root) };
-            for part in [name.as_bytes(), f.text.as_bytes()] {
-                h.update((part.len() as u64).to_le_bytes());
-                h.update(part);
-            }
-        }
-        DomainId(h.finalize().into())
+        let names: Vec<String> = (self.files.iter().enumerate())
+            .map(|(i, f)| if i == 0 { ENTRY.to_string() } else { module_name(&f.name, &root) })
+            .collect();
+        let parts = names.iter().zip(&self.files).flat_map(|(n, f)| [n.as_bytes(), f.text.as_bytes()]);
+        DomainId(crate::hash::tagged_parts(b"revelio.domain.v2", parts))
     }
 }
 

@@ -26,7 +26,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::outcome::{Answer, Outcome, Usage};
 use crate::render::EntityVisibility;
@@ -44,6 +43,9 @@ pub const SYNC_EVERY: usize = 64;
 pub enum Phase {
     Search,
     Validate,
+    /// Shrinking failure modes to cores after the search (more observations of search sets
+    /// continue their indices; subsets start at 0).
+    Shrink,
 }
 
 /// One observation, as one journal line.
@@ -95,6 +97,8 @@ pub enum JournalError {
     Io { action: &'static str, path: PathBuf, source: std::io::Error },
     #[error("cannot resume: line {line} of `{}` is corrupt: {message}", path.display())]
     Corrupt { path: PathBuf, line: usize, message: String },
+    #[error("cannot read the journal: line {line} of `{}` is corrupt: {message}", path.display())]
+    CorruptRead { path: PathBuf, line: usize, message: String },
     #[error(
         "run folder `{}` is in use by another revelio process ({holder}); wait for it to finish or choose another `--out` folder",
         dir.display()
@@ -139,11 +143,6 @@ pub struct Journal {
 struct Writer {
     file: File,
     unsynced: usize,
-}
-
-/// SHA-256 hex of bytes.
-pub fn sha256(bytes: &[u8]) -> String {
-    hex::encode(Sha256::digest(bytes))
 }
 
 /// Write a file atomically (temporary file, then rename).
@@ -239,7 +238,7 @@ impl Journal {
 
     /// Store an image under its content hash (no-op when present); returns the hash.
     pub fn store_image(&self, png: &[u8]) -> Result<String, JournalError> {
-        let hash = sha256(png);
+        let hash = crate::hash::sha256_hex(png);
         let path = self.dir.join("images").join(format!("{hash}.png"));
         if !path.exists() {
             write_atomic(&path, png)?;
@@ -263,6 +262,18 @@ fn holds_other_files(dir: &Path) -> Result<bool, JournalError> {
     }
     let mut entries = std::fs::read_dir(dir).map_err(io("read", dir))?;
     Ok(entries.any(|e| e.map_or(true, |e| e.file_name() != lock::LOCK_FILE)))
+}
+
+/// Read a run folder's journal without opening it for appending or locking the folder (reports
+/// read finished runs). A torn last line is skipped, as [`Journal::open`] would drop it.
+pub fn read(dir: &Path) -> Result<Vec<Record>, JournalError> {
+    let path = dir.join("journal.jsonl");
+    let text = std::fs::read(&path).map_err(io("read", &path))?;
+    match parse_journal(&text, &path) {
+        Ok((records, _)) => Ok(records),
+        Err(JournalError::Corrupt { path, line, message }) => Err(JournalError::CorruptRead { path, line, message }),
+        Err(e) => Err(e),
+    }
 }
 
 /// Parse journal bytes; returns the records and the length of the valid prefix. Only the last
@@ -376,7 +387,7 @@ mod tests {
         let run = dir.path().join("r");
         let j = Journal::open(&run).unwrap();
         let h = j.store_image(b"png bytes").unwrap();
-        assert_eq!(h, sha256(b"png bytes"));
+        assert_eq!(h, crate::hash::sha256_hex(b"png bytes"));
         assert_eq!(std::fs::read(run.join("images").join(format!("{h}.png"))).unwrap(), b"png bytes");
     }
 

@@ -103,6 +103,7 @@ impl Dom {
             tags: tags.to_vec(),
             attrs,
             shape: vec![],
+            regions: vec![],
             span,
         });
         KindId(self.d.kinds.len() as u32 - 1)

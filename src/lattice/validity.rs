@@ -1,9 +1,10 @@
 //! Validity of a concept set, compiled to bitmask checks.
 //!
 //! A set is valid when it is non-empty, names only declared concepts, satisfies every
-//! constraint, and every modifier in it has a target entity that has the attributes the modifier
-//! sets — exactly the sets [`anchor::build`](crate::anchor::build) accepts, plus the constraints.
-//! The target rule is compiled per modifier into two masks (see [`ModifierTarget`]) so that the
+//! constraint, every modifier in it has a target entity that has the attributes the modifier
+//! sets, and every entity placed relative to another entity (`add … near b`) finds that entity in
+//! the set — exactly the sets [`anchor::build`](crate::anchor::build) accepts, plus the
+//! constraints. The target rules are compiled to masks (see [`ModifierTarget`]) so that the
 //! check is a few word operations instead of building the anchor graph.
 
 use std::fmt;
@@ -24,6 +25,8 @@ pub enum Violation {
     NoTarget { modifier: String },
     /// A modifier's target entity lacks an attribute the modifier sets.
     TargetLacksAttr { modifier: String, attr: String, target: String },
+    /// An entity is placed relative to an entity that no concept of the set adds.
+    NoRelationTarget { concept: String, entity: String, relation: String, target: String },
 }
 
 impl fmt::Display for Violation {
@@ -38,6 +41,10 @@ impl fmt::Display for Violation {
             Violation::TargetLacksAttr { modifier, attr, target } => {
                 write!(f, "modifier `{modifier}` sets `{attr}`, which its target `{target}` does not have")
             }
+            Violation::NoRelationTarget { concept, entity, relation, target } => write!(
+                f,
+                "concept `{concept}` places `{entity}` {relation} `{target}`, which no concept of the set adds"
+            ),
         }
     }
 }
@@ -45,7 +52,7 @@ impl fmt::Display for Violation {
 impl std::error::Error for Violation {}
 
 /// Check one set against the domain's validity rules, naming the first violation: constraints
-/// in declaration order first, then modifiers in index order.
+/// in declaration order first, then modifiers in index order, then relation targets.
 pub fn validate(domain: &Domain, set: ConceptSet) -> Result<(), Violation> {
     Validity::new(domain).check(set).map_err(|v| v.resolve(domain))
 }
@@ -70,6 +77,8 @@ pub enum ViolationAt {
     NoTarget(ConceptId),
     /// The modifier and the provider concept whose entity lacks the attribute.
     TargetLacksAttr(ConceptId, ConceptId),
+    /// The concept and the index of its `add` whose relation target is missing.
+    NoRelationTarget(ConceptId, usize),
 }
 
 impl ViolationAt {
@@ -87,6 +96,15 @@ impl ViolationAt {
                 let (attr, target) = lacking_attr(domain, m, provider).unwrap_or_default();
                 Violation::TargetLacksAttr { modifier: name(m), attr, target }
             }
+            ViolationAt::NoRelationTarget(c, effect) => {
+                let (entity, relation, target) = match domain.concepts[c.index()].effects.get(effect) {
+                    Some(Effect::Add { name, relation, .. }) => {
+                        (name.clone(), relation.name.clone(), relation.to.clone().unwrap_or_default())
+                    }
+                    _ => Default::default(),
+                };
+                Violation::NoRelationTarget { concept: name(c), entity, relation, target }
+            }
         }
     }
 }
@@ -101,13 +119,23 @@ pub struct Validity {
     forbids: Vec<(usize, u128)>,
     requires: Vec<(usize, u128, u128)>,
     modifiers: Vec<ModifierTarget>,
+    /// Per `add` related to an entity its own concept does not add: (concept, effect index,
+    /// the concepts that add an entity of that name).
+    relation_targets: Vec<(ConceptId, usize, u128)>,
 }
 
 impl Validity {
     pub fn new(domain: &Domain) -> Validity {
         let n = domain.concepts.len().min(crate::ir::MAX_CONCEPTS);
         let universe = if n == 128 { u128::MAX } else { (1u128 << n) - 1 };
-        let mut v = Validity { universe, at_most: vec![], forbids: vec![], requires: vec![], modifiers: vec![] };
+        let mut v = Validity {
+            universe,
+            at_most: vec![],
+            forbids: vec![],
+            requires: vec![],
+            modifiers: vec![],
+            relation_targets: relation_targets(domain),
+        };
         for (i, c) in domain.constraints.iter().enumerate() {
             match c.rule {
                 ConstraintRule::AtMost { members, max } => v.at_most.push((i, members.0, max)),
@@ -177,6 +205,10 @@ impl Validity {
                 .modifiers
                 .iter()
                 .any(|m| set >> m.modifier.0 & 1 == 1 && set & m.providers == 0 && remaining & m.providers == 0)
+            || self
+                .relation_targets
+                .iter()
+                .any(|&(c, _, providers)| set >> c.0 & 1 == 1 && set & providers == 0 && remaining & providers == 0)
     }
 
     fn first_monotone(&self, set: u128) -> Option<usize> {
@@ -204,8 +236,38 @@ impl Validity {
                 return Err(ViolationAt::TargetLacksAttr(m.modifier, ConceptId(top)));
             }
         }
+        for &(c, effect, providers) in &self.relation_targets {
+            if set >> c.0 & 1 == 1 && set & providers == 0 {
+                return Err(ViolationAt::NoRelationTarget(c, effect));
+            }
+        }
         Ok(())
     }
+}
+
+/// Every `add` related to an entity that its own concept does not add, with the concepts that
+/// add an entity of that name (mirrors `anchor::build`, which looks for the target by name).
+fn relation_targets(domain: &Domain) -> Vec<(ConceptId, usize, u128)> {
+    let mut out = Vec::new();
+    for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
+        for (i, e) in c.effects.iter().enumerate() {
+            let Effect::Add { relation, .. } = e else { continue };
+            let Some(to) = &relation.to else { continue };
+            let adds =
+                |k: &crate::ir::Concept| k.effects.iter().any(|e| matches!(e, Effect::Add { name, .. } if name == to));
+            if adds(c) {
+                continue;
+            }
+            let providers = domain
+                .concepts
+                .iter()
+                .take(crate::ir::MAX_CONCEPTS)
+                .filter(|k| k.kind == ConceptKind::Concept && adds(k))
+                .fold(0u128, |m, k| m | ConceptSet::single(k.id).0);
+            out.push((c.id, i, providers));
+        }
+    }
+    out
 }
 
 /// The target masks of one modifier; `None` for a modifier that targets the world.

@@ -12,22 +12,55 @@
 //! | R0104 | an answer option is never expected |
 //! | R0105 | a modifier has no possible target |
 //! | R0106 | no rule matches some valid set |
+//!
+//! Memory grows with the lattice and linearly with the rules: per rule, the rules that shadow
+//! it or tie with it are tallied for at most [`TRACKED`] partners (a rule with more says "at
+//! least"), never in a rule × rule table. A lattice past the limit is not linted: the lints
+//! report R0070 with the ways out instead.
 
 use crate::anchor::Tri;
 use crate::diag::{Diagnostic, Label, Severity};
 use crate::ir::{ConceptSet, Domain, Selection, Span};
-use crate::lattice::{DEFAULT_MAX_SIZE, Lattice};
+use crate::lattice::{DEFAULT_MAX_SETS, DEFAULT_MAX_SIZE, Lattice, PROGRESS_EVERY, Progress, quiet};
 use crate::oracle::{self, Decision, Oracle, explain, set_text};
 
+/// Partners (shadowing or tying rules) tallied per rule.
+pub const TRACKED: usize = 8;
+
+/// The lattice the lints judge: sets of up to `max_size` concepts, at most `max_sets` of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    pub max_size: usize,
+    pub max_sets: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Limits {
+        Limits { max_size: DEFAULT_MAX_SIZE, max_sets: DEFAULT_MAX_SETS }
+    }
+}
+
 /// Warnings computed over the lattice of a compiled domain (sets of up to
-/// [`DEFAULT_MAX_SIZE`] concepts).
+/// [`DEFAULT_MAX_SIZE`] concepts), or R0070 when that lattice is past [`DEFAULT_MAX_SETS`].
 pub fn lint_domain(domain: &Domain) -> Vec<Diagnostic> {
-    lint_lattice(domain, &Lattice::enumerate(domain, DEFAULT_MAX_SIZE))
+    lint_domain_with(domain, Limits::default(), &mut quiet)
+}
+
+/// [`lint_domain`] with chosen limits, reporting progress (counting, enumerating, judging).
+pub fn lint_domain_with(domain: &Domain, limits: Limits, progress: Progress) -> Vec<Diagnostic> {
+    match Lattice::build(domain, limits.max_size, limits.max_sets, progress) {
+        Ok(lattice) => lint_lattice_with(domain, &lattice, progress),
+        Err(too_large) => vec![too_large.diagnostic()],
+    }
 }
 
 /// Warnings computed over an already enumerated lattice.
 pub fn lint_lattice(domain: &Domain, lattice: &Lattice) -> Vec<Diagnostic> {
-    let survey = Survey::run(domain, lattice);
+    lint_lattice_with(domain, lattice, &mut quiet)
+}
+
+fn lint_lattice_with(domain: &Domain, lattice: &Lattice, progress: Progress) -> Vec<Diagnostic> {
+    let survey = Survey::run(domain, lattice, progress);
     let mut out = Vec::new();
     concept_lints(domain, lattice, &mut out);
     survey.rule_lints(domain, lattice.max_size(), &mut out);
@@ -52,34 +85,67 @@ impl Example {
     }
 }
 
+/// Per rule, the other rules met in some role (shadowing it, tying with it), each with an
+/// example: the first [`TRACKED`] partners exactly, then only how many sets had another.
+#[derive(Debug, Clone, Default)]
+struct Partners {
+    /// `(partner rule, example)`, in order of first meeting.
+    kept: Vec<(usize, Example)>,
+    /// Sets whose partner was not kept.
+    more: usize,
+}
+
+impl Partners {
+    fn note(&mut self, partner: usize, set: ConceptSet) {
+        if let Some((_, e)) = self.kept.iter_mut().find(|(p, _)| *p == partner) {
+            e.count += 1;
+        } else if self.kept.len() < TRACKED {
+            self.kept.push((partner, Example { set, count: 1 }));
+        } else {
+            self.more += 1;
+        }
+    }
+
+    /// The kept partners in rule order.
+    fn by_rule(&self) -> Vec<(usize, Example)> {
+        let mut v = self.kept.clone();
+        v.sort_by_key(|(p, _)| *p);
+        v
+    }
+}
+
 /// What judging every set of the lattice found, per rule and option.
 struct Survey {
     selected: Vec<bool>,
     applies: Vec<bool>,
-    /// Per rule: per rule that took a set where this rule applied, an example.
-    shadowed_by: Vec<Vec<Option<Example>>>,
+    /// Per rule: the rules that took a set where this rule applied.
+    shadowed_by: Vec<Partners>,
     undetermined: Vec<Option<Example>>,
-    /// Per (winner, loser) pair of a best-fit tie with different answers.
-    ties: Vec<Vec<Option<Example>>>,
+    /// Per rule: the rules that beat it in a best-fit tie with a different answer.
+    ties: Vec<Partners>,
     /// Per question, per option: whether some set expects it.
     expected: Vec<Vec<bool>>,
     no_rule: Option<Example>,
 }
 
 impl Survey {
-    fn run(domain: &Domain, lattice: &Lattice) -> Survey {
+    fn run(domain: &Domain, lattice: &Lattice, progress: Progress) -> Survey {
         let n = domain.rules.len();
         let mut s = Survey {
             selected: vec![false; n],
             applies: vec![false; n],
-            shadowed_by: vec![vec![None; n]; n],
+            shadowed_by: vec![Partners::default(); n],
             undetermined: vec![None; n],
-            ties: vec![vec![None; n]; n],
+            ties: vec![Partners::default(); n],
             expected: domain.questions.iter().map(|q| vec![false; q.options.len()]).collect(),
             no_rule: None,
         };
         let oracle = Oracle::new(domain);
-        for &set in &lattice.sets {
+        let total = lattice.len() as u64;
+        for (i, &set) in lattice.sets.iter().enumerate() {
+            if (i as u64).is_multiple_of(PROGRESS_EVERY) {
+                progress("judging valid sets", i as u64, total);
+            }
             // Lattice sets are valid by construction, so `judge` only fails if the validity masks
             // and the anchor graph disagree; such a set has nothing to lint.
             if let Ok(j) = oracle.judge(set) {
@@ -103,14 +169,14 @@ impl Survey {
                 }
                 for (i, t) in conditions.iter().enumerate() {
                     if *t == Tri::True && i != rule {
-                        Example::note(&mut self.shadowed_by[i][rule], set);
+                        self.shadowed_by[i].note(rule, set);
                     }
                 }
                 if domain.selection == Selection::BestFit {
                     for other in oracle::tied_later(domain, set, conditions, rule) {
                         let o = &domain.rules[other];
                         if (o.question, o.expect) != (r.question, r.expect) {
-                            Example::note(&mut self.ties[rule][other], set);
+                            self.ties[other].note(rule, set);
                         }
                     }
                 }
@@ -122,18 +188,24 @@ impl Survey {
 
     fn rule_lints(&self, domain: &Domain, max_size: usize, out: &mut Vec<Diagnostic>) {
         for (i, rule) in domain.rules.iter().enumerate() {
-            // A rule whose condition is only ever unknown is reported by R0102 alone.
-            let only_unknown = !self.applies[i] && self.undetermined[i].is_some();
-            if !self.selected[i] && !only_unknown {
+            // An undetermined rule is reported by R0102 alone: until its condition is decided,
+            // whether it is shadowed (and what reordering would help) is not known either.
+            if !self.selected[i] && self.undetermined[i].is_none() {
                 out.push(self.never_selected(domain, i, max_size));
             }
             if let Some(ex) = self.undetermined[i] {
-                out.push(undetermined(domain, i, ex));
+                out.push(undetermined(domain, i, ex, self.never_selected_note(domain, i)));
             }
-            for (winner, slot) in self.ties.iter().enumerate() {
-                if let Some(ex) = slot[i] {
-                    let w = &domain.rules[winner];
-                    out.push(Diagnostic {
+            let ties = self.ties[i].by_rule();
+            for (k, &(winner, ex)) in ties.iter().enumerate() {
+                let w = &domain.rules[winner];
+                let also = match self.ties[i].more {
+                    more if more > 0 && k + 1 == ties.len() => {
+                        format!("; `{}` also ties with other rules for {more} more valid sets", rule.name)
+                    }
+                    _ => String::new(),
+                };
+                out.push(Diagnostic {
                         code: "R0103",
                         severity: Severity::Warning,
                         message: format!(
@@ -147,13 +219,29 @@ impl Survey {
                         label: "loses the tie only because it is declared later".into(),
                         related: vec![Label { span: w.span, message: "wins the tie by declaration order".into() }],
                         help: Some(format!(
-                            "make one rule fit these sets better (add an element to `{}` or `{}`), or make their conditions exclusive",
+                            "make one rule fit these sets better (add an element to `{}` or `{}`), or make their conditions exclusive{also}",
                             w.name, rule.name
                         )),
-                    });
-                }
+                });
             }
         }
+    }
+
+    /// For an undetermined rule that is also never selected: the rule selected instead where
+    /// its condition holds, as a note for R0102.
+    fn never_selected_note(&self, domain: &Domain, i: usize) -> Option<Label> {
+        if self.selected[i] {
+            return None;
+        }
+        let (winner, ex) = self.shadowed_by[i].by_rule().into_iter().max_by_key(|(_, e)| e.count)?;
+        Some(Label {
+            span: domain.rules[winner].span,
+            message: format!(
+                "where `{}` holds it is never selected: this rule is, e.g. for {}",
+                domain.rules[i].name,
+                set_text(domain, ex.set)
+            ),
+        })
     }
 
     fn never_selected(&self, domain: &Domain, i: usize, max_size: usize) -> Diagnostic {
@@ -176,8 +264,7 @@ impl Survey {
             return d;
         }
         // Name the rule that takes most of the sets this one applies to (the first on a tie).
-        let shadows: Vec<(usize, Example)> =
-            self.shadowed_by[i].iter().enumerate().filter_map(|(w, e)| e.map(|e| (w, e))).collect();
+        let shadows = self.shadowed_by[i].by_rule();
         let Some(&(winner, ex)) = shadows.iter().rev().max_by_key(|(_, e)| e.count) else {
             d.message = format!(
                 "rule `{}` is never selected: wherever its condition holds, the answer is undetermined",
@@ -187,10 +274,11 @@ impl Survey {
             return d;
         };
         let w = &domain.rules[winner];
-        let more = match shadows.len() {
-            1 => String::new(),
-            2 => " and 1 other rule".into(),
-            n => format!(" and {} other rules", n - 1),
+        let more = match (shadows.len(), self.shadowed_by[i].more) {
+            (n, m) if m > 0 => format!(" and at least {n} other rules"),
+            (1, _) => String::new(),
+            (2, _) => " and 1 other rule".into(),
+            (n, _) => format!(" and {} other rules", n - 1),
         };
         d.message = format!("rule `{}` is shadowed by `{}`{more}", rule.name, w.name);
         d.related
@@ -263,7 +351,7 @@ fn others(count: usize) -> String {
     }
 }
 
-fn undetermined(domain: &Domain, i: usize, ex: Example) -> Diagnostic {
+fn undetermined(domain: &Domain, i: usize, ex: Example, shadowed: Option<Label>) -> Diagnostic {
     let rule = &domain.rules[i];
     let oracle = Oracle::new(domain);
     // Re-judge the example to name the straddling attribute.
@@ -283,7 +371,7 @@ fn undetermined(domain: &Domain, i: usize, ex: Example) -> Diagnostic {
         ),
         span: Some(rule.span),
         label: cause,
-        related: vec![],
+        related: shadowed.into_iter().collect(),
         help: Some(
             "split the concept's range at the rule's threshold, or move the threshold outside the range, so that \
              every image of the set gets the same answer"

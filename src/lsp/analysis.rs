@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use lsp_types::Url;
 
 use super::index::{Index, Source};
-use crate::check::{self, Compiled, STDLIB};
+use crate::check::{Compiled, STDLIB};
 use crate::syntax::{self, ast};
 
 /// A compiled document.
@@ -28,11 +28,12 @@ pub struct Analysis {
 
 impl Analysis {
     /// Compile `text` as the file `name`; `open` maps names of open documents to their texts.
+    /// `use "…"` reads only what [`crate::source`] allows, open documents included.
     pub fn new(name: &str, text: &str, open: &HashMap<String, String>) -> Analysis {
-        let compiled = check::compile(name, text, &|p| match open.get(p) {
-            Some(t) => Some(t.clone()),
-            None => std::fs::read_to_string(p).ok(),
-        });
+        // The same file policy as the command line: opening a domain in an editor must not read
+        // (and show) what `revelio check` would refuse to.
+        let compiled =
+            crate::source::compile_text(Path::new(name), text, &|p| p.to_str().and_then(|p| open.get(p)).cloned());
         let trees: Vec<ast::File> =
             compiled.files.iter().enumerate().map(|(i, f)| syntax::parse(i as u32, &f.text).file).collect();
         let sources: Vec<Source> = compiled

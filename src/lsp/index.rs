@@ -399,8 +399,11 @@ impl Index {
                 self.refer(span, module);
             }
             ItemKind::Unit { scale, .. } => self.num(scale),
-            ItemKind::Kind { name, attrs, shapes, .. } => {
+            ItemKind::Kind { name, attrs, shapes, stands_in, .. } => {
                 let me = self.global(KT, &name.name);
+                for region in stands_in.iter().flatten() {
+                    self.refer_global(region, &[Sort::Region]);
+                }
                 self.attr_values(attrs);
                 for parts in shapes {
                     self.parts(parts, me);
@@ -425,6 +428,14 @@ impl Index {
                 {
                     let vid = self.variants.get(&(e, v.name.clone())).copied();
                     self.refer(v.span, vid);
+                }
+                for (_, n) in params {
+                    self.num(n);
+                }
+            }
+            ItemKind::Visible { target, params } => {
+                if let Some(t) = target {
+                    self.refer_global(t, &[Sort::Kind, Sort::Concept, Sort::Modifier]);
                 }
                 for (_, n) in params {
                     self.num(n);
@@ -614,7 +625,7 @@ impl Index {
             for p in &part.props {
                 match p {
                     PartProp::Size(v, _) | PartProp::At(v, _) => v.iter().for_each(|n| self.num(n)),
-                    PartProp::Yaw(n) | PartProp::Roll(n) => self.num(n),
+                    PartProp::Yaw(n) | PartProp::Roll(n) | PartProp::Pitch(n) => self.num(n),
                     PartProp::When(e, _) => self.expr(e, &mut Vec::new(), kind),
                     PartProp::Color(..) | PartProp::Material(_) => {}
                 }
@@ -667,28 +678,51 @@ impl Index {
                 self.refer_global(region, &[Sort::Region]);
             }
             ExprKind::Cmp { path, value, .. } => {
-                let attr = match path.parts.as_slice() {
-                    [w, a] if w.name == "world" => {
-                        let id = self.world_attr(&a.name);
-                        self.refer(a.span, id)
-                    }
-                    [s, a] if s.name == "self" => {
-                        let kinds = self_kind.map(|k| self.kinds_matching(&[k])).unwrap_or_default();
-                        let id = self.attr_in(&kinds, &a.name);
-                        self.refer(a.span, id)
-                    }
-                    [v, a] => match vars.iter().rev().find(|(n, _, _)| *n == v.name).cloned() {
-                        Some((_, vid, kinds)) => {
-                            self.refer(v.span, Some(vid));
-                            let id = self.attr_in(&kinds, &a.name);
-                            self.refer(a.span, id)
-                        }
-                        None => None,
-                    },
-                    _ => None,
-                };
+                let attr = self.path_attr(path, vars, self_kind);
                 self.value(value, attr);
             }
+            ExprKind::CmpAttrs { left, right, .. } => {
+                self.path_attr(left, vars, self_kind);
+                self.path_attr(right, vars, self_kind);
+            }
+            ExprKind::Related { var, relation, to } => {
+                for v in [var, to] {
+                    if v.name != "ego" {
+                        let id = vars.iter().rev().find(|(n, _, _)| *n == v.name).map(|(_, id, _)| *id);
+                        self.refer(v.span, id);
+                    }
+                }
+                self.refer_global(relation, &[Sort::Relation]);
+            }
+        }
+    }
+
+    /// Resolve `world.ATTR`, `self.ATTR` or `VAR.ATTR` in a condition; the attribute's symbol.
+    fn path_attr(
+        &mut self,
+        path: &Path,
+        vars: &[(String, usize, Vec<usize>)],
+        self_kind: Option<usize>,
+    ) -> Option<usize> {
+        match path.parts.as_slice() {
+            [w, a] if w.name == "world" => {
+                let id = self.world_attr(&a.name);
+                self.refer(a.span, id)
+            }
+            [s, a] if s.name == "self" => {
+                let kinds = self_kind.map(|k| self.kinds_matching(&[k])).unwrap_or_default();
+                let id = self.attr_in(&kinds, &a.name);
+                self.refer(a.span, id)
+            }
+            [v, a] => match vars.iter().rev().find(|(n, _, _)| *n == v.name).cloned() {
+                Some((_, vid, kinds)) => {
+                    self.refer(v.span, Some(vid));
+                    let id = self.attr_in(&kinds, &a.name);
+                    self.refer(a.span, id)
+                }
+                None => None,
+            },
+            _ => None,
         }
     }
 }

@@ -45,6 +45,13 @@ fn names_resolve_through_scopes_files_and_inheritance() {
     // Every occurrence of the question: its declaration and two `expect`s.
     let (_, q) = a.index.at(0, DOMAIN.find("question q").unwrap() as u32 + 9).unwrap();
     assert_eq!(a.index.occurrences_of(q).len(), 3);
+    // `visible NAME { … }` names a kind or a concept.
+    let text = format!("{DOMAIN}visible walker {{ pixels = 30 }}\n");
+    let a = analyse(&text);
+    assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
+    let (_, w) = a.index.at(0, text.find("visible walker").unwrap() as u32 + 9).expect("the concept is referred to");
+    assert_eq!((a.index.symbols[w].sort, a.index.symbols[w].name.as_str()), (Sort::Concept, "walker"));
+    assert_eq!(a.index.occurrences_of(w).len(), 2);
 }
 
 #[test]
@@ -111,7 +118,9 @@ fn completion_follows_the_context() {
     let l = labels(&format!("{DOMAIN}constraint c = exclusive(walker, |)\n"));
     assert!(l.contains(&"red".into()) && l.contains(&"category".into()), "{l:?}");
     let l = labels(&format!("{DOMAIN}allow |\n"));
-    assert!(l.contains(&"R0101".into()), "{l:?}");
+    assert!(l.contains(&"R0101".into()) && l.contains(&"R0107".into()), "{l:?}");
+    let l = labels(&format!("{DOMAIN}visible |\n"));
+    assert!(l.contains(&"walker".into()) && l.contains(&"AdultPedestrian".into()), "{l:?}");
     let l = labels(&format!("{DOMAIN}kind K {{ size: | }}\n"));
     assert!(l.contains(&"length".into()) && l.contains(&"bool".into()) && l.contains(&"Signal".into()), "{l:?}");
 }
@@ -142,6 +151,52 @@ fn semantic_tokens_tell_names_from_keywords() {
     assert_eq!(kind_of("color"), ["property", "keyword", "property"]);
     assert_eq!(kind_of("K"), ["struct"]);
     assert_eq!(kind_of("#ffffff"), ["number"]);
+}
+
+#[test]
+fn relations_kind_regions_and_two_entity_conditions_resolve() {
+    let text = "domain t\nregion path { x 0m..9m  y -1m..1m }\nrelation close \"is close to\" { distance 0m..2m }\n\
+                kind K { in path  d: length in 0m..9m = 2m }\n\
+                look K { box size (1m, 1m, 1m) pitch 10deg color #ffffff }\n\
+                concept a { description \"a\" add x: K in path probe \"p\" not \"n\" }\n\
+                concept b { description \"b\" add y: K in path close x probe \"p\" not \"n\" }\n\
+                question q { text \"?\" option s \"s\" option g \"g\" }\n\
+                rules priority {\n  rule r { when exists u: K where exists v: K where u close v and u.d < v.d expect q.s }\n  \
+                rule o { expect q.g }\n}\n";
+    let a = analyse(text);
+    assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
+    let at = |needle: &str, skip: usize| {
+        let (_, id) = a.index.at(0, (text.find(needle).unwrap() + skip) as u32).unwrap_or_else(|| panic!("{needle}"));
+        &a.index.symbols[id]
+    };
+    // `in path` of a kind names the region; `u close v` the relation and both variables;
+    // `u.d < v.d` both attributes.
+    assert_eq!(at("in path  d", 3).sort, Sort::Region);
+    assert_eq!(at("u close v", 2).sort, Sort::Relation);
+    assert_eq!(at("u close v", 8).decl.start as usize, text.find("v: K").unwrap());
+    assert_eq!(at("v.d", 2).sort, Sort::Attr);
+    assert_eq!(at("u.d", 2).decl, at("v.d", 2).decl);
+    // Placement words are keywords in the relation's body; `pitch` is a keyword.
+    let lines = super::text::LineIndex::new(text);
+    let legend = super::tokens::legend();
+    let (mut line, mut col) = (0, 0);
+    let mut found = Vec::new();
+    for t in super::tokens::tokens(&a, &lines, super::text::Encoding::Utf16) {
+        if t.delta_line > 0 {
+            col = 0;
+        }
+        line += t.delta_line;
+        col += t.delta_start;
+        let l = text.lines().nth(line as usize).unwrap();
+        found.push((
+            l[col as usize..(col + t.length) as usize].to_string(),
+            legend.token_types[t.token_type as usize].as_str().to_string(),
+        ));
+    }
+    let kind_of = |w: &str| found.iter().filter(|(x, _)| x == w).map(|(_, k)| k.as_str()).collect::<Vec<_>>();
+    assert_eq!(kind_of("distance"), ["keyword"]);
+    assert_eq!(kind_of("pitch"), ["keyword"]);
+    assert_eq!(kind_of("close"), ["function", "function", "function"]);
 }
 
 #[test]
@@ -199,4 +254,37 @@ fn every_feature_survives_broken_text_at_every_kind_of_position() {
         let _ = super::actions::actions(&a, &uri, &lines, enc, &diags, 0, text.len() as u32);
         assert!(round < 40);
     }
+}
+
+/// Opening a domain in an editor reads what `revelio check` reads and nothing more: not a file
+/// outside the domain's folder, not one by absolute path, not one that is open in another buffer
+/// outside the folder (issue 12, item 1: the editor used to show `/proc/self/environ`).
+#[test]
+fn use_in_an_open_document_reads_only_what_check_would() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("d")).unwrap();
+    let outside = dir.path().join("outside.rev");
+    std::fs::write(&outside, "tag OutsideCanary\n").unwrap();
+    let inside = dir.path().join("d/lib.rev");
+    let entry = dir.path().join("d/domain.rev");
+    let name = entry.to_string_lossy().into_owned();
+    let mut open = HashMap::new();
+    open.insert(outside.to_string_lossy().into_owned(), "tag OpenCanary\n".to_string());
+    open.insert(inside.to_string_lossy().into_owned(), "tag Inside\n".to_string());
+    for (path, says) in [
+        ("/proc/self/environ", "is an absolute path"),
+        ("/etc/shadow", "is an absolute path"),
+        ("../outside.rev", "is outside the domain's folder"),
+    ] {
+        let a = Analysis::new(&name, &format!("use \"{path}\"\ntag T\n"), &open);
+        let d = &a.compiled.diagnostics;
+        assert!(d.iter().any(|d| d.code == "R0013" && d.message.contains(says)), "{path}: {d:?}");
+        let loaded: Vec<&str> = a.file_names().filter(|n| !n.starts_with("std/")).collect();
+        assert_eq!(loaded, [name.as_str()], "{path}: only the document itself is loaded");
+        assert!(!a.compiled.files.iter().any(|f| f.text.contains("Canary") || f.text.contains("root:")));
+    }
+    // An unsaved buffer inside the folder stands in for its file.
+    let a = Analysis::new(&name, "use \"lib.rev\"\ntag T\n", &open);
+    assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
+    assert!(a.file_names().any(|n| n.ends_with("d/lib.rev")));
 }

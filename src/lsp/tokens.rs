@@ -8,6 +8,7 @@ use lsp_types::{SemanticToken, SemanticTokenModifier, SemanticTokenType, Semanti
 use super::analysis::Analysis;
 use super::index::Sort;
 use super::text::{Encoding, LineIndex};
+use crate::syntax::ast::ItemKind;
 use crate::syntax::lexer::{self, KEYWORDS, TokenKind};
 
 const TYPES: &[SemanticTokenType] = &[
@@ -59,6 +60,19 @@ fn type_of(sort: Sort) -> SemanticTokenType {
 pub fn tokens(a: &Analysis, lines: &LineIndex, enc: Encoding) -> Vec<SemanticToken> {
     let text = a.text(0);
     let mut raw: Vec<(u32, u32, u32, u32)> = Vec::new(); // start byte, end byte, type, modifiers
+    // A relation's placement words (`distance`, `on_top`) are keywords only in its `{ … }`.
+    let placement_words: Vec<u32> = a
+        .trees
+        .first()
+        .into_iter()
+        .flat_map(|f| &f.items)
+        .filter_map(|i| match &i.kind {
+            ItemKind::Relation { placements: Some(ps), .. } => Some(ps),
+            _ => None,
+        })
+        .flatten()
+        .map(|p| p.word.span.start)
+        .collect();
     for t in lexer::lex(text) {
         let (ty, mods) = match t.kind {
             TokenKind::Comment => (SemanticTokenType::COMMENT, 0),
@@ -79,7 +93,10 @@ pub fn tokens(a: &Analysis, lines: &LineIndex, enc: Encoding) -> Vec<SemanticTok
                     }
                     (type_of(s.sort), mods)
                 }
-                None if KEYWORDS.contains(&t.text(text)) || matches!(t.text(text), "ego" | "self") => {
+                None if KEYWORDS.contains(&t.text(text))
+                    || matches!(t.text(text), "ego" | "self")
+                    || placement_words.contains(&t.start) =>
+                {
                     (SemanticTokenType::KEYWORD, 0)
                 }
                 None => continue,

@@ -1,21 +1,9 @@
-//! A content-addressed store on disk: files named by a SHA-256 key, written to a temporary name and
+//! A content-addressed store on disk: files named by a SHA-256 key ([`crate::hash::parts_hex`]), written to a temporary name and
 //! renamed, so a killed run never leaves a half-written entry that a resumed run would trust.
 //! Used by the reply cache of the model clients and the image cache of the image generators.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-
-use sha2::{Digest, Sha256};
-
-/// SHA-256 hex of the parts, each length-prefixed so `("ab", "c")` and `("a", "bc")` differ.
-pub fn key(parts: &[&[u8]]) -> String {
-    let mut h = Sha256::new();
-    for p in parts {
-        h.update((p.len() as u64).to_le_bytes());
-        h.update(p);
-    }
-    hex::encode(h.finalize())
-}
 
 /// A folder of files named by their key, fanned out by the key's first two hex digits.
 #[derive(Debug, Clone)]

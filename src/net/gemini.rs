@@ -1,6 +1,7 @@
 //! What Google's Gemini API host expects of every Revelio client that calls it (the VLM client
 //! `vlm::gemini` and the image generator `render::imagegen`): its default host, the variables its
-//! base URL and key come from, the endpoint of a model, the key header, and its error bodies.
+//! base URL and key come from ([`HOST`]), the endpoint of a model, the key header, and its error
+//! bodies.
 
 use std::time::Duration;
 
@@ -9,25 +10,20 @@ use serde_json::Value;
 use super::ProviderError;
 use super::http::snippet;
 use super::json as j;
-use super::secret::{Secret, env_any};
+use super::secret::Secret;
 
 pub const DEFAULT_BASE_URL: &str = "https://generativelanguage.googleapis.com";
-pub const BASE_URL_ENV: &[&str] = &["GEMINI_BASE_URL", "GOOGLE_GEMINI_BASE_URL"];
-pub const KEY_ENV: &[&str] = &["GEMINI_API_KEY", "GOOGLE_API_KEY"];
+
+pub const HOST: super::Host = super::Host {
+    provider: "gemini",
+    base_env: &["GEMINI_BASE_URL", "GOOGLE_GEMINI_BASE_URL"],
+    key_env: &["GEMINI_API_KEY", "GOOGLE_API_KEY"],
+};
 
 /// `https://…/v1beta/models/MODEL:generateContent` (a `models/` prefix on the name is allowed).
 pub fn endpoint(base: &str, model: &str) -> String {
     let model = model.strip_prefix("models/").unwrap_or(model);
     format!("{base}/v1beta/models/{model}:generateContent")
-}
-
-/// The key, required for Google's own endpoint (a proxy behind `--base-url` may not need one).
-pub fn key(spec: &str, base: &str) -> Result<Option<Secret>, String> {
-    let key = env_any(KEY_ENV).map(Secret);
-    if key.is_none() && base == DEFAULT_BASE_URL {
-        return Err(format!("`{spec}` needs an API key: set `GEMINI_API_KEY` (or `GOOGLE_API_KEY`)"));
-    }
-    Ok(key)
 }
 
 /// Headers for a Gemini call.

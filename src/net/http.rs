@@ -2,6 +2,11 @@
 //! requests-per-minute limiter shared per provider endpoint, a per-attempt timeout, and retries
 //! with exponential backoff that honour `Retry-After` — bounded by an attempt count and by a
 //! total deadline, so a call always ends.
+//!
+//! A reply body is read in chunks against two more bounds: its size (a body past
+//! [`Limits::max_body`] ends the call with an error, never retried, before more is read — an
+//! endless chunked body cannot grow memory) and the gap between chunks (a body that stalls for
+//! [`Limits::stall`] ends the attempt, which is retried like a timeout).
 
 use std::collections::HashMap;
 use std::num::NonZeroU32;
@@ -10,6 +15,8 @@ use std::time::{Duration, Instant, SystemTime};
 
 use governor::{DefaultDirectRateLimiter, Quota, RateLimiter};
 use tokio::sync::Semaphore;
+
+use crate::diag::terminal_safe;
 
 /// One HTTP request, rebuilt for every attempt (Bedrock signs with the attempt's time).
 pub struct Request {
@@ -46,16 +53,27 @@ pub struct Called<T> {
     pub latency: Duration,
 }
 
-/// Retry and timeout bounds.
+/// Retry, timeout and size bounds.
 #[derive(Debug, Clone, Copy)]
 pub struct Limits {
+    /// One attempt, from sending the request to the last byte of the reply.
     pub timeout: Duration,
     pub attempts: u32,
+    /// The whole call, every attempt and wait included.
     pub deadline: Duration,
     /// First backoff step; doubles per retry up to `backoff_max`.
     pub backoff_base: Duration,
     pub backoff_max: Duration,
+    /// The largest reply body read, in bytes.
+    pub max_body: usize,
+    /// The longest wait for the next chunk of a reply body once it has started.
+    pub stall: Duration,
 }
+
+pub use super::DEFAULT_MAX_BODY;
+
+/// Default [`Limits::stall`].
+pub const DEFAULT_STALL: Duration = Duration::from_secs(30);
 
 impl Limits {
     pub fn new(timeout: Duration, attempts: u32, deadline: Duration) -> Limits {
@@ -65,8 +83,18 @@ impl Limits {
             deadline,
             backoff_base: Duration::from_millis(500),
             backoff_max: Duration::from_secs(60),
+            max_body: DEFAULT_MAX_BODY,
+            stall: DEFAULT_STALL,
         }
     }
+}
+
+/// Why an attempt got no response to judge.
+enum Failed {
+    /// Worth another attempt (connection reset, stalled body).
+    Transient(String),
+    /// Not worth one (a reply past the size limit would be again).
+    Permanent(String),
 }
 
 /// Concurrency and rate gate, shared by every client of one provider endpoint.
@@ -158,7 +186,8 @@ impl Transport {
                         reason: format!("timed out after {:.1} s", timeout.as_secs_f64()),
                         after: None,
                     },
-                    Ok(Err(e)) => Verdict::Retry { reason: e, after: None },
+                    Ok(Err(Failed::Transient(e))) => Verdict::Retry { reason: e, after: None },
+                    Ok(Err(Failed::Permanent(e))) => Verdict::Fail(e),
                     Ok(Ok(resp)) => judge(resp),
                 }
             };
@@ -189,22 +218,54 @@ impl Transport {
         Called { result, attempts: attempts.max(1), latency: started.map_or(Duration::ZERO, |s| s.elapsed()) }
     }
 
-    async fn send(&self, req: Request) -> Result<Response, String> {
+    async fn send(&self, req: Request) -> Result<Response, Failed> {
         let mut rb = self.client.post(&req.url).body(req.body);
         for (k, v) in &req.headers {
             rb = rb.header(k.as_str(), v.as_str());
         }
         // `without_url`: the message must not carry query strings or hosts with credentials.
-        let resp = rb.send().await.map_err(|e| describe(&e.without_url()))?;
+        let transient = |e: reqwest::Error| Failed::Transient(describe(&e.without_url()));
+        let mut resp = rb.send().await.map_err(transient)?;
         let status = resp.status().as_u16();
         let retry_after = resp
             .headers()
             .get(reqwest::header::RETRY_AFTER)
             .and_then(|v| v.to_str().ok())
             .and_then(|v| parse_retry_after(v, SystemTime::now()));
-        let body = resp.bytes().await.map_err(|e| describe(&e.without_url()))?.to_vec();
+        let max = self.limits.max_body;
+        if resp.content_length().is_some_and(|n| n > max as u64) {
+            return Err(Failed::Permanent(too_large(max)));
+        }
+        let mut body = Vec::new();
+        loop {
+            let chunk = match tokio::time::timeout(self.limits.stall, resp.chunk()).await {
+                Err(_) => {
+                    let s = self.limits.stall.as_secs_f64();
+                    return Err(Failed::Transient(format!(
+                        "the reply stalled: no data for {s:.1} s after {} bytes",
+                        body.len()
+                    )));
+                }
+                Ok(chunk) => chunk.map_err(transient)?,
+            };
+            let Some(chunk) = chunk else { break };
+            if body.len() + chunk.len() > max {
+                return Err(Failed::Permanent(too_large(max)));
+            }
+            body.extend_from_slice(&chunk);
+        }
         Ok(Response { status, retry_after, body })
     }
+}
+
+fn too_large(max: usize) -> String {
+    format!("the reply is larger than {} (`max_reply_mb` in the model config); nothing past that was read", mib(max))
+}
+
+/// Bytes as MiB for messages: `4 MiB`, `0.5 MiB`.
+fn mib(bytes: usize) -> String {
+    let m = bytes as f64 / f64::from(1u32 << 20);
+    if m.fract() == 0.0 { format!("{m:.0} MiB") } else { format!("{m} MiB") }
 }
 
 fn describe(e: &reqwest::Error) -> String {
@@ -216,7 +277,7 @@ fn describe(e: &reqwest::Error) -> String {
         msg.push_str(&s.to_string());
         src = s.source();
     }
-    msg
+    terminal_safe(&msg).into_owned()
 }
 
 fn deadline_message(deadline: Duration) -> String {
@@ -290,15 +351,17 @@ pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
     (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
-/// A provider error body's message, shortened: error bodies can be long HTML pages.
+/// A provider error body's message, shortened (error bodies can be long HTML pages) and safe to
+/// print (a body's escape sequences must not reach a terminal).
 pub fn snippet(body: &[u8]) -> String {
     let text = String::from_utf8_lossy(body);
     let one_line: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
-    if one_line.chars().count() > 300 {
+    let short = if one_line.chars().count() > 300 {
         format!("{}…", one_line.chars().take(300).collect::<String>())
     } else {
         one_line
-    }
+    };
+    terminal_safe(&short).into_owned()
 }
 
 #[cfg(test)]
@@ -349,5 +412,6 @@ mod tests {
     fn snippets_are_short_single_lines() {
         assert_eq!(snippet(b"bad\n  request"), "bad request");
         assert_eq!(snippet(&[b'x'; 1000]).chars().count(), 301);
+        assert_eq!(snippet(b"\x1b[2Jgone"), "\\u{1b}[2Jgone");
     }
 }

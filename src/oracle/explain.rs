@@ -2,7 +2,7 @@
 //! units, the entity that satisfies a condition, and what makes a condition unknown.
 
 use crate::anchor::{self, AnchorGraph, Tri};
-use crate::ir::{AttrType, ConceptSet, Domain, Expr, TargetFilter, Value};
+use crate::ir::{AttrRef, AttrType, ConceptSet, Domain, Expr, TargetFilter, Value};
 
 /// A set as `{`a`, `b`}`, concepts in index order.
 pub fn set_text(domain: &Domain, set: ConceptSet) -> String {
@@ -57,8 +57,14 @@ fn fmt_expr(domain: &Domain, e: &Expr, outer: u8) -> String {
             let r = domain.regions.get(region.index()).map_or("?", |r| r.name.as_str());
             (format!("{var} in {r}"), 2)
         }
+        Expr::CmpAttrs { left, op, right } => (format!("{} {} {}", ref_text(left), op_text(*op), ref_text(right)), 2),
+        Expr::Related { var, relation, to } => (format!("{var} {relation} {}", to.as_deref().unwrap_or("ego")), 2),
     };
     if prec < outer { format!("({text})") } else { text }
+}
+
+fn ref_text(r: &AttrRef) -> String {
+    format!("{}.{}", r.var.as_deref().unwrap_or("world"), r.attr)
 }
 
 fn join(domain: &Domain, es: &[Expr], sep: &str, prec: u8) -> String {
@@ -172,8 +178,49 @@ pub fn unknown_cause(
             None
         }
         Expr::Cmp { var, attr, op, value } => Some(cmp_cause(domain, g, var.as_deref(), attr, *op, value, bindings)),
-        Expr::InRegion { var, .. } => Some(format!("variable `{var}` is not bound")),
+        Expr::InRegion { var, .. } | Expr::Related { var, .. } => Some(format!("variable `{var}` is not bound")),
+        Expr::CmpAttrs { left, op, right } => {
+            let side = |r: &AttrRef| -> Result<(String, String), String> {
+                let (subject, value, dim) = attr_of(domain, g, r, bindings)?;
+                Ok((format!("`{subject}.{}`", r.attr), value_text(domain, value, dim.as_deref())))
+            };
+            Some(match (side(left), side(right)) {
+                (Ok((l, lv)), Ok((r, rv))) => {
+                    format!("{l} is {lv} and {r} is {rv}, which overlap where `{}` flips", op_text(*op))
+                }
+                (Err(e), _) | (_, Err(e)) => e,
+            })
+        }
         _ => None,
+    }
+}
+
+/// The owner's name, the value and the dimension of an attribute reference (or why there is
+/// none).
+fn attr_of<'g>(
+    domain: &Domain,
+    g: &'g AnchorGraph,
+    r: &AttrRef,
+    bindings: &[(String, usize)],
+) -> Result<(String, &'g Value, Option<String>), String> {
+    match &r.var {
+        None => {
+            let i = domain.world.iter().position(|a| a.name == r.attr).ok_or(format!("`world` has no `{}`", r.attr))?;
+            Ok(("world".into(), &g.world[i], attr_dimension(domain, true, &r.attr)))
+        }
+        Some(v) => {
+            let Some(&(_, ei)) = bindings.iter().rev().find(|(n, _)| n == v) else {
+                return Err(format!("variable `{v}` is not bound"));
+            };
+            let ent = &g.entities[ei];
+            let kind = &domain.kinds[ent.kind.index()];
+            let i = kind.attr(&r.attr).ok_or(format!("`{}` has no attribute `{}`", ent.name, r.attr))?;
+            let dim = match &kind.attrs[i].ty {
+                AttrType::Number { dimension, .. } => Some(dimension.clone()),
+                _ => None,
+            };
+            Ok((ent.name.clone(), &ent.attrs[i], dim))
+        }
     }
 }
 

@@ -135,6 +135,9 @@ impl<'d> Oracle<'d> {
             anchor::AnchorError::MissingAttr { modifier, attr, target } => {
                 invalid(Violation::TargetLacksAttr { modifier, attr, target })
             }
+            anchor::AnchorError::NoRelationTarget { concept, entity, relation, target } => {
+                invalid(Violation::NoRelationTarget { concept, entity, relation, target })
+            }
         })?;
         let conditions: Vec<Tri> = (0..d.rules.len()).map(|i| condition(d, &graph, i)).collect();
         let decision = decide(d, set, &conditions);

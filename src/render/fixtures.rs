@@ -15,6 +15,7 @@ pub fn part(prim: Primitive, size: [f64; 3], at: [f64; 3], rgb: u32, material: &
         color: [c(16), c(8), c(0), 1.0],
         yaw_deg: 0.0,
         roll_deg: 0.0,
+        pitch_deg: 0.0,
         material: material.to_string(),
         when: None,
     }

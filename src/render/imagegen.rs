@@ -6,17 +6,22 @@
 
 use std::io::Cursor;
 use std::sync::Arc;
+use std::time::Duration;
 
 use base64::Engine;
 use serde_json::{Value, json};
 
-use crate::net::cache::{Store, key};
+use crate::hash::parts_hex;
+use crate::net::cache::Store;
 use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict, snippet};
 use crate::net::json as json_at;
-use crate::net::secret::{Secret, base_url, env_any, redact};
-use crate::net::{BoxFuture, gemini};
+use crate::net::secret::{Secret, redact};
+use crate::net::{BoxFuture, gemini, openai};
 use crate::render::{RenderError, Rendered, Renderer, RendererOptions};
 use crate::scene::Scene;
+
+/// The largest image-generation reply read: a 1536×1024 PNG is 3–4 MB as base64.
+pub const MAX_IMAGE_REPLY: usize = 32 << 20;
 
 enum Provider {
     Gemini { url: String, key: Option<Secret> },
@@ -43,19 +48,18 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
     {
         return Err(format!("invalid image size {w}x{h}: expected positive width and height"));
     }
+    // The renderer's own endpoint: `--renderer-base-url` or its provider's variables, never the
+    // model's `--base-url`, so each key goes only to its own provider's host.
     let base = opts.base_url.as_deref();
     let (provider, endpoint) = match provider {
         "gemini" => {
-            let b = base_url(base, gemini::BASE_URL_ENV, gemini::DEFAULT_BASE_URL)?;
-            (Provider::Gemini { url: gemini::endpoint(&b, model), key: gemini::key(spec, &b)? }, b)
+            let e = gemini::HOST.endpoint(spec, base, gemini::DEFAULT_BASE_URL)?;
+            (Provider::Gemini { url: gemini::endpoint(&e.base, model), key: e.key }, e.base)
         }
         "openai" => {
-            let b = base_url(base, &["OPENAI_BASE_URL"], crate::net::openai::DEFAULT_BASE_URL)?;
-            let key = env_any(&["OPENAI_API_KEY"]).map(Secret);
-            if key.is_none() && b == crate::net::openai::DEFAULT_BASE_URL {
-                return Err(format!("`{spec}` needs an API key: set `OPENAI_API_KEY`"));
-            }
-            (Provider::OpenAi { url: format!("{b}/images/generations"), model: model.to_string(), key }, b)
+            let e = openai::HOST.endpoint(spec, base, openai::DEFAULT_BASE_URL)?;
+            let url = format!("{}/images/generations", e.base);
+            (Provider::OpenAi { url, model: model.to_string(), key: e.key }, e.base)
         }
         other => {
             return Err(format!(
@@ -64,7 +68,9 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
         }
     };
     let gate = Gate::shared(&format!("imagegen {endpoint}"), 8, None);
-    let limits = Limits::new(std::time::Duration::from_secs(300), 5, std::time::Duration::from_secs(1200));
+    // A high-quality image takes a minute or two; its base64 reply a few MB.
+    let mut limits = Limits::new(Duration::from_secs(300), 5, Duration::from_secs(900));
+    limits.max_body = MAX_IMAGE_REPLY;
     let id = match opts.size {
         Some((w, h)) => format!("{spec}@{w}x{h}"),
         None => spec.to_string(),
@@ -220,6 +226,7 @@ fn gemini_image(body: &[u8]) -> Result<Option<String>, Refused> {
     match cand.get("finishReason").and_then(Value::as_str) {
         Some(
             r @ ("SAFETY"
+            | "MODEL_ARMOR"
             | "IMAGE_SAFETY"
             | "PROHIBITED_CONTENT"
             | "IMAGE_PROHIBITED_CONTENT"
@@ -251,7 +258,7 @@ impl Renderer for ImageGen {
             if prompt.trim().is_empty() {
                 return Err(RenderError::new("cannot generate an image: the scene's image prompt is empty"));
             }
-            let k = key(&[b"imagegen-v1", self.id.as_bytes(), prompt.as_bytes()]);
+            let k = parts_hex([&b"imagegen-v1"[..], self.id.as_bytes(), prompt.as_bytes()]);
             if let Some(png) = self.cache.as_ref().and_then(|c| c.get(&k)) {
                 return Ok(Rendered { png, cached: true, visibility: None });
             }

@@ -167,11 +167,21 @@ impl Xf {
         let (s, c) = deg.to_radians().sin_cos();
         Xf { r: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], t }
     }
-    /// Yaw about z then roll about the (yawed) x axis: R = Rz · Rx.
-    fn yaw_roll(yaw: f64, roll: f64, t: [f64; 3]) -> Xf {
+    /// A part's rotation (docs/language.md, "Shape parts"): R = Rz(yaw) · Ry(pitch) · Rx(roll),
+    /// so a point is rolled about x, then pitched about y, then yawed about z, all about the
+    /// part's own centre. Positive pitch tilts the part's top towards +x (forward).
+    fn yaw_pitch_roll(yaw: f64, pitch: f64, roll: f64, t: [f64; 3]) -> Xf {
         let (sz, cz) = yaw.to_radians().sin_cos();
+        let (sy, cy) = pitch.to_radians().sin_cos();
         let (sx, cx) = roll.to_radians().sin_cos();
-        Xf { r: [[cz, -sz * cx, sz * sx], [sz, cz * cx, -cz * sx], [0.0, sx, cx]], t }
+        Xf {
+            r: [
+                [cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
+                [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
+                [-sy, cy * sx, cy * cx],
+            ],
+            t,
+        }
     }
     fn rot(&self, v: [f64; 3]) -> [f64; 3] {
         let r = &self.r;
@@ -283,7 +293,7 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 fn part_xf(parent: &Xf, part: &ShapePart) -> Xf {
-    parent.then(&Xf::yaw_roll(part.yaw_deg, part.roll_deg, part.at))
+    parent.then(&Xf::yaw_pitch_roll(part.yaw_deg, part.pitch_deg, part.roll_deg, part.at))
 }
 
 fn part_alpha(part: &ShapePart, material: Material) -> f32 {
@@ -497,4 +507,34 @@ fn lathe(tri: &mut Tri, profile: &[(f64, f64)], s: [f64; 3], caps: bool, segment
 fn normalize(v: [f64; 3]) -> [f64; 3] {
     let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     if l < 1e-12 { [0.0, 0.0, 1.0] } else { [v[0] / l, v[1] / l, v[2] / l] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+        (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12)
+    }
+
+    #[test]
+    fn rotation_is_roll_then_pitch_then_yaw() {
+        let up = [0.0, 0.0, 1.0];
+        // Pitch tilts the top forward (+x), roll to the right (-y), yaw turns x towards y.
+        assert!(close(Xf::yaw_pitch_roll(0.0, 90.0, 0.0, [0.0; 3]).rot(up), [1.0, 0.0, 0.0]));
+        assert!(close(Xf::yaw_pitch_roll(0.0, 0.0, 90.0, [0.0; 3]).rot(up), [0.0, -1.0, 0.0]));
+        assert!(close(Xf::yaw_pitch_roll(90.0, 0.0, 0.0, [0.0; 3]).rot([1.0, 0.0, 0.0]), [0.0, 1.0, 0.0]));
+        // The order: a part pitched forward and then yawed by 90° leans towards +y.
+        assert!(close(Xf::yaw_pitch_roll(90.0, 90.0, 0.0, [0.0; 3]).rot(up), [0.0, 1.0, 0.0]));
+        // The matrix is the product Rz · Ry · Rx of the single rotations.
+        let (y, p, r) = (30.0, -20.0, 45.0);
+        let z_only = Xf::yaw_pitch_roll(y, 0.0, 0.0, [0.0; 3]);
+        let y_only = Xf::yaw_pitch_roll(0.0, p, 0.0, [0.0; 3]);
+        let x_only = Xf::yaw_pitch_roll(0.0, 0.0, r, [0.0; 3]);
+        let product = z_only.then(&y_only).then(&x_only);
+        let direct = Xf::yaw_pitch_roll(y, p, r, [0.0; 3]);
+        for v in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], up, [0.3, -0.7, 0.2]] {
+            assert!(close(product.rot(v), direct.rot(v)));
+        }
+    }
 }

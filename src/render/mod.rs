@@ -96,7 +96,8 @@ pub struct RendererOptions {
     pub size: Option<(u32, u32)>,
     /// Image cache folder (image-generation renderers).
     pub cache_dir: Option<std::path::PathBuf>,
-    /// `--base-url` for image-generation providers.
+    /// `--renderer-base-url`: the image-generation provider's endpoint (else its provider's
+    /// variable, `GEMINI_BASE_URL` or `OPENAI_BASE_URL`). Never the model's `--base-url`.
     pub base_url: Option<String>,
 }
 

@@ -4,10 +4,10 @@
 //!
 //! Observations are addressed by [`ObsKey`] (phase, set, observation index), and
 //! [`Evaluator::observe_sets`] evaluates any index range of any set: `0..m` for a search step,
-//! `m..n` for more observations of a set already evaluated (sequential sampling), another phase
-//! for validation or shrinking. Each observation's scene seed is a pure function of the run seed
-//! and its key ([`observation_seed`]), so a range extended later sees the scenes it would have
-//! seen in one go.
+//! `k..n` for more observations of a set already evaluated (sequential sampling, [`Ask`]), another
+//! phase for validation or shrinking. Each observation's scene seed is a pure function of the run
+//! seed and its key ([`observation_seed`]), so a range extended later sees the scenes it would
+//! have seen in one go.
 //!
 //! Stopping: after `max_api_errors` model calls in a row end in `api_error`, or when the
 //! [`Stop`] handle is triggered (Ctrl-C), no new call starts; calls in flight finish and are
@@ -23,7 +23,7 @@ use tokio::sync::Semaphore;
 use crate::ir::ConceptSet;
 use crate::journal::{Journal, Phase};
 use crate::outcome::{Outcome, Usage};
-use crate::search::{Evaluate, SetStats};
+use crate::search::{Ask, Evaluate, SetStats};
 use crate::vlm::Model;
 
 use super::observe::{ObsKey, Observation, ObserveError, Observer};
@@ -48,6 +48,7 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
     let p = match key.phase {
         Phase::Search => 0x5345_4152_4348,
         Phase::Validate => 0x5641_4c49_4441,
+        Phase::Shrink => 0x5348_5249_4e4b,
     };
     let mut h = mix(run_seed ^ p);
     h = mix(h ^ key.set.0 as u64);
@@ -129,8 +130,6 @@ pub struct EvaluatorConfig {
     pub model: Arc<dyn Model>,
     pub journal: Arc<Journal>,
     pub seed: u64,
-    /// Observations per set for [`Evaluate::evaluate`] (the search's m).
-    pub samples: u32,
     pub threshold: f64,
     /// Observations in flight at once (the run's effective concurrency).
     pub concurrency: usize,
@@ -149,7 +148,6 @@ pub struct Evaluator {
     semaphore: Arc<Semaphore>,
     replay: HashMap<ObsKey, Replayed>,
     pub phase: Phase,
-    pub samples: u32,
     pub threshold: f64,
     /// Shown as observations finish (set by the runner).
     pub progress: Option<Progress>,
@@ -194,7 +192,6 @@ impl Evaluator {
             semaphore: Arc::new(Semaphore::new(c.concurrency.max(1))),
             replay,
             phase: c.phase,
-            samples: c.samples,
             threshold: c.threshold,
             progress: None,
             // Its own stop: a resume in the same process starts with a clean slate.
@@ -217,11 +214,18 @@ impl Evaluator {
         self.failure.take()
     }
 
-    /// Book one finished observation: spend, progress, the failure-mode count.
+    /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
+    /// re-tests failure modes and their subsets: not counted as new ones).
     fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
         // A blocked image or an invisible scene made no model call.
         if outcome.asked_a_model() {
             self.spend.add(usage, cached);
+        }
+        if key.phase == Phase::Shrink {
+            if let Some(p) = &self.progress {
+                p.inc(&self.spend);
+            }
+            return;
         }
         let stats = self.tally.entry((key.phase, key.set)).or_insert_with(|| SetStats::new(key.set));
         stats.add(outcome);
@@ -306,14 +310,14 @@ impl Evaluator {
 }
 
 impl Evaluate for Evaluator {
-    async fn evaluate(&mut self, sets: &[ConceptSet]) -> Result<Vec<SetStats>, String> {
-        let requests: Vec<(ConceptSet, Range<u32>)> = sets.iter().map(|&s| (s, 0..self.samples)).collect();
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+        let requests: Vec<(ConceptSet, Range<u32>)> = asks.iter().map(|a| (a.set, a.obs.clone())).collect();
         match self.observe_sets(self.phase, &requests).await {
-            Ok(outcomes) => Ok(sets
+            Ok(outcomes) => Ok(asks
                 .iter()
                 .zip(outcomes)
-                .map(|(&set, os)| {
-                    let mut s = SetStats::new(set);
+                .map(|(a, os)| {
+                    let mut s = SetStats::new(a.set);
                     os.into_iter().for_each(|o| s.add(o));
                     s
                 })

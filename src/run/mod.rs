@@ -14,6 +14,8 @@ pub mod progress;
 pub mod render_pool;
 pub mod runner;
 pub mod setup;
+#[cfg(test)]
+mod shrink_tests;
 pub mod stop;
 #[cfg(test)]
 mod testkit;
@@ -52,10 +54,10 @@ pub enum ResumeError {
     #[error("cannot resume `{}`: config.json is not a run configuration: {message}", dir.display())]
     BadConfig { dir: PathBuf, message: String },
     #[error(
-        "cannot resume `{}` with `--budget {now}`: it already holds a run with budget {was}; raise the budget to extend a run, or use another `--out` folder",
+        "cannot resume `{}` with `--{flag} {now}`: it already holds a run with {what} {was}; raise the {what} to extend a run, or use another `--out` folder",
         dir.display()
     )]
-    BudgetLowered { dir: PathBuf, was: u64, now: u64 },
+    BudgetLowered { dir: PathBuf, flag: &'static str, what: &'static str, was: u64, now: u64 },
     #[error("cannot resume: line {line} of `{}` names a set this domain does not have: {message}", dir.join("journal.jsonl").display())]
     UnknownSet { dir: PathBuf, line: usize, message: String },
 }

@@ -26,8 +26,9 @@
 //! success and not a model call.
 use std::sync::Arc;
 
+use crate::hash::sha256_hex as sha256;
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, JournalError, Phase, Record, sha256};
+use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
 use crate::render::{EntityVisibility, Renderer};
 use crate::scene::Scene;

@@ -141,6 +141,11 @@ impl Progress {
         });
     }
 
+    /// The phase the line names (a search goes on into its shrink phase).
+    pub fn set_label(&self, label: &'static str) {
+        self.update(|s| s.label = label);
+    }
+
     pub fn set_failure_modes(&self, n: usize) {
         self.update(|s| s.failure_modes = n);
     }

@@ -1,12 +1,15 @@
-//! A whole run on a run folder: configuration check, search (or validation) through the
-//! journaled evaluator, and the summary. Shared by `revelio search`, `revelio validate` and
-//! `revelio bench search`.
+//! A whole run on a run folder: configuration check, search (then its shrink phase) or
+//! validation through the journaled evaluator, and the summary. Shared by `revelio search`,
+//! `revelio validate` and `revelio bench search`.
 //!
 //! Resuming: the same command on an existing folder replays the journal and continues. A
 //! different configuration is refused, naming the differing fields, except for fields that say
 //! where things are rather than what the run is (the domain file's path, the `--model` spelling,
-//! the recorded model flags) and the budget: a higher `--budget` extends the run — the algorithm
-//! replays its decisions against the journal and goes on where the smaller budget stopped.
+//! the recorded model flags) and the budgets: a higher `--budget` extends the run — the algorithm
+//! replays its decisions against the journal (sequential top-ups included) and goes on where the
+//! smaller budget stopped — and a higher `--shrink` extends the shrink phase, which shrinks the
+//! failure modes of the (possibly extended) search again, served from the journal where it asks
+//! what it asked before.
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -26,7 +29,8 @@ use super::setup::{DEFAULT_CONCURRENCY, ModelSettings};
 use super::stop::Stop;
 use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
-use crate::search::{Params, SetStats, Space};
+use crate::search::shrink::{self, Found};
+use crate::search::{Driver, Params, Rule, SetStats, Space};
 
 /// The run folder format this revelio writes and reads. Format 1 (no `format` field) seeded its
 /// scenes from the domain file's path as typed; its scenes cannot be reproduced, so such folders
@@ -90,6 +94,14 @@ impl RunConfig {
 /// Fields of `config.json` a resume may change: where things are, not what the run is.
 const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings"];
 
+/// Budgets a resume may raise (field of `params` and `--flag`, what it is called): the search
+/// replays its decisions against the journal and goes on where the smaller budget stopped, and
+/// the shrink phase then starts over from the larger search's failure modes — its earlier
+/// observations are served from the journal wherever it asks for them again.
+type BudgetField = (&'static str, &'static str, fn(&Params) -> u64);
+const GROWABLE_BUDGETS: &[BudgetField] =
+    &[("budget", "budget", |p| p.budget), ("shrink", "shrink budget", |p| p.shrink)];
+
 /// Check that `new` may continue the run whose `config.json` is `old`.
 pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Result<(), ResumeError> {
     let found = old.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
@@ -105,19 +117,20 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Res
                 o.remove(*f);
             }
         }
-        v["params"]["budget"] = serde_json::Value::Null;
+        for (field, ..) in GROWABLE_BUDGETS {
+            v["params"][*field] = serde_json::Value::Null;
+        }
         v
     };
     let diffs = differences(&view(&was), &view(new));
     if !diffs.is_empty() {
         return Err(ResumeError::Differs { dir: dir.to_path_buf(), diffs });
     }
-    if new.params.budget < was.params.budget {
-        return Err(ResumeError::BudgetLowered {
-            dir: dir.to_path_buf(),
-            was: was.params.budget,
-            now: new.params.budget,
-        });
+    for &(flag, what, budget) in GROWABLE_BUDGETS {
+        let (was, now) = (budget(&was.params), budget(&new.params));
+        if now < was {
+            return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), flag, what, was, now });
+        }
     }
     Ok(())
 }
@@ -221,20 +234,12 @@ impl Setup {
         }
     }
 
-    fn evaluator(
-        &self,
-        journal: Arc<Journal>,
-        seed: u64,
-        samples: u32,
-        threshold: f64,
-        phase: Phase,
-    ) -> Result<Evaluator, RunError> {
+    fn evaluator(&self, journal: Arc<Journal>, seed: u64, threshold: f64, phase: Phase) -> Result<Evaluator, RunError> {
         Evaluator::new(EvaluatorConfig {
             observer: Arc::new(Observer::new(self.domain.clone(), self.world.clone(), self.renderer.clone())),
             model: self.model.clone(),
             journal,
             seed,
-            samples,
             threshold,
             concurrency: self.concurrency,
             phase,
@@ -250,11 +255,21 @@ pub struct SetRow {
     pub concepts: Vec<String>,
     /// Failure rate over answered observations (`None`: nothing answered).
     pub fr: Option<f64>,
+    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
+    #[serde(default = "unit_interval")]
+    pub ci95: [f64; 2],
     pub wrong: u32,
     pub answered: u32,
     pub observations: u32,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub unanswered: BTreeMap<Outcome, u32>,
+    /// For a failure mode: the index in `cores` of the first core it contains.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub core: Option<usize>,
+}
+
+fn unit_interval() -> [f64; 2] {
+    [0.0, 1.0]
 }
 
 impl SetRow {
@@ -262,12 +277,44 @@ impl SetRow {
         SetRow {
             concepts: domain.set_names(s.set).into_iter().map(String::from).collect(),
             fr: s.fr(),
+            ci95: s.ci95(),
             wrong: s.wrong,
             answered: s.answered(),
             observations: s.observations(),
             unanswered: s.unanswered.clone(),
+            core: None,
         }
     }
+}
+
+/// A minimal failure mode: every observation of it (search and shrink phases), how many failure
+/// modes of the search contain it, and what it was shrunk from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CoreRow {
+    #[serde(flatten)]
+    pub set: SetRow,
+    /// Failure modes of the search (`failure_modes`) that contain this core, itself included.
+    pub supersets: usize,
+    /// Whether every one-smaller valid subset was tested and passes (false: the shrink budget
+    /// ran out first).
+    pub minimal: bool,
+    /// The failure mode it was shrunk from.
+    pub shrunk_from: Vec<String>,
+}
+
+/// The shrink phase in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShrinkSummary {
+    /// Inferences it was given (`--shrink`) and spent.
+    pub budget: u64,
+    pub inferences: u64,
+    /// Most observations per set in its sequential test.
+    pub max_samples: u32,
+    /// Subsets it evaluated that the search had not.
+    pub new_sets: usize,
+    /// Failure modes of the search that did not fail when re-tested (with all their
+    /// observations).
+    pub refuted: Vec<SetRow>,
 }
 
 /// `summary.json`: a pure function of the configuration and the observations.
@@ -280,11 +327,19 @@ pub struct Summary {
     /// Valid sets in the search space.
     pub space: usize,
     pub metrics: Metrics,
-    /// Failure modes, highest failure rate first.
+    /// Distinct minimal failure modes from the shrink phase, highest failure rate first (empty
+    /// when shrinking was off).
+    #[serde(default)]
+    pub cores: Vec<CoreRow>,
+    /// Failure modes of the search (its observations only), highest failure rate first.
     pub failure_modes: Vec<SetRow>,
-    /// Every evaluated set, in evaluation order.
+    /// Every set the search evaluated, in evaluation order, with the search's observations.
     pub sets: Vec<SetRow>,
-    /// Tokens and money of the run's observations (its model's usage and configured prices).
+    /// The shrink phase (absent when it was off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shrink: Option<ShrinkSummary>,
+    /// Tokens and money of the run's observations, every phase (its model's usage and
+    /// configured prices).
     #[serde(default)]
     pub spend: Spend,
 }
@@ -311,7 +366,10 @@ pub fn api_error_warning(api_errors: u64, observations: u64) -> Option<String> {
 /// What a finished run did in this process.
 pub struct RunReport {
     pub summary: Summary,
+    /// The search's evaluated sets (before the shrink phase).
     pub history: Vec<SetStats>,
+    /// The shrink phase's cores and refuted failure modes (empty when it was off).
+    pub found: Found,
     /// Observations served from the journal (a resumed run).
     pub replayed: u64,
     pub dropped_torn_line: bool,
@@ -328,34 +386,76 @@ pub fn search_space(sets: Vec<ConceptSet>, dim: usize, world: &dyn World) -> (Sp
     (Space::new(kept, dim), dropped)
 }
 
-/// Run (or resume, or extend) a search into `setup.out`.
+/// Run (or resume, or extend) a search into `setup.out`, then its shrink phase
+/// (`params.shrink` > 0).
 pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, RunError> {
     let params = &config.params;
     params.validate().map_err(RunError::Usage)?;
     let journal = open_run(&setup.out, config)?;
     let dropped_torn_line = journal.dropped_torn_line;
-    let mut eval = setup.evaluator(journal.clone(), params.seed, params.samples, params.threshold, Phase::Search)?;
-    eval.progress = Some(Progress::start(
-        &setup.progress,
-        "search",
-        params.max_sets() as u64 * u64::from(params.samples),
-        setup.concurrency,
-    ));
-    let history = crate::search::run(params, space, &mut eval).await;
+    let mut eval = setup.evaluator(journal.clone(), params.seed, params.threshold, Phase::Search)?;
+    eval.progress = Some(Progress::start(&setup.progress, "search", params.budget + params.shrink, setup.concurrency));
+    let result = search_and_shrink(params, space, &mut eval).await;
     if let Some(mut p) = eval.progress.take() {
         p.finish();
     }
-    let history = match history {
-        Ok(h) => h,
+    let (history, found, shrink) = match result {
+        Ok(r) => r,
         Err(message) => return Err(eval.take_failure().unwrap_or(RunError::Search(message))),
     };
-    let summary = summarize(&setup.domain, config, space.sets.len(), &history, eval.spend.clone());
+    let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
+    summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
+        budget: params.shrink,
+        inferences,
+        max_samples: params.shrink_rule().max_samples,
+        new_sets,
+        refuted: found.refuted.iter().map(|s| SetRow::new(&setup.domain, s)).collect(),
+    });
     journal.write_json("summary.json", &summary)?;
-    Ok(RunReport { summary, history, replayed: eval.replayed, dropped_torn_line, concurrency: setup.concurrency })
+    Ok(RunReport {
+        summary,
+        history,
+        found,
+        replayed: eval.replayed,
+        dropped_torn_line,
+        concurrency: setup.concurrency,
+    })
 }
 
-pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[SetStats], spend: Spend) -> Summary {
+/// The search, then the shrink phase: the search's history, the shrink's findings, and (when it
+/// ran) the shrink's inferences and the subsets it evaluated beyond the search.
+async fn search_and_shrink(
+    params: &Params,
+    space: &Space,
+    eval: &mut Evaluator,
+) -> Result<(Vec<SetStats>, Found, Option<(u64, usize)>), String> {
+    let history = crate::search::run(params, space, eval).await?;
+    if params.shrink == 0 {
+        return Ok((history, Found::default(), None));
+    }
+    eval.phase = Phase::Shrink;
+    if let Some(p) = &eval.progress {
+        p.set_label("shrink");
+    }
+    let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink, history.clone());
+    let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
+    let shrink = (driver.spent(), driver.history.len() - history.len());
+    Ok((history, found, Some(shrink)))
+}
+
+pub fn summarize(
+    domain: &Domain,
+    config: &RunConfig,
+    space: usize,
+    history: &[SetStats],
+    found: &Found,
+    spend: Spend,
+) -> Summary {
     let p = &config.params;
+    let modes: Vec<&SetStats> = ranked(history).into_iter().filter(|s| s.is_failure_mode(p.threshold)).collect();
+    let core_sets: Vec<ConceptSet> = found.cores.iter().map(|c| c.stats.set).collect();
+    let (family, supersets) = shrink::families(&modes.iter().map(|s| s.set).collect::<Vec<_>>(), &core_sets);
+    let names = |set: ConceptSet| domain.set_names(set).into_iter().map(String::from).collect();
     Summary {
         domain: config.domain.clone(),
         model: config.model.clone(),
@@ -363,12 +463,20 @@ pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[S
         threshold: p.threshold,
         space,
         metrics: metrics(history, p.threshold),
-        failure_modes: ranked(history)
-            .into_iter()
-            .filter(|s| s.is_failure_mode(p.threshold))
-            .map(|s| SetRow::new(domain, s))
+        cores: found
+            .cores
+            .iter()
+            .zip(supersets)
+            .map(|(c, supersets)| CoreRow {
+                set: SetRow::new(domain, &c.stats),
+                supersets,
+                minimal: c.minimal,
+                shrunk_from: names(c.root),
+            })
             .collect(),
+        failure_modes: modes.iter().zip(family).map(|(s, core)| SetRow { core, ..SetRow::new(domain, s) }).collect(),
         sets: history.iter().map(|s| SetRow::new(domain, s)).collect(),
+        shrink: None,
         spend,
     }
 }
@@ -379,6 +487,10 @@ pub fn summarize(domain: &Domain, config: &RunConfig, space: usize, history: &[S
 pub struct Validation {
     pub top: usize,
     pub samples: u32,
+    /// Sequential validation: the most observations a set could get (absent: exactly
+    /// `samples`). The interval is tested against the run's threshold τ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_samples: Option<u32>,
     pub sets: Vec<ValidatedSet>,
     /// Mean and sample standard deviation of the validated failure rates.
     pub mean_fr: f64,
@@ -415,9 +527,13 @@ pub fn top_sets(history: &[SetStats], k: usize) -> Vec<SetStats> {
 }
 
 /// The file a validation with these options is written to: one per setting, so validating
-/// again with other options never overwrites an earlier result.
-pub fn validation_file(top: usize, samples: u32) -> String {
-    format!("validation-top{top}-samples{samples}.json")
+/// again with other options never overwrites an earlier result. A sequential validation
+/// (`max_samples` above `samples`) is a setting of its own: `…-samples{m}-max{M}.json`.
+pub fn validation_file(top: usize, samples: u32, max_samples: Option<u32>) -> String {
+    match max_samples.filter(|&m| m > samples) {
+        Some(max) => format!("validation-top{top}-samples{samples}-max{max}.json"),
+        None => format!("validation-top{top}-samples{samples}.json"),
+    }
 }
 
 /// Read a run folder's configuration and summary.
@@ -440,15 +556,17 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
     Ok((config, summary))
 }
 
-/// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each,
-/// journaled in the same run folder (so validation resumes too). Written to
-/// [`validation_file`]`(top, samples)`.
+/// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each —
+/// with `max_samples`, sequentially: a set whose interval still straddles the run's τ gets more,
+/// up to `max_samples` — journaled in the same run folder (so validation resumes too). Written to
+/// [`validation_file`]`(top, samples, max_samples)`.
 pub async fn validate(
     setup: &Setup,
     config: &RunConfig,
     summary: &Summary,
     top: usize,
     samples: u32,
+    max_samples: Option<u32>,
 ) -> Result<Validation, RunError> {
     if top == 0 {
         return Err(RunError::Usage("invalid `--top`: must be at least 1".into()));
@@ -456,6 +574,12 @@ pub async fn validate(
     if samples == 0 {
         return Err(RunError::Usage("invalid `--samples`: must be at least 1".into()));
     }
+    if let Some(max) = max_samples.filter(|&m| m < samples) {
+        return Err(RunError::Usage(format!(
+            "invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"
+        )));
+    }
+    let rule = Rule { samples, max_samples: max_samples.unwrap_or(samples), threshold: config.params.threshold };
     let history = summary
         .sets
         .iter()
@@ -471,11 +595,12 @@ pub async fn validate(
         .map_err(|e| RunError::Search(format!("cannot validate `{}`: {e}", setup.out.display())))?;
     let chosen = top_sets(&history, top);
     let journal = open_run(&setup.out, config)?;
-    let mut eval = setup.evaluator(journal.clone(), config.params.seed, samples, CONSISTENT_FR, Phase::Validate)?;
-    eval.progress =
-        Some(Progress::start(&setup.progress, "validate", chosen.len() as u64 * u64::from(samples), setup.concurrency));
+    let mut eval = setup.evaluator(journal.clone(), config.params.seed, CONSISTENT_FR, Phase::Validate)?;
+    let most = chosen.len() as u64 * u64::from(rule.max_samples);
+    eval.progress = Some(Progress::start(&setup.progress, "validate", most, setup.concurrency));
     let sets: Vec<ConceptSet> = chosen.iter().map(|s| s.set).collect();
-    let result = crate::search::Evaluate::evaluate(&mut eval, &sets).await;
+    // A budget of M per set: every chosen set can reach M, none more.
+    let result = Driver::new(&mut eval, rule, most).evaluate(&sets).await;
     if let Some(mut p) = eval.progress.take() {
         p.finish();
     }
@@ -488,6 +613,7 @@ pub async fn validate(
     let v = Validation {
         top,
         samples,
+        max_samples: max_samples.filter(|_| rule.is_sequential()),
         consistent: frs.iter().filter(|&&f| f >= CONSISTENT_FR).count(),
         sets: chosen
             .iter()
@@ -501,7 +627,7 @@ pub async fn validate(
         sd_fr,
         spend: eval.spend.clone(),
     };
-    journal.write_json(&validation_file(top, samples), &v)?;
+    journal.write_json(&validation_file(top, samples, v.max_samples), &v)?;
     Ok(v)
 }
 

@@ -4,9 +4,9 @@
 //!   config's `concurrency` (`[model."…"]`, then `[default]`), else [`DEFAULT_CONCURRENCY`]. The
 //!   effective value bounds the run's observations in flight *and* the provider's request gate,
 //!   and the progress line shows it.
-//! - **Model settings** (`--base-url`, `--model-config`, `--thinking`) are recorded in
-//!   `config.json`; `validate` and a resumed `search` reuse the recorded ones unless a flag
-//!   overrides them.
+//! - **Model settings** (`--base-url`, `--renderer-base-url`, `--model-config`, `--thinking`)
+//!   are recorded in `config.json`; `validate` and a resumed `search` reuse the recorded ones
+//!   unless a flag overrides them.
 //! - **Reply cache**: shared by every run, under `$XDG_CACHE_HOME/revelio` (else
 //!   `~/.cache/revelio`); `--cache-dir` moves it, `--no-cache` turns it off. Entries are written
 //!   to a temporary file and renamed, so concurrent processes never read half an entry.
@@ -30,6 +30,10 @@ pub struct ModelSettings {
     /// `--base-url` as given (the endpoint actually used is `RunConfig::endpoint`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base_url: Option<String>,
+    /// `--renderer-base-url`: the image generator's endpoint (never the model's `--base-url`,
+    /// which must not carry an image-generation key to another host).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub renderer_base_url: Option<String>,
     /// `--model-config`, made absolute.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_config: Option<String>,
@@ -43,6 +47,7 @@ impl ModelSettings {
     pub fn or(self, recorded: &ModelSettings) -> ModelSettings {
         ModelSettings {
             base_url: self.base_url.or_else(|| recorded.base_url.clone()),
+            renderer_base_url: self.renderer_base_url.or_else(|| recorded.renderer_base_url.clone()),
             model_config: self.model_config.or_else(|| recorded.model_config.clone()),
             thinking: self.thinking.or_else(|| recorded.thinking.clone()),
         }
@@ -125,7 +130,7 @@ pub fn build_parts(
         &RendererOptions {
             size: None,
             cache_dir: cache.map(|c| c.join("images")),
-            base_url: settings.base_url.clone(),
+            base_url: settings.renderer_base_url.clone(),
         },
     )
     .map_err(|e| if known_renderer(renderer_spec) { SetupError::Renderer(e) } else { SetupError::RendererSpec(e) })?;

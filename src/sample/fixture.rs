@@ -10,6 +10,7 @@ pub(crate) fn part(prim: Primitive, size: [f64; 3], at: [f64; 3], when: Option<E
         color: [0.5, 0.5, 0.5, 1.0],
         yaw_deg: 0.0,
         roll_deg: 0.0,
+        pitch_deg: 0.0,
         material: "matte".into(),
         when,
     }
@@ -86,6 +87,7 @@ pub(crate) fn tiny_domain() -> Domain {
         tags: tags.into_iter().map(TagId).collect(),
         attrs,
         shape,
+        regions: vec![],
         span: Span::default(),
     };
     let mut concepts = vec![
@@ -146,7 +148,12 @@ pub(crate) fn tiny_domain() -> Domain {
         name: "tiny".into(),
         files: vec![SourceFile { name: "tiny.rev".into(), text: text.into() }],
         units: vec![],
-        relations: vec![RelationDef { name: "ahead_of".into(), text: "is ahead of".into(), span: Span::default() }],
+        relations: vec![RelationDef {
+            name: "ahead_of".into(),
+            text: "is ahead of".into(),
+            placement: Placement { ahead: Some((0.0, 1000.0)), ..Placement::default() },
+            span: Span::default(),
+        }],
         enums: vec![
             EnumDef { name: "Town".into(), variants: vec!["town01".into(), "town02".into()], span: Span::default() },
             EnumDef {

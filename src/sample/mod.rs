@@ -7,7 +7,12 @@
 //! 3. each entity's position in its region: x from a `distance` attribute and y from a `lateral`
 //!    attribute when the kind has one whose range meets the region's extent (drawn inside the
 //!    intersection), otherwise uniformly in the region; z uniformly in the region. Entities in
-//!    one region do not overlap (see [`place`]);
+//!    one region do not overlap (see [`place`]). Entities are placed targets first (otherwise in
+//!    anchor order); an entity added with a relation to another entity (`near stove`) is drawn
+//!    where its region meets the relation's placement around where the target stands, and the
+//!    target is drawn where that meeting is possible. `on_top` puts the entity at its target's
+//!    ground position, on the target's highest face. When region and relation cannot both hold,
+//!    the relation decides: it holds in every scene;
 //! 4. environmental extras (see below).
 //!
 //! Sets that are not valid (`lattice::validate`: constraints, modifier targets, the empty set)
@@ -17,11 +22,13 @@
 //! graph (every range replaced by its drawn value), `self` bound to the entity.
 //!
 //! **Extras.** Kinds carrying the tag `Extra` are scenery: each scene gets 0 to [`MAX_EXTRAS`]
-//! of them (kind, region and count drawn from the seed), placed in the *scenery regions*: the
+//! of them (count, kind, then region drawn from the seed), placed in the *scenery regions*: the
 //! regions no concept places anything in (no `add … in R`, no `move R`), so by construction
 //! away from everything the rules look at (the far kerb, the verge behind the sidewalk, the far
-//! end of a counter). They are not in the concept set's anchor graph, so they never change the
-//! expected answer. A domain with no `Extra` kind or no scenery region gets no extras.
+//! end of a counter). A kind that says where it may stand (`in far_kerb`) is only placed in those
+//! of its regions that are scenery regions, and a kind with none is never drawn. Extras are not
+//! in the concept set's anchor graph, so they never change the expected answer. A domain with no
+//! `Extra` kind or no scenery region gets no extras.
 //!
 //! **Determinism.** The stream is ChaCha8 seeded by SHA-256 of (domain hash, set bits, seed);
 //! nothing iterates a hash map. The same inputs give the same scene on any machine.
@@ -34,10 +41,13 @@ use std::collections::BTreeMap;
 use rand_chacha::ChaCha8Rng;
 
 use crate::anchor::{self, AnchorEntity, AnchorGraph, Tri};
-use crate::ir::{ConceptSet, Domain, Effect, KindId, Region, RegionId, Relation, ShapePart, StageItem, Value};
+use crate::ir::{
+    ConceptSet, Domain, Effect, GroundBounds, KindId, Placement, Region, RegionId, Relation, ShapePart, StageItem,
+    Value,
+};
 use crate::lattice::Validity;
 use crate::scene::{Scene, SceneEntity, SceneValue};
-use place::{Axis, Footprint, Placed};
+use place::{Axis, Footprint, Must, Placed};
 pub use rng::domain_hash;
 
 /// Most extras in one scene.
@@ -61,15 +71,15 @@ pub struct Sampler<'d> {
     domain: &'d Domain,
     digest: [u8; 32],
     hash: String,
-    extra_kinds: Vec<KindId>,
-    extra_regions: Vec<RegionId>,
+    /// Scenery kinds, each with the scenery regions it may stand in (never empty).
+    extras: Vec<(KindId, Vec<RegionId>)>,
     validity: Validity,
 }
 
 impl<'d> Sampler<'d> {
     pub fn new(domain: &'d Domain) -> Self {
         let digest = rng::domain_digest(domain);
-        let extra_kinds = match domain.tag_by_name(EXTRA_TAG) {
+        let extra_kinds: Vec<KindId> = match domain.tag_by_name(EXTRA_TAG) {
             Some(t) => {
                 (0..domain.kinds.len() as u32).map(KindId).filter(|k| domain.kinds[k.index()].has_tag(t)).collect()
             }
@@ -84,15 +94,17 @@ impl<'d> Sampler<'d> {
                 _ => None,
             })
             .collect();
-        let extra_regions = (0..domain.regions.len() as u32).map(RegionId).filter(|r| !used.contains(r)).collect();
-        Sampler {
-            domain,
-            digest,
-            hash: hex::encode(digest),
-            extra_kinds,
-            extra_regions,
-            validity: Validity::new(domain),
-        }
+        let scenery: Vec<RegionId> =
+            (0..domain.regions.len() as u32).map(RegionId).filter(|r| !used.contains(r)).collect();
+        let extras = extra_kinds
+            .into_iter()
+            .map(|k| {
+                let kind = &domain.kinds[k.index()];
+                (k, scenery.iter().copied().filter(|r| kind.may_stand_in(*r)).collect::<Vec<_>>())
+            })
+            .filter(|(_, regions)| !regions.is_empty())
+            .collect();
+        Sampler { domain, digest, hash: hex::encode(digest), extras, validity: Validity::new(domain) }
     }
 
     pub fn domain(&self) -> &'d Domain {
@@ -130,12 +142,17 @@ impl<'d> Sampler<'d> {
             }
         }
         let shapes: Vec<Vec<ShapePart>> = (0..concrete.entities.len()).map(|i| entity_shape(d, &concrete, i)).collect();
-        let mut placed = Vec::with_capacity(concrete.entities.len());
-        let mut entities = Vec::with_capacity(concrete.entities.len());
+        let n = concrete.entities.len();
+        let mut placed = Vec::with_capacity(n);
+        let mut positions: Vec<[f64; 3]> = vec![[0.0; 3]; n];
+        let layout = Layout { bounds: anchor::ground_bounds(d, &anchor), anchor: &anchor, shapes: &shapes };
+        for i in anchor::placement_order(&anchor) {
+            positions[i] = layout.position(d, &mut rng, &mut placed, &positions, i, &mut concrete.entities[i]);
+        }
+        let mut entities = Vec::with_capacity(n);
         for (i, shape) in shapes.into_iter().enumerate() {
-            let (ranged, e) = (&anchor.entities[i], &mut concrete.entities[i]);
-            let position = position(d, &mut rng, &mut placed, ranged, e, &shape);
-            entities.push(scene_entity(d, e, Some(&d.concepts[e.concept.index()].name), position, shape));
+            let e = &concrete.entities[i];
+            entities.push(scene_entity(d, e, Some(&d.concepts[e.concept.index()].name), positions[i], shape));
         }
         let extras = self.extras(&mut rng, &mut concrete, &mut placed);
         Ok(Scene {
@@ -155,15 +172,16 @@ impl<'d> Sampler<'d> {
     /// Draw the scenery extras. They are evaluated on the concrete graph (for their own shape
     /// conditions) but removed again, so they never take part in anything the concepts decide.
     fn extras(&self, rng: &mut ChaCha8Rng, g: &mut AnchorGraph, placed: &mut Vec<Placed>) -> Vec<SceneEntity> {
-        if self.extra_kinds.is_empty() || self.extra_regions.is_empty() {
+        if self.extras.is_empty() {
             return Vec::new();
         }
         let d = self.domain;
         let n = rng::below(rng, MAX_EXTRAS + 1);
         let mut out = Vec::with_capacity(n as usize);
         for i in 0..n {
-            let kind = self.extra_kinds[rng::below(rng, self.extra_kinds.len() as u64) as usize];
-            let region = self.extra_regions[rng::below(rng, self.extra_regions.len() as u64) as usize];
+            let (kind, regions) = &self.extras[rng::below(rng, self.extras.len() as u64) as usize];
+            let kind = *kind;
+            let region = regions[rng::below(rng, regions.len() as u64) as usize];
             let k = &d.kinds[kind.index()];
             let ranged = AnchorEntity {
                 name: format!("extra{}", i + 1),
@@ -171,6 +189,7 @@ impl<'d> Sampler<'d> {
                 concept: crate::ir::ConceptId(0),
                 region,
                 relation: Relation { name: String::new(), to: None },
+                target: None,
                 attrs: k.attrs.iter().map(|a| a.default.clone()).collect(),
                 modified_by: Vec::new(),
             };
@@ -251,7 +270,117 @@ fn axis(d: &Domain, ranged: &AnchorEntity, attr: &str, extent: (f64, f64)) -> (A
     (Axis::Range(rlo, rhi), slot.filter(|&i| ranged.attrs[i].bounds().is_some()))
 }
 
-/// Position an entity in its region; the `distance`/`lateral` attributes are updated to the
+/// What placing a concept set's entities needs: the anchor graph, where each entity can stand
+/// ([`anchor::ground_bounds`]) and the resolved shapes.
+struct Layout<'a> {
+    anchor: &'a AnchorGraph,
+    bounds: Vec<GroundBounds>,
+    shapes: &'a [Vec<ShapePart>],
+}
+
+impl Layout<'_> {
+    /// Position entity `i` (its target, if any, is already in `positions`); like [`position`],
+    /// plus its relation: drawn where its region meets the relation around its target, and
+    /// only where each entity related to it will still find room.
+    fn position(
+        &self,
+        d: &Domain,
+        rng: &mut ChaCha8Rng,
+        placed: &mut Vec<Placed>,
+        positions: &[[f64; 3]],
+        i: usize,
+        e: &mut AnchorEntity,
+    ) -> [f64; 3] {
+        let ranged = &self.anchor.entities[i];
+        let region: &Region = &d.regions[ranged.region.index()];
+        let placement = anchor::placement_of(d, ranged);
+        let target = ranged.target.map(|t| positions[t]);
+        let origin = target.unwrap_or([0.0; 3]);
+        let (bx, by) = self.bounds[i];
+        let (zx, zy) = match (placement, target) {
+            (Some(p), Some(t)) => {
+                let (ox, oy) = p.offset_box();
+                ((t[0] + ox.0, t[0] + ox.1), (t[1] + oy.0, t[1] + oy.1))
+            }
+            // Around ego the bounds already hold the relation.
+            _ => ((f64::NEG_INFINITY, f64::INFINITY), (f64::NEG_INFINITY, f64::INFINITY)),
+        };
+        let (xr, yr) = (meet_or(bx, zx), meet_or(by, zy));
+        let (ax0, xslot) = axis(d, ranged, "distance", region.x);
+        let (ay0, yslot) = axis(d, ranged, "lateral", region.y);
+        // Where the relation does not narrow an axis, it is drawn exactly as without one.
+        let ax = if ax0.extent() == xr { ax0 } else { Axis::of(xr) };
+        let ay = if ay0.extent() == yr { ay0 } else { Axis::of(yr) };
+        let x0 = first_draw(rng, ax, xslot, e);
+        let y0 = first_draw(rng, ay, yslot, e);
+        let mut z = rng::uniform(rng, region.z.0.min(region.z.1), region.z.0.max(region.z.1));
+        let fp = Footprint::of(&self.shapes[i], yaw_of(d, e));
+        let dependents: Vec<(usize, &Placement)> = (0..self.anchor.entities.len())
+            .filter(|&j| self.anchor.entities[j].target == Some(i))
+            .filter_map(|j| anchor::placement_of(d, &self.anchor.entities[j]).map(|p| (j, p)))
+            .collect();
+        let test = |x: f64, y: f64| {
+            placement.is_none_or(|p| p.allows(x - origin[0], y - origin[1]))
+                && dependents.iter().all(|&(j, p)| room(p, self.bounds[j], (x, y)).is_some())
+        };
+        let on_top = placement.is_some_and(|p| p.on_top) && target.is_some();
+        let must = Must {
+            test: &test,
+            overlaps_ok: if on_top { ranged.target } else { None },
+            rescue: placement.and_then(|p| room(p, (xr, yr), (origin[0], origin[1]))),
+        };
+        let (x, y) = place::place(rng, placed, (ranged.region.index(), region), (ax, ay), (x0, y0), fp, &must);
+        placed.push(Placed { id: i, region: ranged.region.index(), x, y, fp });
+        for (slot, v) in [(xslot, x), (yslot, y)] {
+            if let Some(s) = slot {
+                e.attrs[s] = Value::Number(v);
+            }
+        }
+        if on_top && let Some(t) = ranged.target {
+            z = origin[2] + top_of(&self.shapes[t]);
+        }
+        [x, y, z]
+    }
+}
+
+/// The intersection of `own` and `zone`, or `zone` when they do not meet (the relation decides).
+fn meet_or(own: (f64, f64), zone: (f64, f64)) -> (f64, f64) {
+    let m = (own.0.max(zone.0), own.1.min(zone.1));
+    if m.0 <= m.1 { m } else { zone }
+}
+
+/// A point of `bounds` that the placement allows around `at`, if there is one: the nearest to
+/// `at` first (it decides an upper distance bound), else a corner or the centre.
+fn room(p: &Placement, bounds: GroundBounds, at: (f64, f64)) -> Option<(f64, f64)> {
+    let (ox, oy) = p.offset_box();
+    let (x, y) = (meet(bounds.0, (at.0 + ox.0, at.0 + ox.1))?, meet(bounds.1, (at.1 + oy.0, at.1 + oy.1))?);
+    let nearest = (at.0.clamp(x.0, x.1), at.1.clamp(y.0, y.1));
+    let centre = ((x.0 + x.1) / 2.0, (y.0 + y.1) / 2.0);
+    [nearest, (x.0, y.0), (x.0, y.1), (x.1, y.0), (x.1, y.1), centre]
+        .into_iter()
+        .find(|&(px, py)| p.allows(px - at.0, py - at.1))
+}
+
+fn meet(a: (f64, f64), b: (f64, f64)) -> Option<(f64, f64)> {
+    let m = (a.0.max(b.0), a.1.min(b.1));
+    (m.0 <= m.1).then_some(m)
+}
+
+/// The height of a shape's highest face above its origin (what stands on it stands there).
+fn top_of(parts: &[ShapePart]) -> f64 {
+    parts.iter().map(|p| p.at[2] + p.size[2] / 2.0).fold(0.0, f64::max)
+}
+
+/// The first value of an axis: the attribute already drawn with the entity when it fits.
+fn first_draw(rng: &mut ChaCha8Rng, a: Axis, slot: Option<usize>, e: &AnchorEntity) -> f64 {
+    match (a, slot.map(|i| &e.attrs[i])) {
+        (Axis::Range(lo, hi), Some(Value::Number(v))) if (lo..=hi).contains(v) => *v,
+        (Axis::Fixed(v), _) => v,
+        (Axis::Range(lo, hi), _) => rng::uniform(rng, lo, hi),
+    }
+}
+
+/// Position an extra in its region; the `distance`/`lateral` attributes are updated to the
 /// coordinates actually used, so the scene never contradicts itself.
 fn position(
     d: &Domain,
@@ -264,19 +393,12 @@ fn position(
     let region: &Region = &d.regions[e.region.index()];
     let (ax, xslot) = axis(d, ranged, "distance", region.x);
     let (ay, yslot) = axis(d, ranged, "lateral", region.y);
-    let first_draw =
-        |rng: &mut ChaCha8Rng, a: Axis, slot: Option<usize>, e: &AnchorEntity| match (a, slot.map(|i| &e.attrs[i])) {
-            // The attribute was already drawn with the entity; keep that draw when it fits.
-            (Axis::Range(lo, hi), Some(Value::Number(v))) if (lo..=hi).contains(v) => *v,
-            (Axis::Fixed(v), _) => v,
-            (Axis::Range(lo, hi), _) => rng::uniform(rng, lo, hi),
-        };
     let x0 = first_draw(rng, ax, xslot, e);
     let y0 = first_draw(rng, ay, yslot, e);
     let z = rng::uniform(rng, region.z.0.min(region.z.1), region.z.0.max(region.z.1));
     let fp = Footprint::of(shape, yaw_of(d, e));
-    let (x, y) = place::place(rng, placed, (e.region.index(), region), (ax, ay), (x0, y0), fp);
-    placed.push(Placed { region: e.region.index(), x, y, fp });
+    let (x, y) = place::place(rng, placed, (e.region.index(), region), (ax, ay), (x0, y0), fp, &Must::none());
+    placed.push(Placed { id: usize::MAX, region: e.region.index(), x, y, fp });
     for (slot, v) in [(xslot, x), (yslot, y)] {
         if let Some(i) = slot {
             e.attrs[i] = Value::Number(v);

@@ -6,6 +6,11 @@
 //! kept); after [`REDRAWS`] failures the entity is moved sideways to the nearest free lateral
 //! position inside the region. If even that fails (the region is full) the last draw stands: an
 //! overlap is a cosmetic flaw, never a change of ground truth.
+//!
+//! A relation is not cosmetic: every position tried must also pass the entity's `must` test
+//! (its relation to its target, and room for the entities related to it). A draw that passes it
+//! but overlaps is kept over one that fails it, and when no draw passes, the `rescue` position
+//! (the nearest point the relation allows) stands.
 
 use rand_chacha::ChaCha8Rng;
 
@@ -53,6 +58,8 @@ impl Footprint {
 /// One placed footprint, in the scene frame.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Placed {
+    /// The entity's index in the scene (extras: `usize::MAX`).
+    pub id: usize,
     pub region: usize,
     pub x: f64,
     pub y: f64,
@@ -78,11 +85,37 @@ pub(crate) enum Axis {
 }
 
 impl Axis {
+    /// A point when the range is one, else a range to draw in.
+    pub fn of((lo, hi): (f64, f64)) -> Axis {
+        if lo == hi { Axis::Fixed(lo) } else { Axis::Range(lo, hi) }
+    }
+    pub fn extent(self) -> (f64, f64) {
+        match self {
+            Axis::Fixed(v) => (v, v),
+            Axis::Range(lo, hi) => (lo, hi),
+        }
+    }
     fn draw(self, rng: &mut ChaCha8Rng) -> f64 {
         match self {
             Axis::Fixed(v) => v,
             Axis::Range(lo, hi) => uniform(rng, lo, hi),
         }
+    }
+}
+
+/// What a position must satisfy beyond not overlapping: the entity's relation, room for the
+/// entities related to it, an entity it may overlap (the one it stands on), and where to go when
+/// no draw satisfies it.
+pub(crate) struct Must<'a> {
+    pub test: &'a dyn Fn(f64, f64) -> bool,
+    pub overlaps_ok: Option<usize>,
+    pub rescue: Option<(f64, f64)>,
+}
+
+impl Must<'_> {
+    /// No requirement: any position will do.
+    pub fn none() -> Must<'static> {
+        Must { test: &|_, _| true, overlaps_ok: None, rescue: None }
     }
 }
 
@@ -95,18 +128,25 @@ pub(crate) fn place(
     (ax, ay): (Axis, Axis),
     first: (f64, f64),
     fp: Footprint,
+    must: &Must,
 ) -> (f64, f64) {
-    let mut cand = Placed { region: region.0, x: first.0, y: first.1, fp };
-    let clear = |c: &Placed| !placed.iter().any(|p| p.overlaps(c));
-    if clear(&cand) {
+    let mut cand = Placed { id: usize::MAX, region: region.0, x: first.0, y: first.1, fp };
+    let clear = |c: &Placed| !placed.iter().any(|p| Some(p.id) != must.overlaps_ok && p.overlaps(c));
+    let ok = |c: &Placed| (must.test)(c.x, c.y);
+    // The last draw that the relation accepts, kept if none is also clear of the others.
+    let mut kept = ok(&cand).then_some((cand.x, cand.y));
+    if kept.is_some() && clear(&cand) {
         return (cand.x, cand.y);
     }
     let fixed = matches!((ax, ay), (Axis::Fixed(_), Axis::Fixed(_)));
     for _ in 0..if fixed { 0 } else { REDRAWS } {
         cand.x = ax.draw(rng);
         cand.y = ay.draw(rng);
-        if clear(&cand) {
-            return (cand.x, cand.y);
+        if ok(&cand) {
+            if clear(&cand) {
+                return (cand.x, cand.y);
+            }
+            kept = Some((cand.x, cand.y));
         }
     }
     // Spread sideways: the lateral positions that just clear each blocker, nearest first.
@@ -120,11 +160,11 @@ pub(crate) fn place(
     options.sort_by(|a, b| (a - cand.y).abs().total_cmp(&(b - cand.y).abs()).then(a.total_cmp(b)));
     for y in options {
         let c = Placed { y, ..cand };
-        if clear(&c) {
+        if ok(&c) && clear(&c) {
             return (c.x, c.y);
         }
     }
-    (cand.x, cand.y)
+    kept.or(must.rescue).unwrap_or((cand.x, cand.y))
 }
 
 #[cfg(test)]
@@ -142,6 +182,7 @@ mod tests {
             color: [1.0; 4],
             yaw_deg: yaw,
             roll_deg: 0.0,
+            pitch_deg: 0.0,
             material: "matte".into(),
             when: None,
         }
@@ -172,8 +213,9 @@ mod tests {
         let mut rng = scene_rng(&[0; 32], ConceptSet(1), 0);
         let fp = Footprint::of(&[part([0.5, 0.5, 1.0], [0.0; 3], 0.0)], 0.0);
         let lane = lane();
-        let first = Placed { region: 0, x: 3.0, y: 0.0, fp };
-        let (x, y) = place(&mut rng, &[first], (0, &lane), (Axis::Fixed(3.0), Axis::Fixed(0.0)), (3.0, 0.0), fp);
+        let first = Placed { id: 0, region: 0, x: 3.0, y: 0.0, fp };
+        let (x, y) =
+            place(&mut rng, &[first], (0, &lane), (Axis::Fixed(3.0), Axis::Fixed(0.0)), (3.0, 0.0), fp, &Must::none());
         assert_eq!(x, 3.0);
         assert!((y.abs() - 0.7).abs() < 1e-3, "moved just clear of the blocker: {y}");
     }
@@ -183,8 +225,9 @@ mod tests {
         let mut rng = scene_rng(&[1; 32], ConceptSet(1), 0);
         let fp = Footprint::of(&[part([0.5, 0.5, 1.0], [0.0; 3], 0.0)], 0.0);
         let lane = lane();
-        let first = Placed { region: 0, x: 3.0, y: 0.0, fp };
-        let (x, y) = place(&mut rng, &[first], (0, &lane), (Axis::Range(2.0, 4.0), Axis::Fixed(0.0)), (3.0, 0.0), fp);
+        let first = Placed { id: 0, region: 0, x: 3.0, y: 0.0, fp };
+        let axes = (Axis::Range(2.0, 4.0), Axis::Fixed(0.0));
+        let (x, y) = place(&mut rng, &[first], (0, &lane), axes, (3.0, 0.0), fp, &Must::none());
         assert!((2.0..=4.0).contains(&x) && (x - 3.0).abs() >= 0.7 && y == 0.0);
     }
 }

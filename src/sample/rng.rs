@@ -7,7 +7,6 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
 
@@ -23,12 +22,8 @@ pub(crate) fn domain_digest(domain: &Domain) -> [u8; 32] {
 
 /// The scene stream of `(domain, set, seed)`.
 pub(crate) fn scene_rng(domain_digest: &[u8; 32], set: ConceptSet, seed: u64) -> ChaCha8Rng {
-    let mut h = Sha256::new();
-    h.update(b"revelio.sample.v1");
-    h.update(domain_digest);
-    h.update(set.0.to_le_bytes());
-    h.update(seed.to_le_bytes());
-    ChaCha8Rng::from_seed(h.finalize().into())
+    let input = [&b"revelio.sample.v1"[..], domain_digest, &set.0.to_le_bytes(), &seed.to_le_bytes()].concat();
+    ChaCha8Rng::from_seed(crate::hash::sha256(&input))
 }
 
 /// Uniform in `[lo, hi]` (returns `lo` when the range is a point).

@@ -177,10 +177,137 @@ fn every_small_driving_set_samples_inside_its_ranges() {
                     }
                 }
                 for x in &scene.extras {
-                    assert!(matches!(x.kind.as_str(), "ParkedCar" | "Tree"), "{x:?}");
-                    assert!(matches!(x.region.as_str(), "far_kerb" | "verge"), "{x:?}");
+                    // Each scenery kind stands only where its kind says (`in far_kerb`, `in verge`).
+                    assert!(
+                        matches!((x.kind.as_str(), x.region.as_str()), ("ParkedCar", "far_kerb") | ("Tree", "verge")),
+                        "{x:?}"
+                    );
                 }
             }
         }
     }
+}
+
+/// The corpus domain with entity relations (`near`, a custom `behind`, a modifier that pulls a
+/// related entity towards ego).
+fn walk_the_dog() -> crate::ir::Domain {
+    crate::check::compile_source("walk_the_dog.rev", include_str!("../../tests/corpus/good/walk_the_dog.rev"))
+        .unwrap_or_else(|d| panic!("walk_the_dog.rev does not compile: {d:?}"))
+}
+
+fn indoor() -> crate::ir::Domain {
+    crate::check::compile_source("domains/indoor.rev", include_str!("../../domains/indoor.rev"))
+        .unwrap_or_else(|d| panic!("domains/indoor.rev does not compile: {d:?}"))
+}
+
+/// Every related entity of every valid set (up to 3 concepts) stands where its relation says,
+/// relative to where its target stands, in every sampled scene; and inside the anchor graph's
+/// ranges, so the rules saw what the scene shows.
+fn relations_hold_in_every_scene(d: &crate::ir::Domain, max_size: usize, seeds: u64) -> (usize, usize) {
+    let sampler = Sampler::new(d);
+    let lattice = crate::lattice::Lattice::enumerate(d, max_size);
+    let (mut sets, mut checked) = (0, 0);
+    for &s in &lattice.sets {
+        let anchor = anchor::build(d, s).unwrap();
+        if !anchor.entities.iter().any(|e| e.target.is_some()) {
+            continue;
+        }
+        sets += 1;
+        for seed in 0..seeds {
+            let scene = sampler.sample(s, seed).unwrap();
+            for (i, a) in anchor.entities.iter().enumerate() {
+                let e = &scene.entities[i];
+                let p = anchor::placement_of(d, a).expect("every relation has a placement");
+                let t = a.target.map_or([0.0; 3], |t| scene.entities[t].position);
+                let (dx, dy) = (e.position[0] - t[0], e.position[1] - t[1]);
+                assert!(
+                    p.allows(dx, dy),
+                    "{:?} seed {seed}: `{}` {} its target: offset ({dx}, {dy}) outside {p:?}",
+                    scene.concepts,
+                    a.name,
+                    a.relation.name
+                );
+                if let Some((lo, hi)) = p.distance {
+                    let gap = dx.hypot(dy);
+                    assert!(gap >= lo - 1e-9 && gap <= hi + 1e-9, "{:?} seed {seed}: {gap}", scene.concepts);
+                }
+                if p.on_top
+                    && let Some(ti) = a.target
+                {
+                    let top = scene.entities[ti].shape.iter().map(|q| q.at[2] + q.size[2] / 2.0).fold(0.0, f64::max);
+                    assert!((e.position[2] - (t[2] + top)).abs() < 1e-9, "{:?}: not on top", scene.concepts);
+                }
+                let k = &d.kinds[a.kind.index()];
+                for (attr, axis) in [("distance", 0), ("lateral", 1)] {
+                    if let Some((lo, hi)) = k.attr(attr).and_then(|j| a.attrs[j].bounds()) {
+                        let v = e.position[axis];
+                        assert!(
+                            v >= lo - 1e-9 && v <= hi + 1e-9,
+                            "{:?} seed {seed}: `{}`.{attr} {v} outside {lo}..{hi}",
+                            scene.concepts,
+                            a.name
+                        );
+                    }
+                }
+                checked += usize::from(a.target.is_some());
+            }
+        }
+    }
+    (sets, checked)
+}
+
+#[test]
+fn related_entities_stand_where_their_relation_says() {
+    let (sets, related) = relations_hold_in_every_scene(&walk_the_dog(), 5, 200);
+    assert!(sets >= 30 && related >= 6_000, "{sets} sets, {related} related entities");
+    // The kitchen: `near`, `reaching_into` and `on` (a child on a stool), between regions.
+    let (sets, related) = relations_hold_in_every_scene(&indoor(), 2, 100);
+    assert!(sets >= 20 && related >= 2_000, "{sets} sets, {related} related entities");
+}
+
+#[test]
+fn a_relation_narrows_where_the_target_can_stand() {
+    let d = walk_the_dog();
+    let s = set(&d, &["owner", "dog", "close"]);
+    // `close` pulls the dog to 3-5 m, so the owner must stand within 1.5 m of that.
+    let anchor = anchor::build(&d, s).unwrap();
+    let dog = anchor.entities.iter().find(|e| e.name == "dog").unwrap();
+    let k = &d.kinds[dog.kind.index()];
+    assert_eq!(dog.attrs[k.attr("distance").unwrap()], crate::ir::Value::Range(4.5, 5.0));
+    for seed in 0..200 {
+        let scene = sample(&d, s, seed).unwrap();
+        let (owner, dog) = (&scene.entities[0], &scene.entities[1]);
+        assert!(owner.position[0] <= 6.5 + 1e-9, "seed {seed}: owner at {:?}", owner.position);
+        assert!((4.5..=5.0).contains(&dog.position[0]), "seed {seed}: dog at {:?}", dog.position);
+    }
+}
+
+#[test]
+fn sets_without_a_relation_target_have_no_scene() {
+    let d = walk_the_dog();
+    let err = sample(&d, set(&d, &["dog"]), 0).unwrap_err().to_string();
+    assert_eq!(
+        err,
+        "invalid concept set {dog}: concept `dog` places `dog` near `owner`, which no concept of the set adds"
+    );
+}
+
+#[test]
+fn extras_stand_only_in_their_kinds_regions() {
+    let mut d = tiny_domain();
+    // A second scenery region: the tree may not stand there.
+    d.regions.push(crate::ir::Region { name: "kerb".into(), ..d.regions[2].clone() });
+    d.kinds[2].regions = vec![crate::ir::RegionId(2)];
+    let s = set(&d, &["pedestrian"]);
+    let mut seen = 0;
+    for seed in 0..200 {
+        for x in sample(&d, s, seed).unwrap().extras {
+            assert_eq!(x.region, "verge", "seed {seed}: {x:?}");
+            seen += 1;
+        }
+    }
+    assert!(seen > 50);
+    // A scenery kind with no scenery region of its own is never drawn.
+    d.kinds[2].regions = vec![crate::ir::RegionId(0)];
+    assert!((0..50).all(|seed| sample(&d, s, seed).unwrap().extras.is_empty()));
 }

@@ -20,7 +20,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
                 }
             }
         }
-        if candidates.is_empty() || driver.remaining() == 0 {
+        if candidates.is_empty() || !driver.can_start() {
             break;
         }
         let stats = driver.evaluate(&candidates).await?;

@@ -18,11 +18,10 @@ use super::{Driver, Evaluate, Params, Space};
 const STREAM: u64 = 0x6770_7473_0000_0001;
 
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
-    let total = driver.remaining();
-    let beam_sets = (params.beam_budget / u64::from(params.samples)) as usize;
-    driver.set_max_sets(beam_sets.min(total));
+    let total = driver.budget();
+    driver.set_budget(params.beam_budget.min(total));
     super::beam::run(params, space, driver).await?;
-    driver.set_max_sets(total);
+    driver.set_budget(total);
 
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed ^ STREAM);
     // Explored flags by lattice position: one pass over the history now, then only the picks of
@@ -38,7 +37,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
     for s in &driver.history {
         mark(&mut explored, s.set, &mut left);
     }
-    while driver.remaining() > 0 && left > 0 {
+    while driver.can_start() && left > 0 {
         let picks: Vec<ConceptSet> = if driver.history.is_empty() {
             let open: Vec<usize> = (0..space.sets.len()).filter(|&i| !explored[i]).collect();
             let n = params.batch.min(open.len());
@@ -47,8 +46,12 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
             let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
-            let mut picks: Vec<ConceptSet> = Vec::with_capacity(params.batch);
-            for _ in 0..params.batch {
+            // More draws than unexplored sets or than the budget pays for only repeat argmaxes:
+            // each costs a pass over the lattice, so a huge `--batch` would spin.
+            let affordable = driver.remaining() / u64::from(params.samples.max(1));
+            let draws = params.batch.min(left).min(usize::try_from(affordable).unwrap_or(usize::MAX));
+            let mut picks: Vec<ConceptSet> = Vec::with_capacity(draws);
+            for _ in 0..draws {
                 let draw = model.draw(&mut rng);
                 if let Some(best) = argmax(&explored, space, &draw).filter(|b| !picks.contains(b)) {
                     picks.push(best);

@@ -60,6 +60,21 @@ impl SetStats {
     pub fn is_failure_mode(&self, threshold: f64) -> bool {
         self.fr().is_some_and(|fr| fr >= threshold)
     }
+
+    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
+    pub fn ci95(&self) -> [f64; 2] {
+        super::interval::wilson(self.wrong, self.answered())
+    }
+
+    /// Add the observations of `more` (of the same set).
+    pub fn merge(&mut self, more: &SetStats) {
+        debug_assert_eq!(self.set, more.set);
+        self.correct += more.correct;
+        self.wrong += more.wrong;
+        for (o, n) in &more.unanswered {
+            *self.unanswered.entry(*o).or_default() += n;
+        }
+    }
 }
 
 /// The metrics of a run.

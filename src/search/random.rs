@@ -12,9 +12,11 @@ use super::{Driver, Evaluate, Params, Space};
 
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
-    let n = driver.remaining().min(space.sets.len());
-    // All draws are made up front and evaluated as one batch, so the whole budget runs at full
-    // concurrency; the order is a pure function of the seed.
+    let n = ((driver.remaining() / u64::from(params.samples)) as usize).min(space.sets.len());
+    // All draws are made up front — as many as the budget could pay at m observations each — and
+    // evaluated in order: with the fixed count as one batch at full concurrency; with sequential
+    // sampling the driver works through them in chunks until the budget is spent. The order is a
+    // pure function of the seed, and a prefix of the order drawn under a larger budget.
     let picks: Vec<_> = shuffled_prefix(&mut rng, space.sets.len(), n).into_iter().map(|i| space.sets[i]).collect();
     driver.evaluate(&picks).await?;
     Ok(())

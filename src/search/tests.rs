@@ -5,22 +5,21 @@ use crate::ir::ConceptSet;
 use crate::ir::testkit::lattice;
 use crate::outcome::Outcome;
 
-/// Evaluates a set as `f(set)` wrong answers out of `m`; records what it was asked.
+/// Evaluates a set's observation i as wrong when i < `f(set)`; records what it was asked.
 struct FnEval<F> {
     f: F,
-    m: u32,
     asked: Vec<Vec<ConceptSet>>,
 }
 
 impl<F: Fn(ConceptSet) -> u32> Evaluate for FnEval<F> {
-    async fn evaluate(&mut self, sets: &[ConceptSet]) -> Result<Vec<SetStats>, String> {
-        self.asked.push(sets.to_vec());
-        Ok(sets
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+        self.asked.push(asks.iter().map(|a| a.set).collect());
+        Ok(asks
             .iter()
-            .map(|&s| {
-                let mut st = SetStats::new(s);
-                let w = (self.f)(s).min(self.m);
-                (0..self.m).for_each(|i| st.add(if i < w { Outcome::Wrong } else { Outcome::Correct }));
+            .map(|a| {
+                let mut st = SetStats::new(a.set);
+                let w = (self.f)(a.set);
+                a.obs.clone().for_each(|i| st.add(if i < w { Outcome::Wrong } else { Outcome::Correct }));
                 st
             })
             .collect())
@@ -51,7 +50,7 @@ fn params(algo: Algo, budget: u64) -> Params {
 }
 
 fn run_fn(p: &Params, space: &Space) -> (Vec<SetStats>, Vec<Vec<ConceptSet>>) {
-    let mut e = FnEval { f: landscape, m: p.samples, asked: vec![] };
+    let mut e = FnEval { f: landscape, asked: vec![] };
     let h = block_on(run(p, space, &mut e)).unwrap();
     (h, e.asked)
 }
@@ -136,4 +135,243 @@ fn params_are_validated() {
     assert_eq!(e(Params { threshold: 1.5, ..ok.clone() }), "invalid `--threshold`: must be between 0 and 1, got 1.5");
     assert_eq!(e(Params { beam_budget: 2000, ..ok.clone() }), "invalid `--beam-budget`: 2000 exceeds the budget 1000");
     assert_eq!(e(Params { budget: 3, ..ok }), "invalid `--budget`: 3 inferences cannot evaluate one set of 5 samples");
+}
+
+/// Two planted pairs and a planted triple whose parts never fail: every observation of a set
+/// holding one is wrong; a set of four holding none fails its first observation only (below
+/// τ = 0.6).
+fn three_modes(s: ConceptSet) -> u32 {
+    let modes = [bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+    if modes.iter().any(|m| m.is_subset_of(s)) { u32::MAX } else { u32::from(s.len() == 4) }
+}
+
+/// Failing sets whose every valid one-smaller subset was evaluated and passes.
+fn minimal_failures(h: &[SetStats], space: &Space) -> Vec<ConceptSet> {
+    let fr: std::collections::HashMap<ConceptSet, &SetStats> = h.iter().map(|s| (s.set, s)).collect();
+    h.iter()
+        .filter(|s| s.is_failure_mode(0.6))
+        .filter(|s| {
+            s.set
+                .iter()
+                .map(|c| s.set.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .all(|sub| fr.get(&sub).is_some_and(|t| !t.is_failure_mode(0.6)))
+        })
+        .map(|s| s.set)
+        .collect()
+}
+
+#[test]
+fn interact_reports_two_pairs_and_a_triple_exactly() {
+    let space = Space::new(lattice(12, 4), 12);
+    for seed in 0..3 {
+        let p = Params { algo: Algo::Interact, budget: 1000, seed, ..Params::default() };
+        let mut e = FnEval { f: three_modes, asked: vec![] };
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let mut cores = minimal_failures(&h, &space);
+        cores.sort();
+        let mut planted = vec![bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+        planted.sort();
+        assert_eq!(cores, planted, "seed {seed}");
+        assert_eq!(h, block_on(run(&p, &space, &mut FnEval { f: three_modes, asked: vec![] })).unwrap());
+    }
+}
+/// The sim model's law without its I/O: observation `obs` of `set` is wrong with chance
+/// `profile.error_for(set)`, drawn from a ChaCha stream keyed by (seed, set, obs), as the sim
+/// keys its draws by observation. Records every ask.
+struct SimEval {
+    profile: crate::vlm::sim::Profile,
+    seed: u64,
+    asked: Vec<Ask>,
+}
+
+impl Evaluate for SimEval {
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+        use rand::{RngExt, SeedableRng};
+        self.asked.extend(asks.iter().cloned());
+        Ok(asks
+            .iter()
+            .map(|a| {
+                let mut st = SetStats::new(a.set);
+                for i in a.obs.clone() {
+                    let key = self.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                        ^ (a.set.0 as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+                        ^ ((a.set.0 >> 64) as u64)
+                        ^ (u64::from(i) << 48);
+                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(key);
+                    st.add(if rng.random_bool(self.profile.error_for(a.set)) {
+                        Outcome::Wrong
+                    } else {
+                        Outcome::Correct
+                    });
+                }
+                st
+            })
+            .collect())
+    }
+}
+
+/// One planted pair {c2, c5} on eight concepts, a weak single-concept effect of c2, base 0.05.
+const PAIR: &str = "name = \"pair\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.9\n[[mode]]\nconcepts = [\"c2\"]\nerror = 0.35\n";
+
+/// Exactly one planted pair, nothing else: base error 0.05.
+const ONE_PAIR: &str = "name = \"one\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.9\n";
+
+fn sim(profile: &str, seed: u64) -> SimEval {
+    let d = crate::ir::testkit::numbered(10);
+    SimEval { profile: crate::vlm::sim::Profile::parse(profile, "t.toml", &d).unwrap(), seed, asked: vec![] }
+}
+
+/// Every set's asks cover 0..n without gap or overlap: more observations continue the indices.
+fn assert_contiguous(asked: &[Ask]) {
+    let mut next: std::collections::HashMap<ConceptSet, u32> = Default::default();
+    for a in asked {
+        let n = next.entry(a.set).or_default();
+        assert_eq!(a.obs.start, *n, "observations of {:?} continue at {n}", a.set);
+        *n = a.obs.end;
+    }
+}
+
+#[test]
+fn sequential_sampling_never_exceeds_m_nor_the_budget_and_is_seeded() {
+    let space = Space::new(lattice(10, 4), 10);
+    for algo in Algo::ALL {
+        for budget in [97, 300, 1003] {
+            let p = Params { max_samples: Some(20), ..params(algo, budget) };
+            let go = |seed: u64| {
+                let mut e = sim(PAIR, seed);
+                let h = block_on(run(&Params { seed, ..p.clone() }, &space, &mut e)).unwrap();
+                (h, e.asked)
+            };
+            let (h, asked) = go(0);
+            let spent: u32 = asked.iter().map(Ask::len).sum();
+            let what = format!("{} at budget {budget}", algo.name());
+            assert!(u64::from(spent) <= budget, "{what}: spent {spent}");
+            assert_eq!(h.iter().map(SetStats::observations).sum::<u32>(), spent, "{what}: every observation counted");
+            assert!(h.iter().all(|s| (5..=20).contains(&s.observations())), "{what}: between m and M");
+            let distinct: std::collections::HashSet<_> = h.iter().map(|s| s.set).collect();
+            assert_eq!(distinct.len(), h.len(), "{what}: a set was evaluated twice");
+            assert_contiguous(&asked);
+            // A set is left unsettled only when the budget ran out.
+            let rule = p.rule();
+            assert!(h.iter().all(|s| rule.settled(s)) || u64::from(spent) == budget, "{what}");
+            if budget >= 300 {
+                assert!(h.iter().any(|s| s.observations() > 5), "{what}: some set was topped up");
+            }
+            assert_eq!(go(0), (h.clone(), asked), "{what}: deterministic under a seed");
+            if budget >= 300 {
+                assert_ne!(go(1).0, h, "{what}: another seed, other observations");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_fixed_count_asks_m_observations_per_set_in_one_batch() {
+    let space = Space::new(lattice(10, 4), 10);
+    let mut e = sim(PAIR, 0);
+    let h = block_on(run(&params(Algo::Random, 503), &space, &mut e)).unwrap();
+    assert_eq!(h.len(), 100);
+    assert_eq!(e.asked.len(), 100, "one ask per set");
+    assert!(e.asked.iter().all(|a| a.obs == (0..5)));
+    assert!(h.iter().all(|s| s.observations() == 5));
+}
+
+#[test]
+fn sequential_sampling_reports_fewer_false_failure_modes_at_equal_budget() {
+    // The weak effect of c2 (error 0.35) passes τ = 0.6 on 3 of 5 observations about one time in
+    // four; the sequential test sees through it.
+    let space = Space::new(lattice(10, 4), 10);
+    let (mut fixed, mut seq) = (0, 0);
+    for seed in 0..5 {
+        let false_modes = |max: Option<u32>| {
+            let mut e = sim(PAIR, seed);
+            let p = Params { max_samples: max, seed, ..params(Algo::Random, 1000) };
+            let h = block_on(run(&p, &space, &mut e)).unwrap();
+            h.iter().filter(|s| s.is_failure_mode(0.6) && e.profile.error_for(s.set) < 0.6).count()
+        };
+        fixed += false_modes(None);
+        seq += false_modes(Some(20));
+    }
+    assert!(seq * 3 < fixed, "false failure modes: fixed {fixed}, sequential {seq}");
+}
+
+/// Concept 7 is a modifier of concept 6: a set holding 7 without 6 is invalid.
+fn modifier_space() -> Space {
+    let needs = |s: &ConceptSet| !s.contains(crate::ir::ConceptId(7)) || s.contains(crate::ir::ConceptId(6));
+    Space::new(lattice(8, 4).into_iter().filter(needs).collect(), 8)
+}
+
+#[test]
+fn a_found_four_set_shrinks_to_exactly_the_planted_pair() {
+    let space = modifier_space();
+    let root = bits(&[2, 5, 6, 7]);
+    let search = Params::default();
+    let mut found = 0;
+    for seed in 0..10 {
+        let mut e = sim(ONE_PAIR, seed);
+        // The search's view: five observations, a failure mode.
+        let mut d = Driver::new(&mut e, search.rule(), 5);
+        let s = block_on(d.test(root)).unwrap().unwrap();
+        if !s.is_failure_mode(0.6) {
+            continue;
+        }
+        found += 1;
+        let history = d.history.clone();
+        let mut d = Driver::with_history(&mut e, search.shrink_rule(), 400, history);
+        let shrunk = block_on(shrink::shrink(&mut d, &space, root)).unwrap();
+        let shrink::Shrunk::Core(core) = shrunk else { panic!("seed {seed}: {shrunk:?}") };
+        assert_eq!(core.stats.set, bits(&[2, 5]), "seed {seed}");
+        assert!(core.minimal && core.root == root);
+        assert!(core.stats.observations() > 5 && core.stats.is_failure_mode(0.6), "re-tested: {:?}", core.stats);
+        assert!(d.spent() <= 400);
+        assert!(e.asked.iter().all(|a| space.contains(a.set)), "only valid subsets are evaluated");
+        assert!(e.asked.iter().any(|a| a.set == bits(&[2])) && e.asked.iter().any(|a| a.set == bits(&[5])));
+        assert_contiguous(&e.asked);
+    }
+    assert!(found >= 8, "the 4-set is found on most seeds ({found})");
+}
+
+#[test]
+fn the_shrink_phase_finds_each_family_once_and_refutes_false_roots() {
+    const TWO: &str = "name = \"two\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.9\n[[mode]]\nconcepts = [\"c6\", \"c7\"]\nerror = 0.95\n";
+    let space = modifier_space();
+    // The search's view: four failure modes on five observations each, one of them false.
+    let st = |ids: &[u32], wrong: u32| {
+        let mut s = SetStats::new(bits(ids));
+        (0..5).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
+        s
+    };
+    let history = vec![st(&[1, 2, 5, 3], 5), st(&[2, 4, 5], 5), st(&[0, 6, 7], 4), st(&[1, 3], 3), st(&[0, 4], 0)];
+    let roots = shrink::roots(&history, 0.6);
+    assert_eq!(roots, vec![bits(&[2, 4, 5]), bits(&[1, 2, 3, 5]), bits(&[0, 6, 7]), bits(&[1, 3])]);
+    let mut e = sim(TWO, 3);
+    let mut d = Driver::with_history(&mut e, Params::default().shrink_rule(), 1000, history.clone());
+    let found = block_on(shrink::run(&mut d, &space, &roots)).unwrap();
+    let cores: Vec<ConceptSet> = found.cores.iter().map(|c| c.stats.set).collect();
+    assert_eq!(cores.len(), 2, "{cores:?}");
+    assert!(cores.contains(&bits(&[2, 5])) && cores.contains(&bits(&[6, 7])));
+    assert_eq!(found.refuted.iter().map(|s| s.set).collect::<Vec<_>>(), vec![bits(&[1, 3])]);
+    // {1, 2, 3, 5} holds the core of {2, 4, 5}: it is never re-tested.
+    assert!(!e.asked.iter().any(|a| a.set == bits(&[1, 2, 3, 5])));
+    let modes: Vec<ConceptSet> = roots.clone();
+    let (family, supersets) = shrink::families(&modes, &cores);
+    let pair = cores.iter().position(|c| *c == bits(&[2, 5]));
+    assert_eq!(family[..2], [pair, pair]);
+    assert_eq!(family[3], None);
+    assert_eq!(supersets.iter().sum::<usize>(), 3);
+}
+
+#[test]
+fn drop_order_tries_bystanders_first() {
+    let st = |ids: &[u32], wrong: u32| {
+        let mut s = SetStats::new(bits(ids));
+        (0..5).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
+        s
+    };
+    let h = vec![st(&[2, 5], 5), st(&[2, 3], 2), st(&[3, 4], 0), st(&[5, 6], 4)];
+    // Means: c2 0.7, c3 0.2, c4 0, c5 0.9, c6 0.8.
+    let order: Vec<u32> = shrink::drop_order(&h, bits(&[2, 3, 4, 5, 6])).iter().map(|c| c.0).collect();
+    assert_eq!(order, vec![4, 3, 2, 6, 5]);
 }

@@ -90,12 +90,16 @@ pub enum ItemKind {
     Relation {
         name: Ident,
         text: Str,
+        /// The `{ … }` placement words with their ranges; `None` when there is no body.
+        placements: Option<Vec<Placement>>,
     },
     Kind {
         name: Ident,
         parents: Vec<Ident>,
         attrs: Vec<AttrDecl>,
         shapes: Vec<Parts>,
+        /// `in REGION, …` statements: where entities of the kind may stand.
+        stands_in: Vec<Vec<Ident>>,
     },
     Look {
         kind: Ident,
@@ -153,6 +157,14 @@ pub enum ItemKind {
     Error,
 }
 
+/// One placement word of a relation (`distance 0m..1.5m`, `on_top`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Placement {
+    pub word: Ident,
+    pub range: Option<(Num, Num)>,
+    pub span: Span,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum UseTarget {
     Std(Ident),
@@ -192,6 +204,7 @@ pub enum PartProp {
     Material(Ident),
     Yaw(Num),
     Roll(Num),
+    Pitch(Num),
     When(Expr, Span),
 }
 
@@ -314,8 +327,35 @@ pub enum ExprKind {
     And(Vec<Expr>),
     Or(Vec<Expr>),
     Has(Ident),
-    Exists { var: Ident, filter: Vec<Ident>, cond: Option<Box<Expr>> },
-    Count { filter: Vec<Ident>, op: CmpOp, n: u32 },
-    In { var: Ident, region: Ident },
-    Cmp { path: Path, op: CmpOp, value: ValueLit },
+    Exists {
+        var: Ident,
+        filter: Vec<Ident>,
+        cond: Option<Box<Expr>>,
+    },
+    Count {
+        filter: Vec<Ident>,
+        op: CmpOp,
+        n: u32,
+    },
+    In {
+        var: Ident,
+        region: Ident,
+    },
+    Cmp {
+        path: Path,
+        op: CmpOp,
+        value: ValueLit,
+    },
+    /// Two attributes compared: `a.distance < b.distance`.
+    CmpAttrs {
+        left: Path,
+        op: CmpOp,
+        right: Path,
+    },
+    /// A relation edge of the scene graph: `e near g`, `e ahead_of ego`.
+    Related {
+        var: Ident,
+        relation: Ident,
+        to: Ident,
+    },
 }

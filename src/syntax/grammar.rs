@@ -60,6 +60,7 @@ pub fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_material => "material",
         kw_yaw => "yaw",
         kw_roll => "roll",
+        kw_pitch => "pitch",
         kw_repeat => "repeat",
         kw_step => "step",
         kw_in => "in",

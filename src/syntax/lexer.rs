@@ -162,6 +162,7 @@ pub const KEYWORDS: &[&str] = &[
     "material",
     "yaw",
     "roll",
+    "pitch",
     "repeat",
     "step",
     "in",

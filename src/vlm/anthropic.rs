@@ -5,23 +5,34 @@
 //! (`{"type": "enabled", "budget_tokens": N}`); `--thinking low|medium|high|max` sends adaptive
 //! thinking with that effort (`{"type": "adaptive"}` and `output_config.effort`, Claude 4.6 and
 //! later); `--thinking adaptive` leaves the effort to the model. Only `text` blocks are parsed.
+//!
+//! No `temperature` is sent: the Messages API takes none (the official SDK's request type,
+//! `anthropic` 2.12, has no sampling fields), so a configured temperature applies to the other
+//! providers only.
 
 use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
-use crate::net::secret::{Secret, base_url, env_any};
-use crate::net::{ProviderError, json as j};
-use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
+use crate::net::secret::Secret;
+use crate::net::{Host, ProviderError, json as j};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
 
 pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";
 pub const VERSION: &str = "2023-06-01";
 
+pub const PROVIDER: Provider = Provider {
+    host: Host { provider: "anthropic", base_env: &["ANTHROPIC_BASE_URL"], key_env: &["ANTHROPIC_API_KEY"] },
+    usage: "`anthropic:MODEL`, e.g. `anthropic:claude-sonnet-4-6`",
+    owned: &["model", "messages", "max_tokens", "temperature", "thinking", "output_config", "stream"],
+};
+
 pub struct Anthropic {
     url: String,
     model: String,
-    key: Secret,
+    /// Required on Anthropic's host; a proxy behind `--base-url` may not need one.
+    key: Option<Secret>,
     settings: Resolved,
 }
 
@@ -50,16 +61,13 @@ pub fn thinking_fields(spec: &str, s: &Resolved) -> Result<Vec<(&'static str, Va
             vec![("thinking", json!({"type": "enabled", "budget_tokens": budget}))]
         }
         (Some("adaptive"), None) => adaptive_effort(None),
-        (Some(e @ ("low" | "medium" | "high" | "max")), None) => adaptive_effort(Some(e)),
+        (Some(e @ ("low" | "medium" | "high" | "xhigh" | "max")), None) => adaptive_effort(Some(e)),
         (Some(other), None) => {
             return Err(format!(
-                "invalid thinking level `{other}` for `{spec}`: Anthropic models take `off`, `adaptive`, `low`, `medium`, `high` or `max` (or `thinking_budget` in the model config)"
+                "invalid thinking level `{other}` for `{spec}`: Anthropic models take `off`, `adaptive`, `low`, `medium`, `high`, `xhigh` or `max` (or `thinking_budget` in the model config)"
             ));
         }
     };
-    if !fields.is_empty() && s.temperature.is_some_and(|t| t != 1.0) {
-        return Err(format!("`{spec}` uses thinking, which needs `temperature` unset or 1"));
-    }
     Ok(fields)
 }
 
@@ -70,17 +78,16 @@ pub fn build(
     base: Option<&str>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Anthropic>, String> {
-    if model.is_empty() {
-        return Err(format!("invalid model `{spec}`: expected `anthropic:MODEL`, e.g. `anthropic:claude-sonnet-4-6`"));
-    }
+    let endpoint = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;
     thinking_fields(spec, &settings)?;
-    let base = base_url(base, &["ANTHROPIC_BASE_URL"], DEFAULT_BASE_URL)?;
-    let key = env_any(&["ANTHROPIC_API_KEY"])
-        .map(Secret)
-        .ok_or_else(|| format!("`{spec}` needs an API key: set `ANTHROPIC_API_KEY`"))?;
-    let proto =
-        Anthropic { url: format!("{base}/v1/messages"), model: model.to_string(), key, settings: settings.clone() };
-    ApiModel::new(spec, &format!("anthropic {base}"), proto, settings, cache)
+    let base = endpoint.base;
+    let proto = Anthropic {
+        url: format!("{base}/v1/messages"),
+        model: model.to_string(),
+        key: endpoint.key,
+        settings: settings.clone(),
+    };
+    ApiModel::new(spec, &PROVIDER.host, &base, proto, settings, cache)
 }
 
 /// Read the Messages-format content blocks: `text` blocks are the reply, `thinking` blocks the
@@ -112,18 +119,17 @@ impl Protocol for Anthropic {
             "max_tokens": self.settings.max_tokens,
             "messages": [{"role": "user", "content": content}],
         });
-        if let Some(t) = self.settings.temperature {
-            body["temperature"] = json!(t);
-        }
         for (k, v) in thinking_fields(&self.model, &self.settings)? {
             body[k] = v;
         }
         j::merge(&mut body, self.settings.extra.as_ref());
-        let headers = vec![
+        let mut headers = vec![
             ("content-type".to_string(), "application/json".to_string()),
-            ("x-api-key".into(), self.key.0.clone()),
-            ("anthropic-version".into(), VERSION.into()),
+            ("anthropic-version".to_string(), VERSION.to_string()),
         ];
+        if let Some(k) = &self.key {
+            headers.push(("x-api-key".into(), k.0.clone()));
+        }
         Ok(Request { url: self.url.clone(), headers, body: body.to_string().into_bytes() })
     }
 
@@ -151,7 +157,7 @@ impl Protocol for Anthropic {
     }
 
     fn secrets(&self) -> Vec<&str> {
-        vec![self.key.0.as_str()]
+        self.key.iter().map(|k| k.0.as_str()).collect()
     }
 
     fn error(&self, _status: u16, body: &[u8]) -> ProviderError {
@@ -176,7 +182,7 @@ mod tests {
         Anthropic {
             url: "http://x/v1/messages".into(),
             model: "m".into(),
-            key: Secret("k".into()),
+            key: Some(Secret("k".into())),
             settings: settings(None),
         }
     }
@@ -195,9 +201,14 @@ mod tests {
         s.thinking_budget = Some(512);
         assert!(thinking_fields("a", &s).unwrap_err().contains("at least 1024"));
         assert!(thinking_fields("a", &settings(Some("minimal"))).unwrap_err().contains("`minimal`"));
-        let mut hot = settings(Some("low"));
-        hot.temperature = Some(0.0);
-        assert!(thinking_fields("a", &hot).unwrap_err().contains("temperature"));
+    }
+
+    #[test]
+    fn no_temperature_is_sent() {
+        let mut p = proto();
+        p.settings.temperature = Some(0.0);
+        let body: Value = serde_json::from_slice(&p.request("q", None).unwrap().body).unwrap();
+        assert!(body.get("temperature").is_none(), "{body}");
     }
 
     #[test]

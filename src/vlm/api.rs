@@ -4,15 +4,78 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use crate::net::ProviderError;
 use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict};
 use crate::net::secret::redact;
+use crate::net::{Endpoint, Host, ProviderError};
 use crate::outcome::{Answer, Usage};
 use crate::vlm::cache::ReplyCache;
 use crate::vlm::config::{ImageFormat, Resolved};
 use crate::vlm::cost::{Ledger, Prices, Spend};
 use crate::vlm::image::{self, Encoded};
 use crate::vlm::{BoxFuture, Model, Query, Reply, parse};
+
+/// What a provider's `build` starts from, beyond its wire format.
+pub struct Provider {
+    pub host: Host,
+    /// How a `--model` value for it looks, for the message when the name is missing:
+    /// `` `openai:MODEL`, e.g. `openai:gpt-4.1-mini` ``.
+    pub usage: &'static str,
+    /// Top-level request fields Revelio sets (or that would change how it reads the reply,
+    /// like `stream`): a model config's `extra` may not replace them.
+    pub owned: &'static [&'static str],
+}
+
+/// The start every provider's `build` shares: the model is named, `extra` leaves Revelio's
+/// request fields alone, and the endpoint is resolved (`--base-url`, then the provider's
+/// variables, then `default`) with the provider's key.
+pub fn start(
+    p: &Provider,
+    spec: &str,
+    model: &str,
+    settings: &Resolved,
+    base: Option<&str>,
+    default: &str,
+) -> Result<Endpoint, String> {
+    check_request(p, spec, model, settings)?;
+    p.host.endpoint(spec, base, default)
+}
+
+/// The first half of [`start`], for providers whose default host needs more settings first:
+/// the model is named and `extra` leaves Revelio's fields alone.
+pub fn check_request(p: &Provider, spec: &str, model: &str, settings: &Resolved) -> Result<(), String> {
+    if model.is_empty() {
+        return Err(format!("invalid model `{spec}`: expected {}", p.usage));
+    }
+    check_extra(spec, settings, p.owned)
+}
+
+/// Refuse `extra` keys that would replace what Revelio sends.
+pub fn check_extra(spec: &str, settings: &Resolved, owned: &[&str]) -> Result<(), String> {
+    let Some(extra) = &settings.extra else { return Ok(()) };
+    match extra.keys().find(|k| owned.contains(&k.as_str())) {
+        Some(k) => Err(format!(
+            "`extra` for `{spec}` sets `{k}`, which Revelio sets itself: use the model config's own settings (`max_tokens`, `temperature`, `thinking`, …) or leave it out"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The longest reply text (and thinking text) kept in a [`Reply`], so the journal and the
+/// caches hold a bounded prefix of what a model said: 32 KiB, many times a real answer.
+pub const MAX_RAW_BYTES: usize = 32 << 10;
+
+/// `text` cut to [`MAX_RAW_BYTES`] at a character boundary, with a marker saying how much was
+/// cut.
+pub fn bound_text(text: String) -> String {
+    if text.len() <= MAX_RAW_BYTES {
+        return text;
+    }
+    let mut end = MAX_RAW_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}\n[cut by Revelio: {} more bytes]", &text[..end], text.len() - end)
+}
 
 /// How a successful response ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -103,26 +166,30 @@ pub fn model_id(spec: &str, s: &Resolved) -> String {
     }
     if let Some(e) = &s.extra {
         let json = serde_json::Value::Object(e.clone()).to_string();
-        parts.push(format!("extra={}", &crate::net::cache::key(&[json.as_bytes()])[..8]));
+        parts.push(format!("extra={}", &crate::hash::parts_hex([json.as_bytes()])[..8]));
     }
     if parts.is_empty() { spec.to_string() } else { format!("{spec}@{}", parts.join(",")) }
 }
 
 impl<P: Protocol> ApiModel<P> {
-    /// `endpoint` keys the shared concurrency gate (provider and base URL).
+    /// `host` and `base` key the shared concurrency gate.
     pub fn new(
         spec: &str,
-        endpoint: &str,
+        host: &Host,
+        base: &str,
         proto: P,
         settings: Resolved,
         cache_dir: Option<&std::path::Path>,
     ) -> Result<ApiModel<P>, String> {
         let id = model_id(spec, &settings);
-        let gate = Gate::shared(endpoint, settings.concurrency, settings.requests_per_minute);
+        let gate =
+            Gate::shared(&format!("{} {base}", host.provider), settings.concurrency, settings.requests_per_minute);
         let mut limits = Limits::new(settings.timeout, settings.retry_attempts, settings.retry_deadline);
         limits.backoff_base = settings.retry_backoff;
+        limits.max_body = settings.max_reply_bytes;
+        limits.stall = settings.stall_timeout;
         let transport = Transport::new(gate, limits)?;
-        let base_url = public_url(endpoint.split_once(' ').map_or(endpoint, |(_, b)| b));
+        let base_url = public_url(base);
         // The cache is shared by every run: the same model name served elsewhere (another
         // vLLM server, a proxy) may answer differently, so the endpoint is part of its identity.
         let cache = cache_dir.map(|d| ReplyCache::new(d, &format!("{id} at {base_url}")));
@@ -214,8 +281,10 @@ impl<P: Protocol> Model for ApiModel<P> {
             }
             let mut reply = self.ask_uncached(query).await;
             let secrets = self.proto.secrets();
-            reply.raw = redact(std::mem::take(&mut reply.raw), &secrets);
-            reply.thinking = reply.thinking.map(|t| redact(t, &secrets));
+            // Parsed already: from here on the text is only kept (journal, cache), so a bounded
+            // prefix of it.
+            reply.raw = bound_text(redact(std::mem::take(&mut reply.raw), &secrets));
+            reply.thinking = reply.thinking.map(|t| bound_text(redact(t, &secrets)));
             self.ledger.record(&reply.usage, false, reply.answer == Answer::ApiError);
             if let (Some(c), Some(k)) = (&self.cache, &key)
                 && let Err(e) = c.put(k, &reply)
@@ -262,6 +331,26 @@ fn warn_once(msg: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn kept_text_is_a_bounded_prefix_with_a_marker() {
+        assert_eq!(bound_text("Answer: B".into()), "Answer: B");
+        let long = "é".repeat(MAX_RAW_BYTES);
+        let cut = bound_text(long.clone());
+        assert!(cut.len() < MAX_RAW_BYTES + 64);
+        assert!(cut.starts_with(&long[..MAX_RAW_BYTES]));
+        assert!(cut.ends_with(&format!("[cut by Revelio: {} more bytes]", long.len() - MAX_RAW_BYTES)));
+    }
+
+    #[test]
+    fn extra_may_not_replace_owned_fields() {
+        let mut s = crate::vlm::config::settings_for("openai:m", None, None).unwrap();
+        s.extra = Some(serde_json::json!({"stream": true, "top_p": 0.9}).as_object().unwrap().clone());
+        let e = check_extra("openai:m", &s, &["messages", "stream"]).unwrap_err();
+        assert!(e.starts_with("`extra` for `openai:m` sets `stream`, which Revelio sets itself"), "{e}");
+        s.extra = Some(serde_json::json!({"top_p": 0.9}).as_object().unwrap().clone());
+        assert!(check_extra("openai:m", &s, &["messages", "stream"]).is_ok());
+    }
 
     #[test]
     fn ids_carry_answer_changing_settings() {

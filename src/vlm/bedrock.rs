@@ -11,15 +11,24 @@ use std::time::SystemTime;
 use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
-use crate::net::secret::{base_url, env_any};
-use crate::net::{ProviderError, json as j};
+use crate::net::secret::env_any;
+use crate::net::{Host, ProviderError, json as j};
 use crate::vlm::anthropic::thinking_fields;
-use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, check_extra, check_request};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
 use crate::vlm::sigv4::{self, Credentials, Scope, SignRequest, uri_encode};
 
-pub const BASE_URL_ENV: &[&str] = &["BEDROCK_BASE_URL", "AWS_ENDPOINT_URL_BEDROCK_RUNTIME"];
+/// Credentials are the AWS variables ([`Credentials::from_env`]), not an API key.
+pub const PROVIDER: Provider = Provider {
+    host: Host {
+        provider: "bedrock",
+        base_env: &["BEDROCK_BASE_URL", "AWS_ENDPOINT_URL_BEDROCK_RUNTIME"],
+        key_env: &[],
+    },
+    usage: "`bedrock:MODEL_ID`, e.g. `bedrock:us.anthropic.claude-haiku-4-5-20251001-v1:0`",
+    owned: &["messages", "inferenceConfig"],
+};
 
 pub struct Bedrock {
     url: String,
@@ -41,11 +50,7 @@ pub fn build(
     base: Option<&str>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Bedrock>, String> {
-    if model.is_empty() {
-        return Err(format!(
-            "invalid model `{spec}`: expected `bedrock:MODEL_ID`, e.g. `bedrock:us.anthropic.claude-haiku-4-5-20251001-v1:0`"
-        ));
-    }
+    check_request(&PROVIDER, spec, model, &settings)?;
     let region = env_any(&["AWS_REGION", "AWS_DEFAULT_REGION"])
         .ok_or_else(|| format!("`{spec}` needs an AWS region: set `AWS_REGION` (or `AWS_DEFAULT_REGION`)"))?;
     if !region.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
@@ -59,10 +64,17 @@ pub fn build(
             "`{spec}` takes no thinking settings: Revelio sends thinking only to Anthropic models on Bedrock"
         ));
     }
+    if !thinking.is_empty() {
+        check_extra(spec, &settings, &["additionalModelRequestFields"])?;
+        // Converse sends `inferenceConfig.temperature`, which Claude's thinking needs at 1.
+        if settings.temperature.is_some_and(|t| t != 1.0) {
+            return Err(format!("`{spec}` uses thinking, which needs `temperature` unset or 1"));
+        }
+    }
     let extra_fields =
         (!thinking.is_empty()).then(|| Value::Object(thinking.into_iter().map(|(k, v)| (k.to_string(), v)).collect()));
     let default = format!("https://bedrock-runtime.{region}.amazonaws.com");
-    let base = base_url(base, BASE_URL_ENV, &default)?;
+    let base = PROVIDER.host.endpoint(spec, base, &default)?.base;
     let parsed = reqwest::Url::parse(&base).map_err(|e| format!("invalid base URL `{base}`: {e}"))?;
     let host = match (parsed.host_str(), parsed.port()) {
         (Some(h), Some(p)) => format!("{h}:{p}"),
@@ -81,7 +93,7 @@ pub fn build(
         settings: settings.clone(),
         extra_fields,
     };
-    ApiModel::new(spec, &format!("bedrock {base}"), proto, settings, cache)
+    ApiModel::new(spec, &PROVIDER.host, &base, proto, settings, cache)
 }
 
 impl Bedrock {

@@ -16,6 +16,17 @@ use std::time::Duration;
 
 use serde::Deserialize;
 
+/// Default per-attempt timeout: long enough for a non-streamed reply with high thinking.
+pub const DEFAULT_TIMEOUT_S: f64 = 120.0;
+/// Default wait for more of a started reply body: a server that sends nothing for this long
+/// has stalled.
+pub const DEFAULT_STALL_TIMEOUT_S: f64 = 30.0;
+/// Default bound on a whole call, every attempt and wait included: a stalled endpoint costs at
+/// most this per observation (it was 900 s).
+pub const DEFAULT_RETRY_DEADLINE_S: f64 = 300.0;
+/// Default largest reply body: model replies are a few kilobytes of JSON.
+pub const DEFAULT_MAX_REPLY_BYTES: usize = crate::net::DEFAULT_MAX_BODY;
+
 /// Image encoding sent to the provider.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -41,8 +52,17 @@ pub struct Settings {
     /// Requests in flight at once for this provider endpoint.
     pub concurrency: Option<usize>,
     pub requests_per_minute: Option<u32>,
-    /// Per-attempt timeout.
+    /// OpenAI-compatible servers: the request field of the output cap, `max_tokens` or
+    /// `max_completion_tokens` (which OpenAI's reasoning models require). By default
+    /// `max_completion_tokens` on OpenAI's host and for OpenAI reasoning models (`o1`, `o3`,
+    /// `o4`, `gpt-5` families) behind any gateway, else `max_tokens`.
+    pub max_tokens_field: Option<String>,
+    /// Per-attempt timeout, from sending the request to the reply's last byte.
     pub timeout_s: Option<f64>,
+    /// Longest wait for more of a reply body once it has started.
+    pub stall_timeout_s: Option<f64>,
+    /// Largest reply body read, in MiB; a larger reply is an `api_error`.
+    pub max_reply_mb: Option<f64>,
     /// Attempts per call, the first included.
     pub retry_attempts: Option<u32>,
     /// Total time a call may take across all its attempts and waits.
@@ -78,7 +98,10 @@ pub struct Resolved {
     pub jpeg_quality: u8,
     pub concurrency: usize,
     pub requests_per_minute: Option<u32>,
+    pub max_tokens_field: Option<String>,
     pub timeout: Duration,
+    pub stall_timeout: Duration,
+    pub max_reply_bytes: usize,
     pub retry_attempts: u32,
     pub retry_deadline: Duration,
     pub retry_backoff: Duration,
@@ -99,7 +122,10 @@ impl Settings {
             jpeg_quality: over.jpeg_quality.or(self.jpeg_quality),
             concurrency: over.concurrency.or(self.concurrency),
             requests_per_minute: over.requests_per_minute.or(self.requests_per_minute),
+            max_tokens_field: over.max_tokens_field.or(self.max_tokens_field),
             timeout_s: over.timeout_s.or(self.timeout_s),
+            stall_timeout_s: over.stall_timeout_s.or(self.stall_timeout_s),
+            max_reply_mb: over.max_reply_mb.or(self.max_reply_mb),
             retry_attempts: over.retry_attempts.or(self.retry_attempts),
             retry_deadline_s: over.retry_deadline_s.or(self.retry_deadline_s),
             retry_backoff_s: over.retry_backoff_s.or(self.retry_backoff_s),
@@ -149,6 +175,16 @@ impl Settings {
                 return Err(bad(field, "expected a non-negative number of US dollars"));
             }
         }
+        if let Some(f) = &self.max_tokens_field
+            && !matches!(f.as_str(), "max_tokens" | "max_completion_tokens")
+        {
+            return Err(bad("max_tokens_field", "expected `max_tokens` or `max_completion_tokens`"));
+        }
+        let max_reply_bytes = match self.max_reply_mb {
+            None => DEFAULT_MAX_REPLY_BYTES,
+            Some(mb) if mb.is_finite() && (0.001..=1024.0).contains(&mb) => (mb * f64::from(1u32 << 20)) as usize,
+            Some(_) => return Err(bad("max_reply_mb", "expected a number of MiB from 0.001 to 1024")),
+        };
         let extra = match self.extra {
             None => None,
             Some(t) => match serde_json::to_value(t) {
@@ -166,9 +202,12 @@ impl Settings {
             jpeg_quality: self.jpeg_quality.unwrap_or(90),
             concurrency: self.concurrency.unwrap_or(16),
             requests_per_minute: self.requests_per_minute,
-            timeout: positive("timeout_s", self.timeout_s, 180.0)?,
+            max_tokens_field: self.max_tokens_field,
+            timeout: positive("timeout_s", self.timeout_s, DEFAULT_TIMEOUT_S)?,
+            stall_timeout: positive("stall_timeout_s", self.stall_timeout_s, DEFAULT_STALL_TIMEOUT_S)?,
+            max_reply_bytes,
             retry_attempts: self.retry_attempts.unwrap_or(6),
-            retry_deadline: positive("retry_deadline_s", self.retry_deadline_s, 900.0)?,
+            retry_deadline: positive("retry_deadline_s", self.retry_deadline_s, DEFAULT_RETRY_DEADLINE_S)?,
             retry_backoff: positive("retry_backoff_s", self.retry_backoff_s, 0.5)?,
             price_input_per_mtok: self.price_input_per_mtok.unwrap_or(0.0),
             price_output_per_mtok: self.price_output_per_mtok.unwrap_or(0.0),
@@ -221,6 +260,8 @@ mod tests {
         assert_eq!(r.image_format, ImageFormat::Png);
         assert_eq!(r.retry_attempts, 6);
         assert_eq!(r.temperature, None);
+        assert_eq!((r.timeout.as_secs(), r.stall_timeout.as_secs(), r.retry_deadline.as_secs()), (120, 30, 300));
+        assert_eq!(r.max_reply_bytes, 4 << 20);
     }
 
     #[test]
@@ -270,6 +311,12 @@ mod tests {
         assert!(resolve("[default]\ntimeout_s = -1", "openai:m").unwrap_err().contains("`timeout_s`"));
         assert!(resolve("[default]\nimage_format = \"gif\"", "openai:m").unwrap_err().contains("unknown variant"));
         assert!(resolve("[default]\nmax_tokenz = 3", "openai:m").unwrap_err().contains("unknown field `max_tokenz`"));
+        assert!(resolve("[default]\nmax_reply_mb = 0", "openai:m").unwrap_err().contains("`max_reply_mb`"));
+        assert!(resolve("[default]\nstall_timeout_s = 0", "openai:m").unwrap_err().contains("`stall_timeout_s`"));
+        assert!(
+            resolve("[default]\nmax_tokens_field = \"tokens\"", "openai:m").unwrap_err().contains("`max_tokens_field`")
+        );
+        assert_eq!(resolve("[default]\nmax_reply_mb = 0.5", "openai:m").unwrap().max_reply_bytes, 1 << 19);
     }
 
     #[test]

@@ -7,17 +7,33 @@
 
 use serde_json::{Value, json};
 
-use crate::net::gemini::{BASE_URL_ENV, DEFAULT_BASE_URL, endpoint, error, headers, key};
+use crate::net::gemini::{DEFAULT_BASE_URL, HOST, endpoint, error, headers};
 use crate::net::http::Request;
-use crate::net::secret::{Secret, base_url};
+use crate::net::secret::Secret;
 use crate::net::{ProviderError, json as j};
-use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
 
-/// Finish reasons that mean the provider's filters stopped the reply.
-const BLOCKING: &[&str] =
-    &["SAFETY", "RECITATION", "BLOCKLIST", "PROHIBITED_CONTENT", "SPII", "IMAGE_SAFETY", "IMAGE_PROHIBITED_CONTENT"];
+/// Finish reasons that mean the provider's filters stopped the reply (`MODEL_ARMOR`: a Model
+/// Armor template on the project screened it).
+pub const BLOCKING: &[&str] = &[
+    "SAFETY",
+    "RECITATION",
+    "BLOCKLIST",
+    "PROHIBITED_CONTENT",
+    "SPII",
+    "IMAGE_SAFETY",
+    "IMAGE_PROHIBITED_CONTENT",
+    "IMAGE_RECITATION",
+    "MODEL_ARMOR",
+];
+
+pub const PROVIDER: Provider = Provider {
+    host: HOST,
+    usage: "`gemini:MODEL`, e.g. `gemini:gemini-3-flash-preview`",
+    owned: &["contents", "generationConfig", "generation_config"],
+};
 
 pub struct Gemini {
     url: String,
@@ -32,23 +48,20 @@ pub fn build(
     base: Option<&str>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Gemini>, String> {
-    if model.is_empty() {
-        return Err(format!("invalid model `{spec}`: expected `gemini:MODEL`, e.g. `gemini:gemini-3-flash-preview`"));
-    }
+    let ep = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;
     match (settings.thinking.as_deref(), settings.thinking_budget) {
         (Some(_), Some(_)) => {
             return Err(format!("`{spec}` has both `thinking` and `thinking_budget`: set one of them"));
         }
-        (Some("minimal" | "low" | "medium" | "high") | None, _) => {}
+        (Some("minimal" | "low" | "medium" | "high" | "xhigh") | None, _) => {}
         (Some(other), _) => {
             return Err(format!(
-                "invalid thinking level `{other}` for `{spec}`: Gemini models take `minimal`, `low`, `medium` or `high`"
+                "invalid thinking level `{other}` for `{spec}`: Gemini models take `minimal`, `low`, `medium`, `high` or `xhigh`"
             ));
         }
     }
-    let base = base_url(base, BASE_URL_ENV, DEFAULT_BASE_URL)?;
-    let proto = Gemini { url: endpoint(&base, model), key: key(spec, &base)?, settings: settings.clone() };
-    ApiModel::new(spec, &format!("gemini {base}"), proto, settings, cache)
+    let proto = Gemini { url: endpoint(&ep.base, model), key: ep.key, settings: settings.clone() };
+    ApiModel::new(spec, &PROVIDER.host, &ep.base, proto, settings, cache)
 }
 
 impl Protocol for Gemini {
@@ -64,7 +77,8 @@ impl Protocol for Gemini {
             gen_config["temperature"] = json!(t);
         }
         if let Some(level) = &s.thinking {
-            gen_config["thinkingConfig"] = json!({"thinkingLevel": level});
+            // The API documents the levels in upper case (`ThinkingLevel` enum values).
+            gen_config["thinkingConfig"] = json!({"thinkingLevel": level.to_uppercase()});
         } else if let Some(b) = s.thinking_budget {
             gen_config["thinkingConfig"] = json!({"thinkingBudget": b});
         }
@@ -135,7 +149,7 @@ mod tests {
     }
 
     #[test]
-    fn endpoint_strips_models_prefix() {
+    fn epstrips_models_prefix() {
         assert_eq!(
             endpoint("https://h", "models/gemini-3-flash-preview"),
             "https://h/v1beta/models/gemini-3-flash-preview:generateContent"
@@ -155,7 +169,9 @@ mod tests {
     fn blocks_and_truncation() {
         let prompt = br#"{"promptFeedback":{"blockReason":"SAFETY","safetyRatings":[]},"usageMetadata":{"promptTokenCount":10}}"#;
         assert_eq!(proto().parse(prompt).unwrap().stop, Stop::Blocked("prompt blocked (SAFETY)".into()));
-        for r in ["SAFETY", "RECITATION", "BLOCKLIST", "PROHIBITED_CONTENT", "SPII"] {
+        let armor = br#"{"promptFeedback":{"blockReason":"MODEL_ARMOR"},"usageMetadata":{"promptTokenCount":10}}"#;
+        assert_eq!(proto().parse(armor).unwrap().stop, Stop::Blocked("prompt blocked (MODEL_ARMOR)".into()));
+        for r in ["SAFETY", "RECITATION", "BLOCKLIST", "PROHIBITED_CONTENT", "SPII", "MODEL_ARMOR"] {
             let body = format!(r#"{{"candidates":[{{"finishReason":"{r}","index":0}}]}}"#);
             assert_eq!(proto().parse(body.as_bytes()).unwrap().stop, Stop::Blocked(r.into()));
         }

@@ -7,25 +7,58 @@
 use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
-use crate::net::secret::{Secret, base_url, env_any};
+use crate::net::secret::Secret;
 use crate::net::{ProviderError, json as j};
-use crate::vlm::api::{ApiModel, Parsed, Protocol, Stop};
+use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
 
 pub use crate::net::openai::DEFAULT_BASE_URL;
 
+pub const PROVIDER: Provider = Provider {
+    host: crate::net::openai::HOST,
+    usage: "`openai:MODEL`, e.g. `openai:gpt-4.1-mini`",
+    owned: &[
+        "model",
+        "messages",
+        "max_tokens",
+        "max_completion_tokens",
+        "temperature",
+        "reasoning_effort",
+        "stream",
+        "stream_options",
+        "n",
+    ],
+};
+
 /// Reasoning efforts the Chat Completions API accepts.
-const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh"];
+const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh", "max"];
 
 pub struct OpenAi {
     url: String,
     model: String,
     key: Option<Secret>,
-    /// OpenAI itself wants `max_completion_tokens` (reasoning models reject `max_tokens`); the
-    /// open-source servers all read `max_tokens`.
+    /// OpenAI's reasoning models reject `max_tokens` and want `max_completion_tokens`, on
+    /// OpenAI's host and behind gateways; the open-source servers read `max_tokens`.
     max_tokens_field: &'static str,
     settings: Resolved,
+}
+
+/// OpenAI model families that reason, and so take only `max_completion_tokens`.
+fn is_openai_reasoning_model(model: &str) -> bool {
+    let name = model.rsplit('/').next().unwrap_or(model);
+    ["o1", "o3", "o4", "gpt-5"].iter().any(|f| name == *f || name.starts_with(&format!("{f}-")))
+}
+
+/// The request field of the output cap: the model config's `max_tokens_field`, else chosen by
+/// host and model.
+fn max_tokens_field(settings: &Resolved, official: bool, model: &str) -> &'static str {
+    match settings.max_tokens_field.as_deref() {
+        Some("max_completion_tokens") => "max_completion_tokens",
+        Some(_) => "max_tokens",
+        None if official || is_openai_reasoning_model(model) => "max_completion_tokens",
+        None => "max_tokens",
+    }
 }
 
 pub fn build(
@@ -35,9 +68,7 @@ pub fn build(
     base: Option<&str>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<OpenAi>, String> {
-    if model.is_empty() {
-        return Err(format!("invalid model `{spec}`: expected `openai:MODEL`, e.g. `openai:gpt-4.1-mini`"));
-    }
+    let endpoint = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;
     if let Some(t) = &settings.thinking
         && !EFFORTS.contains(&t.as_str())
     {
@@ -46,22 +77,16 @@ pub fn build(
             EFFORTS.iter().map(|e| format!("`{e}`")).collect::<Vec<_>>().join(", ")
         ));
     }
-    let base = base_url(base, &["OPENAI_BASE_URL"], DEFAULT_BASE_URL)?;
+    let base = endpoint.base;
     let official = base.starts_with("https://api.openai.com");
-    let key = env_any(&["OPENAI_API_KEY"]).map(Secret);
-    if official && key.is_none() {
-        return Err(format!(
-            "`{spec}` needs an API key: set `OPENAI_API_KEY` (or point `--base-url` at a local server)"
-        ));
-    }
     let proto = OpenAi {
         url: format!("{base}/chat/completions"),
         model: model.to_string(),
-        key,
-        max_tokens_field: if official { "max_completion_tokens" } else { "max_tokens" },
+        key: endpoint.key,
+        max_tokens_field: max_tokens_field(&settings, official, model),
         settings: settings.clone(),
     };
-    ApiModel::new(spec, &format!("openai {base}"), proto, settings, cache)
+    ApiModel::new(spec, &PROVIDER.host, &base, proto, settings, cache)
 }
 
 impl Protocol for OpenAi {
@@ -177,6 +202,21 @@ mod tests {
         let refusal =
             br#"{"choices":[{"message":{"content":null,"refusal":"I can't help with that."},"finish_reason":"stop"}]}"#;
         assert_eq!(proto().parse(refusal).unwrap().stop, Stop::Refusal("I can't help with that.".into()));
+    }
+
+    #[test]
+    fn reasoning_models_get_max_completion_tokens_unless_configured() {
+        let mut s = crate::vlm::config::settings_for("openai:m", None, None).unwrap();
+        assert_eq!(max_tokens_field(&s, true, "gpt-4.1-mini"), "max_completion_tokens");
+        assert_eq!(max_tokens_field(&s, false, "qwen3-vl-8b"), "max_tokens");
+        for m in ["o3", "o4-mini", "openai/gpt-5-mini", "gpt-5", "o1-2024-12-17"] {
+            assert_eq!(max_tokens_field(&s, false, m), "max_completion_tokens", "{m}");
+        }
+        assert_eq!(max_tokens_field(&s, false, "gpt-50x"), "max_tokens");
+        s.max_tokens_field = Some("max_tokens".into());
+        assert_eq!(max_tokens_field(&s, false, "o3"), "max_tokens");
+        s.max_tokens_field = Some("max_completion_tokens".into());
+        assert_eq!(max_tokens_field(&s, false, "qwen3-vl-8b"), "max_completion_tokens");
     }
 
     #[test]

@@ -13,7 +13,7 @@ use crate::vlm::{anthropic, bedrock, gemini, openai};
 /// Options that apply to building any model (from CLI flags and the environment).
 #[derive(Debug, Clone, Default)]
 pub struct ModelOptions {
-    /// `--base-url`: overrides every provider's endpoint.
+    /// `--base-url`: overrides the model provider's endpoint (the renderer has its own).
     pub base_url: Option<String>,
     /// `--model-config`: per-model settings TOML.
     pub config: Option<PathBuf>,

@@ -4,7 +4,7 @@
 
 use std::time::SystemTime;
 
-use sha2::{Digest, Sha256};
+use crate::hash::{sha256, sha256_hex};
 
 use crate::net::secret::{Secret, env_any};
 
@@ -38,26 +38,17 @@ impl Credentials {
     }
 }
 
-pub fn sha256_hex(data: &[u8]) -> String {
-    hex::encode(Sha256::digest(data))
-}
-
 /// HMAC-SHA256 (RFC 2104).
 pub fn hmac_sha256(key: &[u8], data: &[u8]) -> [u8; 32] {
     const BLOCK: usize = 64;
     let mut k = [0u8; BLOCK];
     if key.len() > BLOCK {
-        k[..32].copy_from_slice(&Sha256::digest(key));
+        k[..32].copy_from_slice(&sha256(key));
     } else {
         k[..key.len()].copy_from_slice(key);
     }
-    let mut inner = Sha256::new();
-    inner.update(k.map(|b| b ^ 0x36));
-    inner.update(data);
-    let mut outer = Sha256::new();
-    outer.update(k.map(|b| b ^ 0x5c));
-    outer.update(inner.finalize());
-    outer.finalize().into()
+    let inner = sha256(&[&k.map(|b| b ^ 0x36)[..], data].concat());
+    sha256(&[&k.map(|b| b ^ 0x5c)[..], &inner[..]].concat())
 }
 
 /// URI-encode per SigV4: unreserved characters (`A-Z a-z 0-9 - _ . ~`) stay, everything else

@@ -9,7 +9,7 @@
 //! name = "example"
 //! base_error = 0.05   # chance of a wrong answer when no mode matches the set
 //! unparsed = 0.0      # chance of a reply that cannot be parsed
-//! latency_ms = 0      # artificial delay per call
+//! latency_ms = 0      # artificial delay per call, at most 60000 (one minute)
 //! dilution = 0.0      # share of a mode's effect lost per concept in the set beyond the mode's
 //! [[mode]]
 //! concepts = ["debris_far", "town_town02"]  # matches a set that holds all of them
@@ -29,7 +29,6 @@ use std::time::Duration;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
-use sha2::{Digest, Sha256};
 
 use crate::ir::{ConceptSet, Domain};
 use crate::outcome::{Answer, Usage};
@@ -57,6 +56,10 @@ struct ModeFile {
     concepts: Vec<String>,
     error: f64,
 }
+
+/// The longest artificial delay a profile may ask for: real APIs answer within a minute, and a
+/// larger value would only make `ask` and `search` hang.
+pub const MAX_LATENCY_MS: u64 = 60_000;
 
 /// A planted failure mode: sets holding all of `concepts` are answered wrongly with chance
 /// `error`.
@@ -96,6 +99,12 @@ impl Profile {
         let base_error = rate("base_error", file.base_error)?;
         let unparsed = rate("unparsed", file.unparsed)?;
         let dilution = rate("dilution", file.dilution)?;
+        if file.latency_ms > MAX_LATENCY_MS {
+            return Err(format!(
+                "invalid sim profile `{origin}`: `latency_ms` must be at most {MAX_LATENCY_MS} (one minute), got {}",
+                file.latency_ms
+            ));
+        }
         let mut modes = Vec::with_capacity(file.mode.len());
         for (i, m) in file.mode.iter().enumerate() {
             if m.concepts.is_empty() {
@@ -107,7 +116,7 @@ impl Profile {
             }
             modes.push(Mode { concepts: set, error: rate("error", m.error)? });
         }
-        let hash = hex::encode(Sha256::digest(text.as_bytes()));
+        let hash = crate::hash::sha256_hex(text.as_bytes());
         Ok(Profile { name: file.name, base_error, unparsed, latency_ms: file.latency_ms, dilution, modes, hash })
     }
 
@@ -284,6 +293,12 @@ error = 0.7
         assert_eq!(e, "invalid sim profile `p.toml`: `base_error` must be between 0 and 1, got 1.5");
         let e = Profile::parse("name = \"t\"\n[[mode]]\nconcepts = []\nerror = 0.5\n", "p.toml", &d).unwrap_err();
         assert_eq!(e, "invalid sim profile `p.toml`: mode 1 has no concepts");
+        let e = Profile::parse(&format!("name = \"t\"\nlatency_ms = {}\n", i64::MAX), "p.toml", &d).unwrap_err();
+        assert_eq!(
+            e,
+            format!("invalid sim profile `p.toml`: `latency_ms` must be at most 60000 (one minute), got {}", i64::MAX)
+        );
+        assert!(Profile::parse("name = \"t\"\nlatency_ms = 60000\n", "p.toml", &d).is_ok());
     }
 
     #[test]

@@ -43,10 +43,20 @@ impl Builder<'_> {
                 let var = self.ident(c.next());
                 ExprKind::In { var, region: self.ident(c.next()) }
             }
+            Rule::related_expr => {
+                let var = self.ident(c.next());
+                let relation = self.ident(c.next());
+                ExprKind::Related { var, relation, to: self.ident(c.next()) }
+            }
             _ => {
                 let path = self.path(c.next());
                 let op = cmp_op(c.next().as_str());
-                ExprKind::Cmp { path, op, value: self.value(c.next()) }
+                let rhs = c.next();
+                if rhs.as_rule() == Rule::attr_ref {
+                    ExprKind::CmpAttrs { left: path, op, right: self.path(rhs) }
+                } else {
+                    ExprKind::Cmp { path, op, value: self.value(rhs) }
+                }
             }
         };
         Expr { kind, span }

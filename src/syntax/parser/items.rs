@@ -32,7 +32,9 @@ impl Builder<'_> {
             }
             Rule::relation_item => {
                 let name = self.ident(c.next());
-                ItemKind::Relation { name, text: self.string(c.next()) }
+                let text = self.string(c.next());
+                let placements = c.next_if(Rule::placements).map(|b| self.placements(b));
+                ItemKind::Relation { name, text, placements }
             }
             Rule::kind_item => self.kind_item(c),
             Rule::look_item => {
@@ -85,14 +87,36 @@ impl Builder<'_> {
         let parents = c.next_if(Rule::parents).map(|p| self.idents(Children::of(p))).unwrap_or_default();
         let mut attrs = Vec::new();
         let mut shapes = Vec::new();
+        let mut stands_in = Vec::new();
         for p in c.rest() {
             match p.as_rule() {
                 Rule::shape_block => shapes.push(self.parts(Children::of(p).next())),
                 Rule::attr_decl => attrs.push(self.attr_decl(p)),
+                Rule::stands_in => stands_in.push(self.idents(Children::of(p))),
                 _ => self.junk(p),
             }
         }
-        ItemKind::Kind { name, parents, attrs, shapes }
+        ItemKind::Kind { name, parents, attrs, shapes, stands_in }
+    }
+
+    /// A relation's `{ distance 0m..1.5m  on_top }` body.
+    pub(super) fn placements(&mut self, p: Pair<Rule>) -> Vec<Placement> {
+        let mut out = Vec::new();
+        for w in Children::of(p).rest() {
+            if w.as_rule() != Rule::placement {
+                self.junk(w);
+                continue;
+            }
+            let span = self.span(&w);
+            let mut c = Children::of(w);
+            let word = self.ident(c.next());
+            let range = c.next_if(Rule::number).map(|lo| {
+                let lo = self.number(lo);
+                (lo, self.number(c.next()))
+            });
+            out.push(Placement { word, range, span });
+        }
+        out
     }
 
     pub(super) fn attr_list(&mut self, c: Children) -> Vec<AttrDecl> {

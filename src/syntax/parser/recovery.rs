@@ -20,6 +20,10 @@ impl Builder<'_> {
                 None => (None, "an item"),
             },
             Rule::attrs_junk if self.text[start..].starts_with("shape") => (Some(Rule::shape_block), "an attribute"),
+            Rule::attrs_junk if self.text[start..].starts_with("in") && !is_word_char(&self.text[start + 2..]) => {
+                (Some(Rule::stands_in), "regions `in REGION, …`")
+            }
+            Rule::placement_junk => (Some(Rule::placement), "a placement (`distance`, `ahead`, `left`, `on_top`)"),
             Rule::attrs_junk => (Some(Rule::attr_decl), "an attribute `NAME: TYPE = DEFAULT`"),
             Rule::parts_junk => {
                 (Some(Rule::shape_part), "a shape part (`box`, `cylinder`, `capsule`, `sphere`, `plane`, `cone`)")
@@ -202,7 +206,11 @@ fn describe_rule(r: Rule) -> Option<String> {
             | Rule::exists_expr
             | Rule::count_expr
             | Rule::in_expr
+            | Rule::related_expr
             | Rule::cmp_expr => "an expression",
+            Rule::attr_ref => "an attribute `VAR.ATTR`",
+            Rule::placement => "a placement",
+            Rule::stands_in => "regions `in REGION, …`",
             Rule::attr_decl => "an attribute",
             Rule::attr_values => "`{`",
             Rule::relation_to => "a relation",
@@ -262,6 +270,11 @@ fn join_or(items: &[String]) -> String {
         n if items.len() > MAX => format!("{}, …", shown[..n].join(", ")),
         n => format!("{} or {}", shown[..n - 1].join(", "), shown[n - 1]),
     }
+}
+
+/// Whether `rest` starts with a character that continues a word.
+fn is_word_char(rest: &str) -> bool {
+    rest.starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_')
 }
 
 /// Skip whitespace and `//` comments from `pos`.

@@ -206,6 +206,7 @@ impl Builder<'_> {
             Some(Rule::kw_material) => PartProp::Material(self.ident(c.next())),
             Some(Rule::kw_yaw) => PartProp::Yaw(self.number(c.next())),
             Some(Rule::kw_roll) => PartProp::Roll(self.number(c.next())),
+            Some(Rule::kw_pitch) => PartProp::Pitch(self.number(c.next())),
             _ => PartProp::When(self.expr(c.next()), span),
         }
     }

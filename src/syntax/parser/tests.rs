@@ -186,3 +186,35 @@ fn token_doc_comments_agree_with_the_text_scan() {
     assert!(checked > 10_000, "{checked}");
     let _ = lexer::lex("");
 }
+
+#[test]
+fn relations_regions_pitch_and_two_entity_conditions_parse() {
+    let f = parse_ok(
+        "relation near \"is near\" { distance 0m..1.5m on_top }\nkind Tree { in verge, kerb  h: length = 1m }\n\
+         look Tree { box size (1m, 1m, 1m) pitch 10deg }\n\
+         rules priority { rule r { when exists a: Tree where exists b: Tree where a near b and a.h < b.h expect q.a } }",
+    );
+    let ItemKind::Relation { placements: Some(ps), .. } = &f.items[0].kind else { panic!("{:?}", f.items[0]) };
+    let words: Vec<_> = ps.iter().map(|p| (p.word.name.as_str(), p.range.is_some())).collect();
+    assert_eq!(words, [("distance", true), ("on_top", false)]);
+    let ItemKind::Kind { stands_in, attrs, .. } = &f.items[1].kind else { panic!() };
+    assert_eq!(stands_in[0].iter().map(|r| r.name.as_str()).collect::<Vec<_>>(), ["verge", "kerb"]);
+    assert_eq!(attrs.len(), 1, "`h: …` after the region list is an attribute");
+    let ItemKind::Look { parts, .. } = &f.items[2].kind else { panic!() };
+    assert!(matches!(parts.parts[0].props[1], PartProp::Pitch(_)));
+    let ItemKind::Rules { rules, .. } = &f.items[3].kind else { panic!() };
+    let RuleStmt::When(e, _) = &rules[0].stmts[0] else { panic!() };
+    let ExprKind::Exists { cond: Some(inner), .. } = &e.kind else { panic!() };
+    let ExprKind::Exists { cond: Some(body), .. } = &inner.kind else { panic!() };
+    let ExprKind::And(terms) = &body.kind else { panic!("{body:?}") };
+    assert!(matches!(&terms[0].kind, ExprKind::Related { relation, .. } if relation.name == "near"));
+    assert!(matches!(&terms[1].kind, ExprKind::CmpAttrs { right, .. } if right.parts[1].name == "h"));
+}
+
+#[test]
+fn a_placement_range_needs_both_bounds() {
+    let p = parse(0, "relation around \"is around\" { distance 2m }");
+    assert_eq!(p.diagnostics.len(), 1, "{:?}", p.diagnostics);
+    assert_eq!(p.diagnostics[0].code, "R0001");
+    assert!(p.diagnostics[0].message.contains("expected `..`"), "{}", p.diagnostics[0].message);
+}

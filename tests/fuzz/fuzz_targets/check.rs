@@ -6,7 +6,7 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };
-    let compiled = revelio::check::compile("fuzz.rev", text, &|_| None);
+    let compiled = revelio::check::compile("fuzz.rev", text, &revelio::check::std_only);
     for d in &compiled.diagnostics {
         if let Some(s) = d.span {
             let file = &compiled.files[s.file as usize].text;

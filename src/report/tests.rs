@@ -1,0 +1,337 @@
+//! The report on synthetic run folders (the real-run and browser checks are in `tests/report.rs`).
+use std::path::{Path, PathBuf};
+
+use super::*;
+use crate::journal::{Journal, Phase, Record};
+use crate::lattice::testkit::driving;
+use crate::outcome::{Answer, Outcome, Usage};
+use crate::run::eval::Spend;
+use crate::run::runner::{RunConfig, ValidatedSet, Validation, summarize};
+use crate::search::{Params, SetStats};
+
+const HOSTILE: &str = "<script>alert(\"x\")</script> & <img src=x onerror=alert(1)> Answer: C";
+
+fn png(shade: u8) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(64, 36, |x, y| image::Rgb([shade, (x * 4) as u8, (y * 7) as u8]));
+    let mut out = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
+    out
+}
+
+/// One set's observations: its concepts and outcomes (wrong answers name option C, right ones A).
+struct Set(&'static [&'static str], &'static [Outcome]);
+
+const SETS: &[Set] = &[
+    Set(
+        &["intersection_ego", "obstruction_near"],
+        &[Outcome::Wrong, Outcome::Wrong, Outcome::Correct, Outcome::Wrong, Outcome::Wrong],
+    ),
+    Set(&["intersection_ego", "obstruction_near", "cone"], &[Outcome::Wrong; 5]),
+    Set(&["debris_far"], &[Outcome::Wrong, Outcome::Wrong, Outcome::Wrong, Outcome::Correct, Outcome::Correct]),
+    Set(&["town_town01"], &[Outcome::Correct, Outcome::Correct, Outcome::Unparsed, Outcome::Correct, Outcome::Correct]),
+];
+
+struct Fixture {
+    _tmp: tempfile::TempDir,
+    dir: PathBuf,
+}
+
+/// A run folder written through the journal, as a search would leave it.
+fn fixture(renderer: &str) -> Fixture {
+    let d = driving();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    let config = RunConfig {
+        format: crate::run::runner::RUN_FORMAT,
+        domain_file: "driving.rev".into(),
+        domain: d.name.clone(),
+        domain_hash: d.identity().to_string(),
+        model_spec: "sim:test.toml".into(),
+        model: "sim:test@0".into(),
+        endpoint: None,
+        model_settings: Default::default(),
+        renderer: renderer.into(),
+        params: Params::default(),
+    };
+    let journal = Journal::open(&dir).unwrap();
+    journal.write_config(&config).unwrap();
+    let mut history = Vec::new();
+    let mut shade = 0u8;
+    for Set(names, outcomes) in SETS {
+        let set = d.parse_set(names).unwrap();
+        let mut stats = SetStats::new(set);
+        for (i, &outcome) in outcomes.iter().enumerate() {
+            shade = shade.wrapping_add(37);
+            let image = if renderer == "none" {
+                crate::hash::sha256_hex(format!("scene {shade}").as_bytes())
+            } else {
+                journal.store_image(&png(shade)).unwrap()
+            };
+            let (answer, raw) = match outcome {
+                Outcome::Correct => (Answer::Option(0), "Answer: A".to_string()),
+                Outcome::Wrong if i == 0 => (Answer::Option(2), HOSTILE.to_string()),
+                Outcome::Wrong if i == 1 => {
+                    (Answer::Option(2), format!("{} Answer: C", "The lane looks clear. ".repeat(12)))
+                }
+                Outcome::Wrong => (Answer::Option(2), "<think>a lamp is green</think>Answer: C".to_string()),
+                _ => (Answer::Unparsed, "I cannot tell.".to_string()),
+            };
+            journal
+                .append(&Record {
+                    phase: Phase::Search,
+                    set: names.iter().map(|s| s.to_string()).collect(),
+                    obs: i as u32,
+                    seed: i as u64,
+                    image,
+                    prompt: "p".into(),
+                    raw,
+                    parsed: None,
+                    answer: Some(answer),
+                    expected: 0,
+                    outcome,
+                    usage: Usage::default(),
+                    latency_ms: 1,
+                    cached: false,
+                    visibility: Vec::new(),
+                    resamples: 0,
+                })
+                .unwrap();
+            stats.add(outcome);
+        }
+        history.push(stats);
+    }
+    journal.sync().unwrap();
+    let summary = summarize(&d, &config, 1000, &history, &Default::default(), Spend::default());
+    journal.write_json("summary.json", &summary).unwrap();
+    Fixture { _tmp: tmp, dir }
+}
+
+fn validate(f: &Fixture, concepts: &[&str], wrong: u32, answered: u32) {
+    let row = |w: u32, n: u32| SetRow {
+        concepts: concepts.iter().map(|s| s.to_string()).collect(),
+        fr: Some(f64::from(w) / f64::from(n)),
+        ci95: crate::search::interval::wilson(w, n),
+        wrong: w,
+        answered: n,
+        observations: n,
+        unanswered: Default::default(),
+        core: None,
+    };
+    let v = Validation {
+        top: 1,
+        samples: answered,
+        max_samples: None,
+        sets: vec![ValidatedSet { search: row(4, 5), validation: row(wrong, answered) }],
+        mean_fr: f64::from(wrong) / f64::from(answered),
+        sd_fr: 0.0,
+        consistent: 0,
+        spend: Spend::default(),
+    };
+    let name = crate::run::runner::validation_file(v.top, v.samples, v.max_samples);
+    std::fs::write(f.dir.join(name), serde_json::to_string(&v).unwrap()).unwrap();
+}
+
+/// Local files an HTML page links (`src` and `href` values that are not anchors).
+fn linked_files(html: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for attr in ["src=\"", "href=\""] {
+        for part in html.split(attr).skip(1) {
+            let value = part.split('"').next().unwrap();
+            if !value.starts_with('#') && !value.starts_with("data:") {
+                out.push(value.to_string());
+            }
+        }
+    }
+    out
+}
+
+fn write_report(f: &Fixture, out: &Path) -> String {
+    let run = load(&f.dir).unwrap();
+    let d = driving();
+    write(&run, Some(&d), out).unwrap();
+    std::fs::read_to_string(out.join("index.html")).unwrap()
+}
+
+#[test]
+fn page_shows_every_core_with_its_images_and_escapes_replies() {
+    let f = fixture("builtin");
+    validate(&f, &["intersection_ego", "obstruction_near"], 15, 20);
+    let out = f.dir.join("report");
+    let html = write_report(&f, &out);
+    // Cores stand in as minimal failure modes: {light_green, obstruction_near} (one superset),
+    // then {debris_far}.
+    let cores: Vec<&str> = html.split("data-concepts=\"").skip(1).map(|p| p.split('"').next().unwrap()).collect();
+    assert_eq!(cores, ["intersection_ego + obstruction_near", "debris_far"]);
+    // No reply reaches the page unescaped.
+    assert!(!html.contains("<script") && !html.contains("<img src=x"), "an unescaped reply");
+    assert!(
+        html.contains("&#60;script&#62;alert(&#34;x&#34;)&#60;/script&#62; &#38; &#60;img src=x onerror=alert(1)&#62;")
+    );
+    // Thinking is left out of the preview but kept in the full text.
+    assert!(html.contains("<p class=\"reply\">Answer: C</p>"), "thinking shown in a preview");
+    assert!(html.contains("&#60;think&#62;a lamp is green&#60;/think&#62;Answer: C</pre>"));
+    // Expected and given answers, the deciding rule and the validated FR.
+    assert!(html.contains("<b>A · stop</b>") && html.contains("<b>C · go</b>"));
+    assert!(
+        html.contains("<code>near_in_lane</code>"),
+        "{}",
+        html.split("class=\"verdict\"").nth(1).unwrap_or("no verdict")
+    );
+    assert!(html.contains("validated: <b>75% [53–89%] of 20</b>"), "validated FR missing");
+    assert!(html.contains("validated: <b>not among the top 1 validated</b>"));
+    let links = linked_files(&html);
+    let images = links.iter().filter(|l| l.starts_with("thumbs/")).count();
+    assert_eq!(images, 10, "five observations of each core");
+    for l in &links {
+        assert!(out.join(l).is_file(), "the page links a missing file `{l}`");
+    }
+    // Full-size images are the run's own files (linked or copied).
+    for l in links.iter().filter(|l| l.starts_with("images/")) {
+        assert_eq!(std::fs::read(out.join(l)).unwrap(), std::fs::read(f.dir.join(l)).unwrap());
+    }
+}
+
+#[test]
+fn cores_and_intervals_from_the_summary_are_used_when_present() {
+    let f = fixture("builtin");
+    let path = f.dir.join("summary.json");
+    let mut s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    // As a shrunk run writes them: a core is a set row with its supersets (itself included).
+    s["cores"] = serde_json::json!([{
+        "concepts": ["obstruction_near"], "fr": 0.9, "ci95": [0.6, 0.98], "wrong": 9, "answered": 10,
+        "observations": 10, "supersets": 2, "minimal": false,
+        "shrunk_from": ["intersection_ego", "obstruction_near", "cone"]
+    }]);
+    s["shrink"] = serde_json::json!({"budget": 100, "inferences": 42, "max_samples": 20, "new_sets": 3, "refuted": [
+        {"concepts": ["cone"], "fr": 0.2, "ci95": [0.05, 0.5], "wrong": 2, "answered": 10, "observations": 10}
+    ]});
+    for m in s["failure_modes"].as_array_mut().unwrap() {
+        m["ci95"] = serde_json::json!([0.11, 0.22]);
+    }
+    std::fs::write(&path, s.to_string()).unwrap();
+    let run = load(&f.dir).unwrap();
+    let findings = run.findings();
+    assert!(findings.shrunk);
+    assert_eq!(findings.cores.len(), 1);
+    assert_eq!(findings.mode_core, vec![Some(0), Some(0), None]);
+    let out = f.dir.join("report");
+    let html = write_report(&f, &out);
+    assert!(html.contains("data-concepts=\"obstruction_near\""));
+    assert!(html.contains("95% CI [60–98%]"));
+    assert!(html.contains("[11–22%]"), "the summary's intervals are shown");
+    assert!(html.contains("<b>9</b> wrong of <b>10</b> answered"));
+    assert!(html.contains("<b>2</b> failure modes of the search contain it"));
+    assert!(html.contains("shrunk from <code>intersection_ego + obstruction_near + cone</code>"));
+    assert!(html.contains("the shrink budget ran out"));
+    assert!(html.contains("shrunk in 42 inferences"));
+    let refuted = html.split("id=\"refuted\"").nth(1).expect("a 'refuted' section");
+    assert!(refuted.contains("<code>cone</code>"));
+    // {debris_far} contains no core: it is listed under the other failure modes.
+    let others = html.split("id=\"others\"").nth(1).expect("an 'other failure modes' section");
+    assert!(others.contains("<code>debris_far</code>"));
+    let csv = std::fs::read_to_string(out.join("failure_modes.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 4);
+    assert!(lines[0].starts_with("rank,concepts,size,fr,ci95_lo,ci95_hi,wrong,answered,observations,core,"));
+    assert_eq!(
+        lines[1],
+        "1,intersection_ego + obstruction_near + cone,3,1.0000,0.1100,0.2200,5,5,5,obstruction_near,,,,"
+    );
+}
+
+#[test]
+fn csv_tables_hold_every_set_and_outcome() {
+    let f = fixture("builtin");
+    let out = f.dir.join("report");
+    assert!(write_report(&f, &out).contains("validated: <b>run not validated</b>"));
+    let sets = std::fs::read_to_string(out.join("sets.csv")).unwrap();
+    let lines: Vec<&str> = sets.lines().collect();
+    assert_eq!(lines[0], "order,concepts,size,fr,ci95_lo,ci95_hi,wrong,answered,observations,failure_mode,unparsed");
+    assert_eq!(lines.len(), 1 + SETS.len());
+    assert_eq!(lines[4], "4,town_town01,1,0.0000,0.0000,0.4899,0,4,5,false,1");
+}
+
+#[test]
+fn a_run_without_images_shows_none_and_links_nothing_missing() {
+    let f = fixture("none");
+    let out = f.dir.join("report");
+    let html = write_report(&f, &out);
+    assert!(!html.contains("<img"));
+    assert!(html.contains("no image (renderer none)"));
+    for l in linked_files(&html) {
+        assert!(out.join(&l).is_file(), "the page links a missing file `{l}`");
+    }
+}
+
+#[test]
+fn a_refresh_removes_images_no_longer_shown_and_nothing_else() {
+    let f = fixture("builtin");
+    let out = f.dir.join("elsewhere");
+    std::fs::create_dir_all(out.join("images")).unwrap();
+    let stale = out.join("images").join(format!("{}.png", "0".repeat(64)));
+    let mine = out.join("images").join("mine.png");
+    std::fs::write(&stale, b"old").unwrap();
+    std::fs::write(&mine, b"keep").unwrap();
+    write_report(&f, &out);
+    assert!(!stale.exists() && mine.exists());
+    let thumbs = std::fs::read_dir(out.join("thumbs")).unwrap().count();
+    assert_eq!(thumbs, 10);
+    // Written again, nothing changes.
+    let before = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert_eq!(write_report(&f, &out), before);
+}
+
+#[test]
+fn the_run_folder_itself_is_refused_and_a_missing_run_is_named() {
+    let f = fixture("builtin");
+    let run = load(&f.dir).unwrap();
+    let e = write(&run, None, &f.dir).unwrap_err();
+    assert!(e.starts_with("the report cannot be written into the run folder"), "{e}");
+    let e = load(&f.dir.join("nope")).err().unwrap();
+    assert!(e.contains("nope` is not a run folder"), "{e}");
+    // Without the domain the page still renders, with letters only.
+    let html = {
+        write(&run, None, &f.dir.join("report")).unwrap();
+        std::fs::read_to_string(f.dir.join("report/index.html")).unwrap()
+    };
+    assert!(html.contains("<b>A</b>") && !html.contains("near_in_lane"));
+}
+
+#[test]
+fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() {
+    let f = fixture("builtin");
+    let path = f.dir.join("journal.jsonl");
+    let invisible = Record {
+        phase: Phase::Search,
+        set: vec!["debris_far".into()],
+        obs: 5,
+        seed: 5,
+        image: crate::hash::sha256_hex(b"unseen"),
+        prompt: "p".into(),
+        raw: "`debris` stayed hidden in 4 scenes".into(),
+        parsed: None,
+        answer: None,
+        expected: 0,
+        outcome: Outcome::Invisible,
+        usage: Usage::default(),
+        latency_ms: 0,
+        cached: false,
+        visibility: Vec::new(),
+        resamples: 4,
+    };
+    let mut text = std::fs::read_to_string(&path).unwrap();
+    text.push_str(&serde_json::to_string(&invisible).unwrap());
+    text.push('\n');
+    std::fs::write(&path, &text).unwrap();
+    let html = write_report(&f, &f.dir.join("report"));
+    let breakdown = html.split("<thead><tr><th>outcome</th>").nth(1).expect("an outcome breakdown");
+    assert!(breakdown.contains("<span class=\"badge o-other\">invisible</span></td><td class=\"num\">1</td>"));
+
+    // A journal from a later revelio may hold an outcome this one does not know: the report
+    // names the line instead of failing obscurely (or dropping it as a torn last line).
+    let unknown = text.replacen("\"outcome\":\"invisible\"", "\"outcome\":\"melted\"", 1);
+    assert_ne!(unknown, text);
+    std::fs::write(&path, format!("{unknown}{}\n", text.lines().next().unwrap())).unwrap();
+    let e = load(&f.dir).err().expect("an unknown outcome is refused");
+    assert!(e.contains("journal.jsonl") && e.contains(&format!("line {}", text.lines().count())), "{e}");
+}

@@ -1,0 +1,175 @@
+//! Shrinking failure modes to minimal cores.
+//!
+//! A failure mode found at size 4 usually owes its failure to a smaller core: every superset of a
+//! failing pair fails too, so a search reports the pair many times over. After the search, the
+//! shrink phase takes the strongest failure mode not yet explained by a core, first re-tests it
+//! with the sequential test (a root that no longer fails is *refuted*, not shrunk), then drops its
+//! concepts one at a time (delta debugging with complements of size one): a subset that is valid
+//! and still fails by the sequential test replaces the set, and the drops start over on it; the
+//! set is a core when every one-smaller valid subset passes (1-minimal). Subsets outside the
+//! search space — invalid in the lattice, or without a determined ground truth — are never
+//! evaluated. Evidence is shared: a subset the search (or an earlier shrink) evaluated is topped
+//! up, not evaluated again, so its decision is the same each time it is asked.
+//!
+//! Drop order: concepts least associated with failure first — by the mean failure rate of every
+//! evaluated set that holds the concept, ties to the concept index. Dropping a bystander first
+//! leaves the core in place, so the shrink reaches it in fewer tests; the final 1-minimality
+//! check tests every one-smaller subset whatever the order.
+//!
+//! The phase stops when the budget cannot pay the first m observations of a new subset; a shrink
+//! cut short that way yields a core marked not minimal. All decisions are pure functions of the
+//! observations, so a resumed run shrinks the same way.
+
+use crate::ir::{ConceptId, ConceptSet};
+
+use super::{Driver, Evaluate, SetStats, Space};
+
+/// A failing set none of whose one-smaller valid subsets fails.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Core {
+    /// The core and every observation of it (search and shrink).
+    pub stats: SetStats,
+    /// Whether every one-smaller valid subset was tested and passes (false: the budget ran out
+    /// first, and the set is only as small as the shrink got).
+    pub minimal: bool,
+    /// The failure mode it was shrunk from.
+    pub root: ConceptSet,
+}
+
+/// What shrinking one failure mode gave.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shrunk {
+    Core(Core),
+    /// The failure mode did not fail by the sequential test (its stats after the re-test).
+    Refuted(SetStats),
+    /// The budget could not pay for re-testing it.
+    Unaffordable,
+}
+
+/// Shrink the failing set `root` to a 1-minimal failing subset, testing through `driver` (its
+/// rule decides "still fails"; its budget bounds the cost).
+pub async fn shrink<E: Evaluate>(
+    driver: &mut Driver<'_, E>,
+    space: &Space,
+    root: ConceptSet,
+) -> Result<Shrunk, String> {
+    let threshold = driver.rule().threshold;
+    let Some(stats) = driver.test(root).await? else { return Ok(Shrunk::Unaffordable) };
+    if !stats.is_failure_mode(threshold) {
+        return Ok(Shrunk::Refuted(stats));
+    }
+    let mut current = root;
+    let mut minimal = true;
+    'shrink: loop {
+        for c in drop_order(&driver.history, current) {
+            let sub = current.without(c);
+            if sub.is_empty() || !space.contains(sub) {
+                continue;
+            }
+            match driver.test(sub).await? {
+                None => {
+                    minimal = false;
+                    break 'shrink;
+                }
+                Some(s) if s.is_failure_mode(threshold) => {
+                    current = sub;
+                    continue 'shrink;
+                }
+                Some(_) => {}
+            }
+        }
+        break;
+    }
+    let stats = driver.stats(current).cloned().expect("a kept subset was evaluated");
+    Ok(Shrunk::Core(Core { stats, minimal, root }))
+}
+
+/// The concepts of `set` in the order the shrink tries to drop them: lowest mean failure rate
+/// among the evaluated sets holding the concept first, then concept index.
+pub fn drop_order(history: &[SetStats], set: ConceptSet) -> Vec<ConceptId> {
+    let association = |c: ConceptId| {
+        let frs: Vec<f64> = history.iter().filter(|s| s.set.contains(c)).filter_map(SetStats::fr).collect();
+        if frs.is_empty() { 0.0 } else { frs.iter().sum::<f64>() / frs.len() as f64 }
+    };
+    let mut order: Vec<(f64, ConceptId)> = set.iter().map(|c| (association(c), c)).collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    order.into_iter().map(|(_, c)| c).collect()
+}
+
+/// Failure modes of `history` strongest first: by the lower bound of the 95 % interval (more
+/// evidence of a higher rate), then FR, then fewer concepts (closer to a core, cheaper to
+/// shrink), then the canonical set order.
+pub fn roots(history: &[SetStats], threshold: f64) -> Vec<ConceptSet> {
+    let mut modes: Vec<&SetStats> = history.iter().filter(|s| s.is_failure_mode(threshold)).collect();
+    modes.sort_by(|a, b| {
+        b.ci95()[0]
+            .total_cmp(&a.ci95()[0])
+            .then(b.value().total_cmp(&a.value()))
+            .then(a.set.len().cmp(&b.set.len()))
+            .then(a.set.cmp(&b.set))
+    });
+    modes.into_iter().map(|s| s.set).collect()
+}
+
+/// What the shrink phase found.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Found {
+    /// Distinct cores, highest FR first (ties: higher interval lower bound, more answered
+    /// observations, canonical order).
+    pub cores: Vec<Core>,
+    /// Roots that did not fail when re-tested, in the order they were tried.
+    pub refuted: Vec<SetStats>,
+}
+
+/// The shrink phase: shrink `roots` (strongest first, see [`roots`]) in turn, skipping every root
+/// that already contains a core (its family is explained), until the budget cannot start
+/// another test.
+pub async fn run<E: Evaluate>(
+    driver: &mut Driver<'_, E>,
+    space: &Space,
+    roots: &[ConceptSet],
+) -> Result<Found, String> {
+    let mut found = Found::default();
+    for &root in roots {
+        if found.cores.iter().any(|c| c.stats.set.is_subset_of(root)) {
+            continue;
+        }
+        if !driver.can_start() {
+            break;
+        }
+        match shrink(driver, space, root).await? {
+            Shrunk::Core(core) => {
+                let cut = !core.minimal;
+                found.cores.push(core);
+                if cut {
+                    break;
+                }
+            }
+            Shrunk::Refuted(s) => found.refuted.push(s),
+            Shrunk::Unaffordable => break,
+        }
+    }
+    // A core tested again later (as a subset of another root) has more observations now.
+    for c in &mut found.cores {
+        if let Some(s) = driver.stats(c.stats.set) {
+            c.stats = s.clone();
+        }
+    }
+    found.cores.sort_by(|a, b| {
+        let (x, y) = (&a.stats, &b.stats);
+        y.value()
+            .total_cmp(&x.value())
+            .then(y.ci95()[0].total_cmp(&x.ci95()[0]))
+            .then(y.answered().cmp(&x.answered()))
+            .then(x.set.cmp(&y.set))
+    });
+    Ok(found)
+}
+
+/// For each failure mode, the first core (in `cores` order) it contains; and for each core, how
+/// many of the failure modes contain it.
+pub fn families(modes: &[ConceptSet], cores: &[ConceptSet]) -> (Vec<Option<usize>>, Vec<usize>) {
+    let family = modes.iter().map(|m| cores.iter().position(|c| c.is_subset_of(*m))).collect();
+    let supersets = cores.iter().map(|c| modes.iter().filter(|m| c.is_subset_of(**m)).count()).collect();
+    (family, supersets)
+}

@@ -1,0 +1,241 @@
+//! Request and reply shapes against the official SDKs' types: the bodies Revelio sends to
+//! OpenAI-compatible servers, Anthropic and Gemini (with every thinking mode it has), and the
+//! reply fixtures its parsers are checked with here, validated by `openai`, `anthropic` and
+//! `google-genai` (`tests/sdk/check_shapes.py`). Needs Python 3 with `venv`; the first run
+//! installs the pinned SDKs into `target/sdk-venv` from PyPI. Without Python or PyPI the test
+//! prints a note and passes: the shapes are also pinned by the unit tests of each provider.
+//! Bedrock is left out (its SDK, boto3, has no request types to check against).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use revelio::outcome::Answer;
+use revelio::vlm::registry::{ModelOptions, build_api_model};
+use revelio::vlm::{Query, prompt};
+use serde_json::{Value, json};
+use wiremock::{MockServer, ResponseTemplate};
+
+const SDKS: &[&str] = &["openai==3.54.0", "anthropic==2.12.0", "google-genai==3.4.0"];
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A Python with the pinned SDKs, made on first use; `None` (with a note) when that cannot be.
+fn sdk_python() -> Option<PathBuf> {
+    let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| repo().join("target"));
+    let target = if target.is_absolute() { target } else { repo().join(target) };
+    let venv = target.join("sdk-venv");
+    let python = venv.join("bin").join("python");
+    let ready = |p: &Path| {
+        Command::new(p)
+            .args(["-c", "import openai, anthropic, google.genai"])
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if python.is_file() && ready(&python) {
+        return Some(python);
+    }
+    let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).stderr(Stdio::null()).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("note: no Python 3 with `venv`: the SDK shape check is skipped");
+        return None;
+    }
+    let pip = Command::new(venv.join("bin").join("pip"))
+        .args(["install", "--quiet", "--disable-pip-version-check"])
+        .args(SDKS)
+        .status();
+    if !pip.is_ok_and(|s| s.success()) || !ready(&python) {
+        eprintln!("note: cannot install {SDKS:?} from PyPI: the SDK shape check is skipped");
+        return None;
+    }
+    Some(python)
+}
+
+fn png() -> Vec<u8> {
+    let img = image::RgbImage::from_fn(40, 30, |x, y| image::Rgb([(x * 6) as u8, (y * 8) as u8, 120]));
+    let mut out = Vec::new();
+    image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
+    out
+}
+
+fn query() -> Query {
+    let options: Vec<String> = vec!["Stop".into(), "Slow down".into(), "Continue".into()];
+    let image = png();
+    Query {
+        image_hash: revelio::hash::sha256_hex(&image),
+        image: Some(std::sync::Arc::new(image)),
+        prompt: prompt::build("What should the ego vehicle do?", &options),
+        options,
+        truth: None,
+    }
+}
+
+/// Ask `spec` (with model-config `settings`) once against a server answering `reply`; the body
+/// it sent and the answer it read.
+async fn exchange(spec: &str, settings: &str, reply: &Value) -> (Value, Answer) {
+    let server = MockServer::start().await;
+    wiremock::Mock::given(wiremock::matchers::any())
+        .respond_with(ResponseTemplate::new(200).set_body_json(reply.clone()))
+        .mount(&server)
+        .await;
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("models.toml");
+    std::fs::write(&config, format!("[default]\nretry_attempts = 1\n{settings}\n")).unwrap();
+    let base = if spec.starts_with("openai:") { format!("{}/v1", server.uri()) } else { server.uri() };
+    let opts = ModelOptions { base_url: Some(base), config: Some(config), ..ModelOptions::default() };
+    let model = build_api_model(spec, &opts).unwrap_or_else(|e| panic!("{spec} [{settings}]: {e}"));
+    let reply = model.ask(&query()).await;
+    let sent = server.received_requests().await.unwrap();
+    (serde_json::from_slice(&sent[0].body).unwrap(), reply.answer)
+}
+
+/// Reply fixtures with the answer Revelio must read from each.
+type Replies = Vec<(Value, Answer)>;
+
+fn openai_replies() -> Replies {
+    vec![
+        (
+            json!({"id": "chatcmpl-1", "object": "chat.completion", "created": 1_760_000_000, "model": "gpt-4.1-mini",
+                   "choices": [{"index": 0, "message": {"role": "assistant", "content": "Debris in the lane.\nAnswer: A", "refusal": null},
+                                "finish_reason": "stop", "logprobs": null}],
+                   "usage": {"prompt_tokens": 812, "completion_tokens": 40, "total_tokens": 852,
+                             "completion_tokens_details": {"reasoning_tokens": 31}}}),
+            Answer::Option(0),
+        ),
+        (
+            json!({"id": "chatcmpl-2", "object": "chat.completion", "created": 1_760_000_000, "model": "o3",
+                   "choices": [{"index": 0, "message": {"role": "assistant", "content": null, "refusal": "I can't help with that."},
+                                "finish_reason": "stop", "logprobs": null}]}),
+            Answer::Refusal,
+        ),
+        (
+            json!({"id": "chatcmpl-3", "object": "chat.completion", "created": 1_760_000_000, "model": "qwen",
+                   "choices": [{"index": 0, "message": {"role": "assistant", "content": "The road"}, "finish_reason": "length"}]}),
+            Answer::Truncated,
+        ),
+    ]
+}
+
+fn anthropic_replies() -> Replies {
+    vec![
+        (
+            json!({"id": "msg_01", "type": "message", "role": "assistant", "model": "claude-sonnet-4-6",
+                   "content": [{"type": "thinking", "thinking": "Answer: B? No.", "signature": "EqQB"},
+                               {"type": "text", "text": "The lane is blocked.\n\nAnswer: A"}],
+                   "stop_reason": "end_turn", "stop_sequence": null,
+                   "usage": {"input_tokens": 1500, "output_tokens": 300}}),
+            Answer::Option(0),
+        ),
+        (
+            json!({"id": "msg_02", "type": "message", "role": "assistant", "model": "claude-sonnet-4-6",
+                   "content": [], "stop_reason": "refusal", "stop_sequence": null,
+                   "usage": {"input_tokens": 1500, "output_tokens": 0}}),
+            Answer::Refusal,
+        ),
+    ]
+}
+
+fn gemini_replies() -> Replies {
+    vec![
+        (
+            json!({"candidates": [{"content": {"parts": [{"text": "Fog, debris.", "thought": true}, {"text": "Answer: A"}], "role": "model"},
+                                   "finishReason": "STOP", "index": 0}],
+                   "usageMetadata": {"promptTokenCount": 1290, "candidatesTokenCount": 12, "thoughtsTokenCount": 250, "totalTokenCount": 1552},
+                   "modelVersion": "gemini-3-flash-preview"}),
+            Answer::Option(0),
+        ),
+        (
+            json!({"candidates": [{"finishReason": "MODEL_ARMOR", "index": 0}], "usageMetadata": {"promptTokenCount": 1290}}),
+            Answer::Blocked,
+        ),
+        (
+            json!({"promptFeedback": {"blockReason": "MODEL_ARMOR"}, "usageMetadata": {"promptTokenCount": 1290}}),
+            Answer::Blocked,
+        ),
+    ]
+}
+
+/// One provider: a model spec, the model-config settings whose requests are checked, and the
+/// reply fixtures.
+struct Case {
+    provider: &'static str,
+    spec: &'static str,
+    settings: &'static [&'static str],
+    replies: fn() -> Replies,
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn requests_and_replies_match_the_official_sdks() {
+    let cases = [
+        Case {
+            provider: "openai",
+            spec: "openai:o3",
+            settings: &[
+                "",
+                "temperature = 0.0\nmax_tokens = 1024",
+                "thinking = \"low\"",
+                "max_tokens_field = \"max_completion_tokens\"\nthinking = \"minimal\"",
+            ],
+            replies: openai_replies,
+        },
+        Case {
+            provider: "anthropic",
+            spec: "anthropic:claude-sonnet-4-6",
+            settings: &[
+                "",
+                "thinking = \"high\"",
+                "thinking = \"adaptive\"",
+                "thinking_budget = 2048\ntemperature = 1.0",
+            ],
+            replies: anthropic_replies,
+        },
+        Case {
+            provider: "gemini",
+            spec: "gemini:gemini-3-flash-preview",
+            settings: &[
+                "",
+                "thinking = \"minimal\"",
+                "thinking = \"high\"\ntemperature = 1.0",
+                "thinking_budget = 512",
+            ],
+            replies: gemini_replies,
+        },
+    ];
+    let mut data = serde_json::Map::new();
+    for Case { provider, spec, settings, replies } in cases {
+        let replies = replies();
+        let mut requests = Vec::new();
+        for s in settings {
+            let (body, answer) = exchange(spec, s, &replies[0].0).await;
+            assert_eq!(answer, replies[0].1, "{spec} [{s}]");
+            requests.push(body);
+        }
+        for (reply, expected) in &replies {
+            let (_, answer) = exchange(spec, "", reply).await;
+            assert_eq!(answer, *expected, "{spec}: {reply}");
+        }
+        let responses: Vec<Value> = replies.into_iter().map(|(r, _)| r).collect();
+        data.insert(provider.to_string(), json!({"requests": requests, "responses": responses}));
+    }
+    data.insert("gemini_blocking".into(), json!(revelio::vlm::gemini::BLOCKING));
+
+    let Some(python) = sdk_python() else { return };
+    let mut child = Command::new(&python)
+        .arg(repo().join("tests/sdk/check_shapes.py"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(Value::Object(data).to_string().as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "the SDKs reject Revelio's shapes:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
