@@ -8,6 +8,8 @@
 //! Spans are kept (as byte ranges into a named source file) so that lattice lints can point at
 //! the declaration that causes them.
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 mod identity;
@@ -149,6 +151,50 @@ pub struct Domain {
     pub camera: Camera,
     /// Lattice-lint codes silenced by `allow CODE` items (with their doc comments as reasons).
     pub allow: Vec<Allow>,
+    /// What counts as visible in a rendered scene (`visible` items).
+    #[serde(default)]
+    pub visibility: Visibility,
+}
+
+/// When an entity a concept placed counts as seen in a rendered image: at least `pixels`
+/// pixels of it after occlusion, with at least `contrast` against its surround (the builtin
+/// renderer's figures, see docs/render.md).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct VisibleIf {
+    pub pixels: u32,
+    pub contrast: f64,
+}
+
+impl VisibleIf {
+    /// Without a `visible { … }` item: a few dozen pixels (a pedestrian at 60 m on a 640×360
+    /// frame covers about 60) that differ from their surround by more than rendering noise.
+    pub const DEFAULT: VisibleIf = VisibleIf { pixels: 20, contrast: 0.02 };
+
+    pub fn holds(&self, pixels: u32, contrast: f64) -> bool {
+        pixels >= self.pixels && contrast >= self.contrast
+    }
+}
+
+/// A domain's visibility thresholds: the default, then overrides per entity kind and per
+/// concept (a concept's override wins over its entity's kind's).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Visibility {
+    pub default: VisibleIf,
+    pub kinds: BTreeMap<String, VisibleIf>,
+    pub concepts: BTreeMap<String, VisibleIf>,
+}
+
+impl Default for Visibility {
+    fn default() -> Visibility {
+        Visibility { default: VisibleIf::DEFAULT, kinds: BTreeMap::new(), concepts: BTreeMap::new() }
+    }
+}
+
+impl Visibility {
+    /// The threshold for an entity of `kind` placed by `concept`.
+    pub fn threshold(&self, kind: &str, concept: Option<&str>) -> VisibleIf {
+        concept.and_then(|c| self.concepts.get(c)).or_else(|| self.kinds.get(kind)).copied().unwrap_or(self.default)
+    }
 }
 
 /// `allow CODE`: a deliberate, documented exception to a lattice lint.

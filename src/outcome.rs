@@ -40,6 +40,16 @@ pub enum Outcome {
     /// The image generator refused to draw the scene (a safety filter, a text-only reply): no
     /// model was asked, so it is neither an answer nor a failed call.
     ImageBlocked,
+    /// An entity a concept placed stayed unseen (hidden or washed out) in every scene tried for
+    /// the observation: no model was asked, so it is neither an answer nor a failed call.
+    Invisible,
+}
+
+impl Outcome {
+    /// Whether a model was asked (and so the observation is a model call, paid or cached).
+    pub fn asked_a_model(self) -> bool {
+        !matches!(self, Outcome::ImageBlocked | Outcome::Invisible)
+    }
 }
 
 impl Outcome {

@@ -36,7 +36,7 @@ fn shipped() -> Vec<PathBuf> {
 
 /// Corpus files without syntax errors (the formatter refuses the others).
 fn corpus() -> Vec<PathBuf> {
-    ["good", "lints", "bad"]
+    ["good", "lints", "bad", "render"]
         .iter()
         .flat_map(|d| rev_files(&root().join("tests/corpus").join(d)))
         .filter(|f| !f.ends_with("syntax_many.rev"))

@@ -2,6 +2,8 @@
 //! in its image, checked from the pixels. Needs a graphics adapter (Mesa llvmpipe is enough);
 //! without one the tests fail with the packages to install.
 
+use std::path::Path;
+
 use image::RgbaImage;
 use revelio::cli::render::concept_sheet;
 use revelio::ir::{Domain, Effect};
@@ -212,4 +214,49 @@ fn towns_look_different() {
     let (w, h) = town01.dimensions();
     let n = changed(&town01, &town02, (0, 0, w - 1, h - 1));
     assert!(n * 5 > (w * h) as usize, "only {n} pixels differ between the towns");
+}
+
+/// Issue 18: `revelio check --render` flags a concept drawn under the ground (R0107) and
+/// nothing else; the corpus file names what it must report.
+#[test]
+fn check_render_flags_a_concept_drawn_under_the_ground() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/render/invisible.rev");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let d = revelio::check::compile_source("invisible.rev", &text).unwrap();
+    // The file's `visible` items: a default, and a kind that inherits its contrast.
+    let v = &d.visibility;
+    assert_eq!((v.default.pixels, v.default.contrast), (25, 0.03));
+    assert_eq!((v.kinds["BuriedCrate"].pixels, v.kinds["BuriedCrate"].contrast), (10, 0.03));
+    assert_eq!(v.threshold("Crate", Some("shown")), v.default);
+    let r = BuiltinRenderer::new(None).unwrap();
+    let tallies =
+        revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None }).unwrap();
+    let names = |t: &revelio::run::visible::Tally| d.set_names(t.set).join(",");
+    let by_name: Vec<(String, u32, u32)> = tallies.iter().map(|t| (names(t), t.invisible, t.scenes)).collect();
+    assert!(by_name.contains(&("buried".into(), 4, 4)), "{by_name:?}");
+    assert!(by_name.contains(&("shown".into(), 0, 4)), "{by_name:?}");
+    let diags = revelio::run::visible::lint(&d, &tallies);
+    let got: Vec<(&str, &str)> = diags
+        .iter()
+        .map(|x| {
+            let s = x.span.unwrap();
+            (x.code, &d.files[s.file as usize].text[s.start as usize..s.end as usize])
+        })
+        .collect();
+    let expected: Vec<(&str, &str)> =
+        text.lines().filter_map(|l| l.strip_prefix("// expect: ")).map(|l| l.split_once(' ').unwrap()).collect();
+    assert_eq!(got.len(), expected.len(), "{diags:?}");
+    for ((code, under), (want_code, word)) in got.iter().zip(&expected) {
+        assert_eq!(code, want_code);
+        assert!(under.contains(word), "{under} lacks {word}");
+    }
+    assert!(diags[0].message.contains("not visible in 4 of 4 rendered scenes"), "{}", diags[0].message);
+    // The command line prints it as a warning and exits 0.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
+        .args(["check", path.to_str().unwrap(), "--render", "2", "--format", "plain"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(stdout.contains("warning[R0107]: concept {`buried`} is not visible in 2 of 2"), "{stdout}");
 }

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use revelio::ir::Domain;
 use revelio::lattice::Lattice;
+use revelio::outcome::Outcome;
 use revelio::run::observe::{DomainWorld, World};
 use revelio::run::runner::{self, RunConfig, Setup};
 use revelio::search::{Algo, Params};
@@ -280,4 +281,67 @@ fn the_spelling_of_the_domain_path_does_not_change_the_scenes() {
     let lines = std::fs::read_to_string(dir.path().join("run/journal.jsonl")).unwrap().lines().count();
     assert!(lines > 20, "the shrink phase ran too");
     assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
+}
+
+/// Issue 18: a concept drawn under the road is never seen. The search resamples its scenes, then
+/// records each observation as `invisible` — no model call, never `wrong` — with the figures in
+/// the journal; a concept that is seen is observed as usual.
+#[test]
+fn a_concept_drawn_under_the_road_is_recorded_invisible_never_wrong() {
+    let path = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap()
+        + r#"
+kind BuriedCrate: Placed {
+  shape {
+    box size (1.5m, 1.5m, 1m) at (0m, 0m, -2m) color #d02020
+  }
+}
+concept crate_buried {
+  description "A red crate drawn two metres under the lane: never visible."
+  category "Road obstacles"
+  add crate_buried: BuriedCrate in lane ahead_of ego { distance = 8m..12m }
+  probe "A red crate is on my lane." not "There is no red crate on my lane."
+  scenic "{id} = new Prop with blueprint 'static.prop.container', {at}"
+  prompt "A red crate on the lane ahead."
+}
+"#;
+    let d = revelio::check::compile_source(&path, &text).unwrap_or_else(|e| panic!("does not compile: {e:?}"));
+    let buried = d.concepts.iter().position(|c| c.name == "crate_buried").unwrap();
+    let seen = d.concepts.iter().position(|c| c.name == "obstruction_far").unwrap();
+    let sets = [buried, seen].map(|i| revelio::ir::ConceptSet(1 << i)).to_vec();
+    // Every observation of the sim profile below is wrong, so a shown scene is `wrong`.
+    let profile = "name = \"always wrong\"\nbase_error = 1.0\n";
+    let model: Arc<dyn Model> = Arc::new(SimModel { profile: Profile::parse(profile, "wrong.toml", &d).unwrap() });
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&d));
+    let (space, _) = runner::search_space(sets, d.concepts.len(), world.as_ref());
+    let params = Params { algo: Algo::Random, budget: 10, beam_budget: 5, ..Params::default() };
+    let out = tempfile::tempdir().unwrap();
+    let renderer = revelio::render::build_renderer("builtin", &Default::default()).unwrap();
+    let config =
+        RunConfig::new(&d, Path::new(&path), "sim:wrong.toml", model.as_ref(), Default::default(), "builtin", params);
+    let setup = Setup::new(Arc::new(d.clone()), world, model, renderer, out.path());
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap();
+    let r = rt.block_on(runner::search(&setup, &config, &space)).unwrap();
+
+    let journal = std::fs::read_to_string(out.path().join("journal.jsonl")).unwrap();
+    let records: Vec<revelio::journal::Record> = journal.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(records.len(), 10);
+    let (hidden, shown): (Vec<_>, Vec<_>) = records.iter().partition(|r| r.set == ["crate_buried"]);
+    assert_eq!(hidden.len(), 5);
+    for rec in &hidden {
+        assert_eq!(rec.outcome, Outcome::Invisible, "{rec:?}");
+        assert_eq!((rec.answer, rec.resamples), (None, revelio::run::observe::RESAMPLES));
+        assert_eq!(rec.visibility.len(), 1);
+        assert_eq!(rec.visibility[0].pixels, 0);
+        assert!(rec.raw.contains("`crate_buried`"), "{}", rec.raw);
+    }
+    for rec in &shown {
+        assert_eq!(rec.outcome, Outcome::Wrong, "{rec:?}");
+        assert!(rec.visibility[0].pixels > 100, "{rec:?}");
+    }
+    assert_eq!(r.summary.metrics.inferences, 10);
+    assert_eq!(r.summary.metrics.unanswered.get(&Outcome::Invisible), Some(&5));
+    assert_eq!(r.summary.spend.calls, 5, "no model call for an invisible scene");
+    assert!(r.summary.failure_modes.iter().all(|m| m.concepts != ["crate_buried"]));
+    assert!(r.summary.failure_modes.iter().any(|m| m.concepts == ["obstruction_far"]));
 }

@@ -35,7 +35,7 @@ impl Renderer for Counting {
     fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
         self.0.fetch_add(1, Ordering::SeqCst);
         let png = format!("{}:{}", scene.seed, scene.concepts.join(",")).into_bytes();
-        Box::pin(async move { Ok(Rendered { png, cached: false }) })
+        Box::pin(async move { Ok(Rendered { png, cached: false, visibility: None }) })
     }
 }
 

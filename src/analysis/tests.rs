@@ -37,6 +37,8 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         latency_ms: 0,
         cached: false,
         model: None,
+        visibility: Vec::new(),
+        resamples: 0,
     }
 }
 

@@ -1,9 +1,9 @@
 //! The checker's state, the order of the lowering passes, and the first pass: declaring every
 //! name (units, enums, tags, kinds, relations, regions, …) so that item order does not matter.
 //! The passes themselves live beside this file: tags and kinds in `types.rs`, attributes and
-//! values in `values.rs`, world/regions/presets/camera in `scene.rs`, looks and stage in
-//! `shapes.rs`, concepts and constraints in `concepts.rs`, questions and rules in `rules.rs`,
-//! conditions in `expr.rs`.
+//! values in `values.rs`, world/regions/presets/camera and `visible` thresholds in `scene.rs`,
+//! looks and stage in `shapes.rs`, concepts and constraints in `concepts.rs`, questions and rules
+//! in `rules.rs`, conditions in `expr.rs`.
 //!
 //! Kinds, tags and enums share one namespace (a filter `Collidable | Pedestrian` may name
 //! either).
@@ -99,6 +99,7 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
     c.lower_looks(items);
     c.lower_stage(items);
     c.lower_concepts(items);
+    c.lower_visibility(items);
     c.check_relations();
     c.lower_constraints(items);
     c.lower_questions(items);
@@ -132,6 +133,7 @@ impl<'a> Checker<'a> {
                 rules: Vec::new(),
                 camera: Camera::default(),
                 allow: Vec::new(),
+                visibility: Default::default(),
             },
             units: Namespace::default(),
             types: Namespace::default(),

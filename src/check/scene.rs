@@ -1,4 +1,5 @@
-//! The scene-level items: world attributes, regions, presets and the camera.
+//! The scene-level items: world attributes, regions, presets, the camera and the visibility
+//! thresholds (`visible` items).
 
 use super::lower::{Checker, TypeSym, duplicate_statement};
 use super::names::Namespace;
@@ -236,6 +237,99 @@ impl Checker<'_> {
                         self.d.camera.width = *width;
                         self.d.camera.height = *height;
                     }
+                }
+            }
+        }
+    }
+
+    /// `visible [NAME] { pixels = N  contrast = X }` items: the default (no name) and overrides
+    /// for a kind or a concept. Parameters left out keep the default's value.
+    pub(super) fn lower_visibility(&mut self, items: &[(u32, &Item)]) {
+        let mut firsts: Vec<(Option<String>, Span)> = Vec::new();
+        // The default first, so that overrides inherit what it sets.
+        let mut ordered: Vec<&Item> = items.iter().map(|(_, i)| *i).collect();
+        ordered.sort_by_key(|i| !matches!(i.kind, ItemKind::Visible { target: None, .. }));
+        for item in ordered {
+            let ItemKind::Visible { target, params } = &item.kind else { continue };
+            let key = target.as_ref().map(|t| t.name.clone());
+            if let Some((_, first)) = firsts.iter().find(|(k, _)| *k == key) {
+                let what = key.as_ref().map_or("visible".to_string(), |k| format!("visible {k}"));
+                let first = *first;
+                self.error(duplicate_statement(&what, item.span, first));
+                continue;
+            }
+            firsts.push((key.clone(), item.span));
+            let is_kind = target.as_ref().is_some_and(|t| self.d.kinds.iter().any(|k| k.name == t.name));
+            let is_concept = target.as_ref().is_some_and(|t| self.d.concepts.iter().any(|c| c.name == t.name));
+            if let Some(t) = target
+                && !is_kind
+                && !is_concept
+            {
+                let names: Vec<&str> = self
+                    .d
+                    .kinds
+                    .iter()
+                    .map(|k| k.name.as_str())
+                    .chain(self.d.concepts.iter().map(|c| c.name.as_str()))
+                    .collect();
+                self.error(super::names::unknown("kind or concept", t, names));
+                continue;
+            }
+            let mut v = self.d.visibility.default;
+            let mut seen: Vec<(&str, Span)> = Vec::new();
+            for (name, n) in params {
+                if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == name.name) {
+                    let prev = *prev;
+                    self.error(duplicate_statement(&name.name, name.span, prev));
+                    continue;
+                }
+                seen.push((&name.name, name.span));
+                if let Some(u) = &n.unit {
+                    self.error(
+                        Diagnostic::error(
+                            codes::TYPE_MISMATCH,
+                            u.span,
+                            format!("`{}` is a plain number, without a unit", name.name),
+                        )
+                        .with_label("no unit here"),
+                    );
+                    continue;
+                }
+                match name.name.as_str() {
+                    "pixels" if n.value >= 0.0 && n.value.fract() == 0.0 && n.value <= f64::from(u32::MAX) => {
+                        v.pixels = n.value as u32;
+                    }
+                    "pixels" => self.error(
+                        Diagnostic::error(codes::OUT_OF_RANGE, n.span, "`pixels` must be a whole number, 0 or more")
+                            .with_label("not a pixel count"),
+                    ),
+                    "contrast" if (0.0..=1.0).contains(&n.value) => v.contrast = n.value,
+                    "contrast" => self.error(
+                        Diagnostic::error(codes::OUT_OF_RANGE, n.span, "`contrast` must be between 0 and 1")
+                            .with_label("outside 0..1"),
+                    ),
+                    _ => {
+                        let d = Diagnostic::error(
+                            codes::UNKNOWN_ATTR,
+                            name.span,
+                            format!("unknown visibility parameter `{}`", name.name),
+                        )
+                        .with_label("`visible` takes `pixels` and `contrast`");
+                        let d = match crate::diag::suggest::suggest(&name.name, ["pixels", "contrast"]) {
+                            Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                            None => d,
+                        };
+                        self.error(d);
+                    }
+                }
+            }
+            match target {
+                None => self.d.visibility.default = v,
+                Some(t) if is_concept => {
+                    self.d.visibility.concepts.insert(t.name.clone(), v);
+                }
+                Some(t) => {
+                    self.d.visibility.kinds.insert(t.name.clone(), v);
                 }
             }
         }

@@ -83,6 +83,17 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     let prompt_text = prompt::build(&task.question, &task.options);
     match o.reply {
+        None if o.outcome == Outcome::Invisible => Err((
+            1,
+            format!(
+                "this scene was not shown to `{}`: after {} resamples (seeds {}..={}) an entity is still {}",
+                model.id(),
+                o.record.resamples,
+                args.seed,
+                o.record.seed,
+                o.record.raw
+            ),
+        )),
         None => Err((
             1,
             format!(

@@ -28,6 +28,18 @@ pub struct CheckArgs {
     /// per line)
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
+    /// Also render N scenes of every valid singleton and pair with the builtin renderer and
+    /// warn (R0107) about concepts and combinations whose entities are not visible in at least
+    /// 10% of them
+    #[arg(long, value_name = "N")]
+    pub render: Option<u32>,
+    /// With `--render`: render every singleton but only a seeded sample of the pairs, K sets in
+    /// all
+    #[arg(long, value_name = "K", requires = "render")]
+    pub render_sample: Option<usize>,
+    /// Seed of `--render-sample`
+    #[arg(long, default_value_t = 0, requires = "render_sample")]
+    pub seed: u64,
     /// Largest concept set the lattice lints judge
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
     pub max_size: u32,
@@ -57,6 +69,10 @@ pub fn run(args: CheckArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if args.render == Some(0) {
+        eprintln!("error: `--render` needs at least 1 scene per set");
+        return ExitCode::from(2);
+    }
     let limits = crate::lint::Limits { max_size: args.max_size as usize, max_sets: args.max_sets };
     let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
     if stdin == 1 {
@@ -66,6 +82,21 @@ pub fn run(args: CheckArgs) -> ExitCode {
             Err(r) => Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() },
         });
         files.push(name);
+    }
+    if let Some(scenes) = args.render {
+        let plan = render_plan(scenes, args.render_sample, args.seed);
+        for c in &mut compiled {
+            match render_lint(c, plan) {
+                Ok(diags) => {
+                    c.diagnostics.extend(diags);
+                    check::sort_diagnostics(&mut c.diagnostics);
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(1);
+                }
+            }
+        }
     }
     let mut reports: Vec<Report> = compiled.iter().flat_map(reports_of).collect();
     reports.sort_by(|a, b| a.key().cmp(&b.key()));
@@ -89,6 +120,34 @@ pub fn run(args: CheckArgs) -> ExitCode {
     };
     write_stdout(&out);
     if errors > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS }
+}
+
+#[cfg(feature = "render")]
+type Plan = crate::run::visible::Plan;
+#[cfg(not(feature = "render"))]
+type Plan = ();
+
+#[cfg(feature = "render")]
+fn render_plan(scenes: u32, sample: Option<usize>, seed: u64) -> Plan {
+    Plan { scenes, sample: sample.map(|k| (k, seed)) }
+}
+
+#[cfg(not(feature = "render"))]
+fn render_plan(_: u32, _: Option<usize>, _: u64) -> Plan {}
+
+/// R0107 for a domain file that compiled without errors (used modules have no lattice).
+#[cfg(feature = "render")]
+fn render_lint(c: &Compiled, plan: Plan) -> Result<Vec<Diagnostic>, String> {
+    let Some(domain) = c.domain.as_ref().filter(|d| !d.name.is_empty()) else { return Ok(Vec::new()) };
+    let renderer = crate::render::BuiltinRenderer::new(None).map_err(|e| e.message)?;
+    let tallies = crate::run::visible::survey(domain, &renderer, plan)
+        .map_err(|e| format!("cannot render `{}` for the visibility lint: {e}", domain.name))?;
+    Ok(crate::run::visible::lint(domain, &tallies))
+}
+
+#[cfg(not(feature = "render"))]
+fn render_lint(_: &Compiled, _: Plan) -> Result<Vec<Diagnostic>, String> {
+    Err("`--render` needs the builtin renderer, and this build of revelio has none (built without the `render` feature)".into())
 }
 
 /// Print to stdout; a closed pipe (`revelio check … | head`) is not an error worth a panic.
@@ -434,6 +493,9 @@ mod tests {
                 format: Format::Plain,
                 max_size: crate::lattice::DEFAULT_MAX_SIZE as u32,
                 max_sets: crate::lattice::DEFAULT_MAX_SETS,
+                render: None,
+                render_sample: None,
+                seed: 0,
             })
         };
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);

@@ -168,7 +168,7 @@ impl Layout<'_> {
                     self.block(self.first(body)?, self.last(body)?, &stmts, level, Style::Fill, p)?;
                 }
             }
-            Rule::region_item | Rule::preset_item | Rule::camera_item => {
+            Rule::region_item | Rule::preset_item | Rule::camera_item | Rule::visible_item => {
                 let (open, close) = self.braces(p)?;
                 let stmts = of(&[Rule::region_stmt, Rule::preset_param, Rule::camera_stmt]);
                 self.block(open, close, &stmts, level, Style::Fill, p)?;

@@ -38,6 +38,7 @@ pub fn domain(names: &[&str]) -> Domain {
         rules: vec![],
         camera: Camera::default(),
         allow: vec![],
+        visibility: Default::default(),
     }
 }
 

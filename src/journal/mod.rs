@@ -28,6 +28,7 @@ use std::sync::Mutex;
 use serde::{Deserialize, Serialize};
 
 use crate::outcome::{Answer, Outcome, Usage};
+use crate::render::EntityVisibility;
 
 pub use lock::RunLock;
 
@@ -71,7 +72,8 @@ pub struct Record {
     pub raw: String,
     /// The parsed option, when the reply named exactly one.
     pub parsed: Option<u32>,
-    /// How the model's reply ended; `None` when no model was asked (`image_blocked`).
+    /// How the model's reply ended; `None` when no model was asked (`image_blocked`,
+    /// `invisible`).
     pub answer: Option<Answer>,
     pub expected: u32,
     pub outcome: Outcome,
@@ -81,6 +83,18 @@ pub struct Record {
     /// The model that answered, when it is not the run's own (phase `transfer`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<String>,
+    /// How visible each entity the concepts placed was in the image shown (builtin renderer;
+    /// empty for renderers that cannot tell and in journals written before it was measured).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub visibility: Vec<EntityVisibility>,
+    /// Scenes drawn again with the next seed because an entity was not visible; `seed` is the
+    /// scene finally used.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub resamples: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// What can go wrong with a run folder.
@@ -314,6 +328,8 @@ mod tests {
             latency_ms: 3,
             cached: false,
             model: None,
+            visibility: vec![],
+            resamples: 0,
         }
     }
 

@@ -50,6 +50,7 @@ impl Dom {
             rules: vec![],
             camera: Camera::default(),
             allow: vec![],
+            visibility: Default::default(),
         };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");

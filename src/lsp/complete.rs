@@ -97,6 +97,7 @@ pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
         }
         "has" | "elements" => names(ix, &[Sort::Concept, Sort::Modifier]),
         "look" => names(ix, &[Sort::Kind]),
+        "visible" => names(ix, &[Sort::Kind, Sort::Concept, Sort::Modifier]),
         "expect" => ix
             .all(&[Sort::Option])
             .filter_map(|(_, o)| {
@@ -138,6 +139,7 @@ const LINTS: &[(&str, &str)] = &[
     ("R0104", "an answer option is never expected"),
     ("R0105", "a modifier has no possible target"),
     ("R0106", "no rule matches some valid set"),
+    ("R0107", "a concept or pair is hidden in rendered scenes (check --render)"),
 ];
 
 fn item(label: &str, kind: CompletionItemKind, detail: &str) -> CompletionItem {
@@ -258,6 +260,7 @@ fn statement_tokens(sig: &[Token], text: &str) -> Vec<Token> {
         "rules",
         "rule",
         "allow",
+        "visible",
         "description",
         "category",
         "add",

@@ -433,6 +433,14 @@ impl Index {
                     self.num(n);
                 }
             }
+            ItemKind::Visible { target, params } => {
+                if let Some(t) = target {
+                    self.refer_global(t, &[Sort::Kind, Sort::Concept, Sort::Modifier]);
+                }
+                for (_, n) in params {
+                    self.num(n);
+                }
+            }
             ItemKind::Camera { stmts } => {
                 for st in stmts {
                     match st {

@@ -6,7 +6,7 @@ use std::sync::{Arc, OnceLock};
 use image::{ImageEncoder, RgbaImage};
 
 use super::gpu::{AdapterSummary, Gpu};
-use super::{RenderError, Rendered, Renderer, atmosphere, mesh};
+use super::{EntityVisibility, RenderError, Rendered, Renderer, atmosphere, mesh, visibility};
 use crate::net::BoxFuture;
 use crate::scene::Scene;
 
@@ -66,13 +66,21 @@ impl BuiltinRenderer {
 
     /// Render to pixels (sRGB RGBA8).
     pub fn render_rgba(&self, scene: &Scene) -> Result<RgbaImage, RenderError> {
+        Ok(self.render_seen(scene)?.0)
+    }
+
+    /// Render to pixels, with each placed entity's visibility in that same frame.
+    pub fn render_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
         let (w, h) = self.size_for(scene);
         check_size(w, h)?;
         let mesh = mesh::build(scene, scene.camera.at);
         let frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
         let (_, streaks) = atmosphere::rain_streaks(frame.wet[2], w, h);
-        let pixels = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError::new)?;
-        RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RenderError::new("the rendered image has the wrong size"))
+        let drawn = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError::new)?;
+        let seen = visibility::measure(scene, &drawn.pixels, &drawn.ids, w, h);
+        let img = RgbaImage::from_raw(w, h, drawn.pixels)
+            .ok_or_else(|| RenderError::new("the rendered image has the wrong size"))?;
+        Ok((img, seen))
     }
 
     /// Render and encode as PNG.
@@ -111,7 +119,10 @@ impl Renderer for BuiltinRenderer {
     fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
         // The future does all its work when first polled; `blocking` tells the run to poll it
         // on a render thread.
-        Box::pin(async move { Ok(Rendered { png: self.render_png(scene)?, cached: false }) })
+        Box::pin(async move {
+            let (img, seen) = self.render_seen(scene)?;
+            Ok(Rendered { png: encode_png(&img)?, cached: false, visibility: Some(seen) })
+        })
     }
 
     fn blocking(&self) -> bool {
@@ -189,6 +200,50 @@ mod tests {
         let (clear_sat, foggy_sat) = (saturation(clear()), saturation(weather(60.0, 0.0, 0.0, 70.0, 60.0)));
         assert!(clear_sat > 60.0, "clear: red minus green {clear_sat}");
         assert!(foggy_sat < clear_sat * 0.6, "foggy {foggy_sat} vs clear {clear_sat}");
+    }
+
+    #[test]
+    fn an_entity_behind_another_counts_zero_visible_pixels() {
+        let r = renderer();
+        let mut hidden = red_box(30.0);
+        hidden.name = "hidden".into();
+        // A wall 4 m wide and 3 m high at 15 m covers the 1 m box at 30 m on the same line.
+        let wall = entity(
+            "wall",
+            [15.0, 0.0, 0.0],
+            vec![part(crate::ir::Primitive::Box, [0.3, 4.0, 3.0], [0.0, 0.0, 1.5], 0x808080, "matte")],
+        );
+        let (_, seen) = r.render_seen(&scene(vec![hidden.clone(), wall], clear())).unwrap();
+        assert_eq!(seen.len(), 2);
+        assert_eq!((seen[0].entity.as_str(), seen[0].pixels, seen[0].contrast), ("hidden", 0, 0.0));
+        assert!(seen[1].pixels > 1000, "the wall is seen: {seen:?}");
+        // Alone, the same box is seen, and its pixels match the red pixels of the image.
+        let (img, alone) = r.render_seen(&scene(vec![hidden], clear())).unwrap();
+        let reds = count(&img, (0, 0, 639, 359), is_red) as f64;
+        assert!(alone[0].pixels > 50, "{alone:?}");
+        assert!((f64::from(alone[0].pixels) - reds).abs() <= reds * 0.2, "{alone:?} vs {reds} red pixels");
+        // Under the road (below z = 0) it is hidden by the ground.
+        let mut buried = red_box(12.0);
+        buried.position[2] = -1.5;
+        let (_, under) = r.render_seen(&scene(vec![buried], clear())).unwrap();
+        assert_eq!(under[0].pixels, 0, "{under:?}");
+    }
+
+    #[test]
+    fn fog_lowers_the_contrast_measure_with_distance() {
+        let r = renderer();
+        let contrast = |d, env| r.render_seen(&scene(vec![red_box(d)], env)).unwrap().1[0].contrast;
+        let fog = || weather(60.0, 0.0, 0.0, 70.0, 60.0);
+        let (near, mid, far) = (contrast(8.0, fog()), contrast(20.0, fog()), contrast(40.0, fog()));
+        assert!(near > mid && mid > far, "fog: near {near}, mid {mid}, far {far}");
+        let clear_far = contrast(40.0, clear());
+        assert!(far < clear_far * 0.6, "fog {far} vs clear {clear_far} at 40 m");
+        // Rain and darkness lower it too.
+        let rain = contrast(20.0, weather(90.0, 90.0, 80.0, 0.0, 60.0));
+        let night = contrast(20.0, weather(10.0, 0.0, 0.0, 0.0, -30.0));
+        let clear_mid = contrast(20.0, clear());
+        assert!(rain < clear_mid, "rain {rain} vs clear {clear_mid}");
+        assert!(night < clear_mid * 0.5, "night {night} vs clear {clear_mid}");
     }
 
     #[test]

@@ -13,6 +13,11 @@ use super::mesh::{Mesh, Vertex};
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The entity-id target: r = 1 + entity index (exact in f16 up to 2048), a = claim. A float
+/// format so that blended passes can keep (a = 0) or replace (a = 1) the id behind them.
+const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Bytes per pixel of `ID_FORMAT`.
+const ID_BYTES: u32 = 8;
 /// Multisampling for clean edges on GPUs; falls back to 1 where the adapter cannot. CPU drivers
 /// get 1: there 4× multisampling costs about 2.5× the frame time (measured with llvmpipe and
 /// lavapipe), and the speed target is set for them. `REVELIO_MSAA=1|4` overrides the choice.
@@ -20,6 +25,15 @@ const MSAA: u32 = 4;
 /// Packages that provide the Mesa CPU drivers on Debian/Ubuntu, named in the error.
 pub const DRIVER_PACKAGES: &str =
     "mesa-vulkan-drivers (Vulkan, lavapipe) or libegl1 libegl-mesa0 libgl1-mesa-dri (OpenGL, llvmpipe)";
+
+/// One frame read back: the colour image and, per pixel, which placed entity is seen there.
+pub struct Drawn {
+    /// sRGB RGBA8 rows, tightly packed.
+    pub pixels: Vec<u8>,
+    /// Per pixel: 0 where no placed entity is seen (stage, extras, sky), else 1 + its index in
+    /// `Scene.entities`; with multisampling, an edge pixel may hold a blend of two ids.
+    pub ids: Vec<f32>,
+}
 
 /// What `revelio render --info` prints.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -84,9 +98,14 @@ struct Targets {
     msaa: Option<wgpu::TextureView>,
     resolve: wgpu::Texture,
     resolve_view: wgpu::TextureView,
+    id_msaa: Option<wgpu::TextureView>,
+    id_resolve: wgpu::Texture,
+    id_resolve_view: wgpu::TextureView,
     depth: wgpu::TextureView,
     readback: wgpu::Buffer,
     padded_row: u32,
+    id_readback: wgpu::Buffer,
+    id_padded_row: u32,
     uniforms: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -185,7 +204,8 @@ impl Gpu {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32];
+        let attrs =
+            wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32, 4 => Float32];
         let vbuf = [Some(wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<Vertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
@@ -194,52 +214,61 @@ impl Gpu {
         // `vertex_buffers`: whether the pipeline draws the mesh (else its vertices come from
         // the vertex index); `depth`: compare and write. Nothing is culled: closed parts lose
         // their back faces in `mesh`, and planes are seen from both sides.
-        let pipeline = |vs: &str, fs: &str, vertex_buffers: bool, depth: (wgpu::CompareFunction, bool), blend: bool| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(fs),
-                layout: Some(&pl),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers: if vertex_buffers { &vbuf } else { &[] },
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(depth.1),
-                    depth_compare: Some(depth.0),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: COLOR_FORMAT,
-                        blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
+        // `id`: whether the pass writes the id target (the sky and rain leave it as it is).
+        let pipeline =
+            |vs: &str, fs: &str, vertex_buffers: bool, depth: (wgpu::CompareFunction, bool), blend: bool, id: bool| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(fs),
+                    layout: Some(&pl),
+                    vertex: wgpu::VertexState {
+                        module: &shader,
+                        entry_point: Some(vs),
+                        compilation_options: Default::default(),
+                        buffers: if vertex_buffers { &vbuf } else { &[] },
+                    },
+                    primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(depth.1),
+                        depth_compare: Some(depth.0),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
+                    fragment: Some(wgpu::FragmentState {
+                        module: &shader,
+                        entry_point: Some(fs),
+                        compilation_options: Default::default(),
+                        targets: &[
+                            Some(wgpu::ColorTargetState {
+                                format: COLOR_FORMAT,
+                                blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                                write_mask: wgpu::ColorWrites::ALL,
+                            }),
+                            Some(wgpu::ColorTargetState {
+                                format: ID_FORMAT,
+                                blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                                write_mask: if id { wgpu::ColorWrites::ALL } else { wgpu::ColorWrites::empty() },
+                            }),
+                        ],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
         use wgpu::CompareFunction::{Always, GreaterEqual};
-        let opaque = pipeline("vs_main", "fs_main", true, (GreaterEqual, true), false);
+        let opaque = pipeline("vs_main", "fs_main", true, (GreaterEqual, true), false, true);
         // The sky lies at depth 0 (infinitely far, the cleared value), drawn after the solids:
         // the depth test then shades only the pixels no solid covers.
-        let sky = pipeline("vs_fullscreen", "fs_sky", false, (GreaterEqual, false), false);
-        let blended = pipeline("vs_main", "fs_main", true, (GreaterEqual, false), true);
-        let rain = pipeline("vs_rain", "fs_rain", false, (Always, false), true);
+        let sky = pipeline("vs_fullscreen", "fs_sky", false, (GreaterEqual, false), false, false);
+        let blended = pipeline("vs_main", "fs_main", true, (GreaterEqual, false), true, true);
+        let rain = pipeline("vs_rain", "fs_rain", false, (Always, false), true, false);
         Gpu { device, queue, summary, layout, sky, opaque, blended, rain, state: Mutex::new(State::default()) }
     }
 
-    /// Render one frame with `rain_streaks` rain streaks and read it back as tightly packed
-    /// sRGB RGBA8 rows.
-    pub fn draw(&self, mesh: &Mesh, frame: &Frame, rain_streaks: u32) -> Result<Vec<u8>, String> {
+    /// Render one frame with `rain_streaks` rain streaks and read back its colour and its
+    /// entity ids, drawn in the same passes.
+    pub fn draw(&self, mesh: &Mesh, frame: &Frame, rain_streaks: u32) -> Result<Drawn, String> {
         let (w, h) = (frame.viewport[0] as u32, frame.viewport[1] as u32);
         // A poisoned lock only means another frame panicked mid-way; the state is rebuilt below.
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
@@ -265,17 +294,32 @@ impl Gpu {
                 Some(m) => (m, Some(&t.resolve_view)),
                 None => (&t.resolve_view, None),
             };
+            let (id_view, id_resolve_target) = match &t.id_msaa {
+                Some(m) => (m, Some(&t.id_resolve_view)),
+                None => (&t.id_resolve_view, None),
+            };
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: None,
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
+                color_attachments: &[
+                    Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: id_view,
+                        depth_slice: None,
+                        resolve_target: id_resolve_target,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                ],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &t.depth,
                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
@@ -322,18 +366,42 @@ impl Gpu {
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &t.id_resolve,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &t.id_readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(t.id_padded_row),
+                    rows_per_image: None,
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
         let index = self.queue.submit([enc.finish()]);
         let slice = t.readback.slice(..);
+        let id_slice = t.id_readback.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
+        for s in [&slice, &id_slice] {
+            let tx = tx.clone();
+            s.map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+        }
+        drop(tx);
         self.device
             .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
             .map_err(|e| format!("the graphics device failed while rendering: {e}"))?;
-        rx.recv()
-            .map_err(|_| "the graphics device dropped a readback".to_string())?
-            .map_err(|e| format!("cannot read the rendered image back: {e}"))?;
+        for _ in 0..2 {
+            rx.recv()
+                .map_err(|_| "the graphics device dropped a readback".to_string())?
+                .map_err(|e| format!("cannot read the rendered image back: {e}"))?;
+        }
         let mut out = Vec::with_capacity((w * h * 4) as usize);
         {
             let data = slice.get_mapped_range().map_err(|e| format!("cannot read the rendered image back: {e}"))?;
@@ -346,7 +414,20 @@ impl Gpu {
             }
         }
         t.readback.unmap();
-        Ok(out)
+        let mut ids = Vec::with_capacity((w * h) as usize);
+        {
+            let data = id_slice.get_mapped_range().map_err(|e| format!("cannot read the rendered ids back: {e}"))?;
+            for row in data.chunks(t.id_padded_row as usize).take(h as usize) {
+                // The red channel of each RGBA16F texel.
+                ids.extend(
+                    row[..(w * ID_BYTES) as usize]
+                        .chunks_exact(ID_BYTES as usize)
+                        .map(|px| f16_to_f32(u16::from_le_bytes([px[0], px[1]]))),
+                );
+            }
+        }
+        t.id_readback.unmap();
+        Ok(Drawn { pixels: out, ids })
     }
 
     fn targets(&self, w: u32, h: u32) -> Targets {
@@ -367,14 +448,23 @@ impl Gpu {
         let samples = self.summary.samples;
         let msaa = (samples > 1).then(|| tex("msaa", COLOR_FORMAT, samples, attach).create_view(&Default::default()));
         let resolve = tex("resolve", COLOR_FORMAT, 1, attach | wgpu::TextureUsages::COPY_SRC);
+        let id_msaa =
+            (samples > 1).then(|| tex("id msaa", ID_FORMAT, samples, attach).create_view(&Default::default()));
+        let id_resolve = tex("id resolve", ID_FORMAT, 1, attach | wgpu::TextureUsages::COPY_SRC);
         let depth = tex("depth", DEPTH_FORMAT, samples, attach).create_view(&Default::default());
-        let padded_row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: padded_row as u64 * h as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded_row = (w * 4).div_ceil(align) * align;
+        let id_padded_row = (w * ID_BYTES).div_ceil(align) * align;
+        let buffer = |label, row: u32| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: row as u64 * h as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let readback = buffer("readback", padded_row);
+        let id_readback = buffer("id readback", id_padded_row);
         let uniforms = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("frame"),
             contents: bytemuck::bytes_of(&Frame::zeroed()),
@@ -390,9 +480,14 @@ impl Gpu {
             msaa,
             resolve_view: resolve.create_view(&Default::default()),
             resolve,
+            id_msaa,
+            id_resolve_view: id_resolve.create_view(&Default::default()),
+            id_resolve,
             depth,
             readback,
             padded_row,
+            id_readback,
+            id_padded_row,
             uniforms,
             bind_group,
         }
@@ -400,3 +495,32 @@ impl Gpu {
 }
 
 use bytemuck::Zeroable;
+
+/// IEEE half → single precision (the id target is read back as f16).
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let frac = f32::from(h & 0x3ff);
+    sign * match exp {
+        0 => frac * 2f32.powi(-24),
+        31 if frac == 0.0 => f32::INFINITY,
+        31 => f32::NAN,
+        e => (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::f16_to_f32;
+
+    #[test]
+    fn half_floats_decode_to_the_ids_they_hold() {
+        assert_eq!(f16_to_f32(0x0000), 0.0);
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0x4000), 2.0);
+        assert_eq!(f16_to_f32(0x4a40), 12.5);
+        assert_eq!(f16_to_f32(0x6800), 2048.0);
+        assert_eq!(f16_to_f32(0x3800), 0.5);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+    }
+}

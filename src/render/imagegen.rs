@@ -260,7 +260,7 @@ impl Renderer for ImageGen {
             }
             let k = parts_hex([&b"imagegen-v1"[..], self.id.as_bytes(), prompt.as_bytes()]);
             if let Some(png) = self.cache.as_ref().and_then(|c| c.get(&k)) {
-                return Ok(Rendered { png, cached: true });
+                return Ok(Rendered { png, cached: true, visibility: None });
             }
             let called = self.transport.call(|| Ok(self.request(prompt)), |r| self.judge(r)).await;
             let secrets = self.secrets();
@@ -279,7 +279,7 @@ impl Renderer for ImageGen {
                 // A cache that cannot be written only costs a regeneration later.
                 let _ = c.put(&k, &png);
             }
-            Ok(Rendered { png, cached: false })
+            Ok(Rendered { png, cached: false, visibility: None })
         })
     }
 }

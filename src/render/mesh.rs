@@ -63,6 +63,9 @@ pub struct Vertex {
     /// Linear-light colour and alpha.
     pub color: [f32; 4],
     pub material: f32,
+    /// 1 + the index in `Scene.entities` of the entity this vertex belongs to; 0 for stage
+    /// parts, extras and shadows. Drawn into the id target for the visibility figures.
+    pub entity: f32,
 }
 
 /// The frame's geometry as an indexed triangle list: opaque triangles first (front to back, so
@@ -112,6 +115,7 @@ struct PartWriter<'a> {
     cull_from: Option<[f64; 3]>,
     color: [f32; 4],
     material: Material,
+    entity: f32,
     seen: std::collections::HashMap<[u64; 6], u32, std::hash::BuildHasherDefault<FxHasher>>,
 }
 
@@ -122,7 +126,7 @@ impl PartWriter<'_> {
             return i;
         }
         let i = self.mesh.vertices.len() as u32;
-        self.mesh.vertices.push(vertex(self.xf, p, n, self.color, self.material));
+        self.mesh.vertices.push(vertex(self.xf, p, n, self.color, self.material, self.entity));
         self.seen.insert(key, i);
         i
     }
@@ -213,16 +217,19 @@ pub fn srgb_to_linear(c: f64) -> f32 {
 struct Placed<'a> {
     part: &'a ShapePart,
     xf: Xf,
+    /// `Vertex::entity` of the part.
+    entity: f32,
 }
 
 /// Build the frame's triangles. `eye` orders translucent parts back to front.
 pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
     let mut placed: Vec<Placed> =
-        scene.stage.iter().map(|part| Placed { part, xf: part_xf(&Xf::identity(), part) }).collect();
+        scene.stage.iter().map(|part| Placed { part, xf: part_xf(&Xf::identity(), part), entity: 0.0 }).collect();
     let mut shadows = Vec::new();
-    for e in scene.entities.iter().chain(&scene.extras) {
+    let ids = (1..=scene.entities.len()).map(|i| i as f32).chain(std::iter::repeat(0.0));
+    for (e, entity) in scene.entities.iter().chain(&scene.extras).zip(ids) {
         let exf = Xf::yaw(e.yaw_deg, e.position);
-        placed.extend(e.shape.iter().map(|part| Placed { part, xf: part_xf(&exf, part) }));
+        placed.extend(e.shape.iter().map(|part| Placed { part, xf: part_xf(&exf, part), entity }));
         if let Some(s) = blob_shadow(&e.shape, &exf) {
             shadows.push(s);
         }
@@ -336,18 +343,18 @@ fn blob_shadow(parts: &[ShapePart], exf: &Xf) -> Option<Shadow> {
 fn emit_shadow(mesh: &mut Mesh, s: &Shadow) {
     // A fan whose rim is transparent gives a soft edge without a texture.
     let centre = mesh.vertices.len() as u32;
-    mesh.vertices.push(vertex(&s.xf, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 0.55], Material::Shadow));
+    mesh.vertices.push(vertex(&s.xf, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 0.55], Material::Shadow, 0.0));
     for k in 0..ROUND_SEGMENTS {
         let a = k as f64 / ROUND_SEGMENTS as f64 * std::f64::consts::TAU;
         let rim = [a.cos() * s.half[0], a.sin() * s.half[1], 0.0];
-        mesh.vertices.push(vertex(&s.xf, rim, [0.0, 0.0, 1.0], [0.0; 4], Material::Shadow));
+        mesh.vertices.push(vertex(&s.xf, rim, [0.0, 0.0, 1.0], [0.0; 4], Material::Shadow, 0.0));
     }
     for k in 0..ROUND_SEGMENTS as u32 {
         mesh.indices.extend([centre, centre + 1 + k, centre + 1 + (k + 1) % ROUND_SEGMENTS as u32]);
     }
 }
 
-fn vertex(xf: &Xf, p: [f64; 3], n: [f64; 3], color: [f32; 4], m: Material) -> Vertex {
+fn vertex(xf: &Xf, p: [f64; 3], n: [f64; 3], color: [f32; 4], m: Material, entity: f32) -> Vertex {
     let pos = xf.point(p);
     let nr = xf.rot(n);
     Vertex {
@@ -355,6 +362,7 @@ fn vertex(xf: &Xf, p: [f64; 3], n: [f64; 3], color: [f32; 4], m: Material) -> Ve
         normal: [nr[0] as f32, nr[1] as f32, nr[2] as f32],
         color,
         material: m as u32 as f32,
+        entity,
     }
 }
 
@@ -384,7 +392,8 @@ fn emit_part(mesh: &mut Mesh, p: &Placed, eye: [f64; 3], closed: bool) {
         let r = &p.xf.r;
         [0, 1, 2].map(|j| r[0][j] * d[0] + r[1][j] * d[1] + r[2][j] * d[2])
     });
-    let mut w = PartWriter { mesh, xf: &p.xf, cull_from, color, material: m, seen: Default::default() };
+    let mut w =
+        PartWriter { mesh, xf: &p.xf, cull_from, color, material: m, entity: p.entity, seen: Default::default() };
     let mut tri = |a, b, c| w.tri(a, b, c);
     match part.prim {
         Primitive::Box => unit_box(&mut tri, [sx, sy, sz]),

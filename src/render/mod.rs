@@ -21,6 +21,8 @@ mod gpu;
 pub mod mesh;
 #[cfg(feature = "render")]
 pub mod sheet;
+#[cfg(feature = "render")]
+mod visibility;
 
 #[cfg(feature = "render")]
 pub use atmosphere::{Weather, project};
@@ -35,6 +37,24 @@ pub struct Rendered {
     pub png: Vec<u8>,
     /// Served from an image cache.
     pub cached: bool,
+    /// How visible each entity the concepts placed is in this image, in `Scene.entities`
+    /// order; `None` from renderers that cannot tell (image generators).
+    pub visibility: Option<Vec<EntityVisibility>>,
+}
+
+/// One placed entity's visibility in one image (the builtin renderer measures it from the same
+/// frame as the colours, see docs/render.md).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct EntityVisibility {
+    pub entity: String,
+    /// The concept that placed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub concept: Option<String>,
+    /// Pixels where it is seen after occlusion by everything else.
+    pub pixels: u32,
+    /// Root-mean-square luma difference (0..1, sRGB) between its visible pixels and its
+    /// surround; fog, rain and darkness lower it.
+    pub contrast: f64,
 }
 
 /// Why a scene has no image.

@@ -149,6 +149,7 @@ struct VsIn {
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
     @location(3) material: f32,
+    @location(4) entity: f32,
 };
 
 struct VsOut {
@@ -158,6 +159,16 @@ struct VsOut {
     @location(2) color: vec4<f32>,
     // Constant over a part: not interpolated.
     @location(3) @interpolate(flat) material: i32,
+    @location(4) @interpolate(flat) entity: f32,
+};
+
+// Colour, and the id target for the visibility figures: r = 1 + the entity's index (0 for
+// stage, extras, shadows), a = whether the fragment claims the pixel. Opaque parts always
+// claim; in blended passes a = 0 leaves what lies behind (a translucent stage window does not
+// hide the entity behind it), a = 1 replaces it.
+struct FsOut {
+    @location(0) color: vec4<f32>,
+    @location(1) id: vec4<f32>,
 };
 
 @vertex
@@ -168,11 +179,20 @@ fn vs_main(v: VsIn) -> VsOut {
     o.normal = v.normal;
     o.color = v.color;
     o.material = i32(round(v.material));
+    o.entity = v.entity;
     return o;
 }
 
 @fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+fn fs_main(in: VsOut) -> FsOut {
+    var o: FsOut;
+    o.color = shade(in);
+    let claims = in.entity > 0.0 && in.material != SHADOW;
+    o.id = vec4<f32>(in.entity, 0.0, 0.0, select(0.0, 1.0, claims));
+    return o;
+}
+
+fn shade(in: VsOut) -> vec4<f32> {
     let m = in.material;
     let to_eye = frame.eye.xyz - in.world;
     let dist = length(to_eye);

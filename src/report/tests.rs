@@ -93,6 +93,8 @@ fn fixture(renderer: &str) -> Fixture {
                     latency_ms: 1,
                     cached: false,
                     model: None,
+                    visibility: Vec::new(),
+                    resamples: 0,
                 })
                 .unwrap();
             stats.add(outcome);
@@ -294,4 +296,44 @@ fn the_run_folder_itself_is_refused_and_a_missing_run_is_named() {
         std::fs::read_to_string(f.dir.join("report/index.html")).unwrap()
     };
     assert!(html.contains("<b>A</b>") && !html.contains("near_in_lane"));
+}
+
+#[test]
+fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() {
+    let f = fixture("builtin");
+    let path = f.dir.join("journal.jsonl");
+    let invisible = Record {
+        phase: Phase::Search,
+        set: vec!["debris_far".into()],
+        obs: 5,
+        seed: 5,
+        image: crate::hash::sha256_hex(b"unseen"),
+        prompt: "p".into(),
+        raw: "`debris` stayed hidden in 4 scenes".into(),
+        parsed: None,
+        answer: None,
+        expected: 0,
+        outcome: Outcome::Invisible,
+        usage: Usage::default(),
+        latency_ms: 0,
+        cached: false,
+        model: None,
+        visibility: Vec::new(),
+        resamples: 4,
+    };
+    let mut text = std::fs::read_to_string(&path).unwrap();
+    text.push_str(&serde_json::to_string(&invisible).unwrap());
+    text.push('\n');
+    std::fs::write(&path, &text).unwrap();
+    let html = write_report(&f, &f.dir.join("report"));
+    let breakdown = html.split("<thead><tr><th>outcome</th>").nth(1).expect("an outcome breakdown");
+    assert!(breakdown.contains("<span class=\"badge o-other\">invisible</span></td><td class=\"num\">1</td>"));
+
+    // A journal from a later revelio may hold an outcome this one does not know: the report
+    // names the line instead of failing obscurely (or dropping it as a torn last line).
+    let unknown = text.replacen("\"outcome\":\"invisible\"", "\"outcome\":\"melted\"", 1);
+    assert_ne!(unknown, text);
+    std::fs::write(&path, format!("{unknown}{}\n", text.lines().next().unwrap())).unwrap();
+    let e = load(&f.dir).err().expect("an unknown outcome is refused");
+    assert!(e.contains("journal.jsonl") && e.contains(&format!("line {}", text.lines().count())), "{e}");
 }

@@ -107,7 +107,7 @@ impl ApiErrorWatch {
         match outcome {
             Outcome::ApiError => *n += 1,
             // No model call was made: it says nothing about the model's API.
-            Outcome::ImageBlocked => return,
+            Outcome::ImageBlocked | Outcome::Invisible => return,
             _ => *n = 0,
         }
         if self.max > 0 && *n >= self.max {
@@ -224,8 +224,8 @@ impl Evaluator {
     /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
     /// re-tests failure modes and their subsets: not counted as new ones).
     fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
-        // A blocked image made no model call.
-        if outcome != Outcome::ImageBlocked {
+        // A blocked image or an invisible scene made no model call.
+        if outcome.asked_a_model() {
             self.spend.add(usage, cached);
         }
         if key.phase == Phase::Shrink {

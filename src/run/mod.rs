@@ -21,6 +21,8 @@ pub mod stop;
 mod testkit;
 #[cfg(test)]
 mod tests;
+#[cfg(feature = "render")]
+pub mod visible;
 
 use std::path::PathBuf;
 

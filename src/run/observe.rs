@@ -15,17 +15,30 @@
 //!
 //! A scene the image generator blocks (a safety filter, a text-only reply) is an observation of
 //! its own: outcome `image_blocked`, no model call, not an answer.
+//!
+//! The visibility guard: when the renderer measures visibility (the builtin one does), a scene in
+//! which an entity a concept placed is not visible by the domain's thresholds (`visible` items)
+//! is sampled again with the next seed (`seed + 1`, `seed + 2`, …) up to [`RESAMPLES`] times. If
+//! every scene tried hides one, the observation's outcome is `invisible`: no model is asked, the
+//! last image and its figures are journaled. Like `image_blocked` it takes its slot among the
+//! set's observations (so it counts against the search budget: a set the renderer cannot show
+//! still costs its rendering and cannot be searched forever), but it is neither a failure nor a
+//! success and not a model call.
 use std::sync::Arc;
 
 use crate::hash::sha256_hex as sha256;
 use crate::ir::{ConceptSet, Domain};
 use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
-use crate::render::Renderer;
+use crate::render::{EntityVisibility, Renderer};
 use crate::scene::Scene;
 use crate::vlm::{Model, Query, Reply, Truth};
 
 use super::render_pool::RenderPool;
+
+/// How many times a scene with an invisible entity is sampled again before the observation is
+/// recorded as `invisible`.
+pub const RESAMPLES: u32 = 5;
 
 /// Where an observation sits in a run: the journal's key.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -99,6 +112,12 @@ pub struct Stimulus {
     pub image_hash: String,
     /// The image generator's reason when it refused to draw the scene.
     pub blocked: Option<String>,
+    /// The renderer's visibility figures of the image (empty when it cannot measure them).
+    pub visibility: Vec<EntityVisibility>,
+    /// Scenes sampled again because an entity was not visible (`seed` is the last one).
+    pub resamples: u32,
+    /// Why the scene is not shown: the entities still not visible after the resamples.
+    pub invisible: Option<String>,
 }
 
 /// One finished observation.
@@ -155,21 +174,51 @@ impl Observer {
         self.world.task(set).map_err(|message| ObserveError::Task { set: self.names(set), message })
     }
 
-    /// Sample the scene of `set` for `seed`, build its image prompt, render and hash it.
+    /// Sample the scene of `set` for `seed`, build its image prompt, render and hash it; while
+    /// the renderer reports an entity a concept placed as not visible, sample again with the
+    /// next seed (at most [`RESAMPLES`] times).
     pub async fn stimulus(&self, set: ConceptSet, seed: u64) -> Result<Stimulus, ObserveError> {
+        let mut resamples = 0;
+        loop {
+            let mut stimulus = self.draw(set, seed.wrapping_add(u64::from(resamples))).await?;
+            stimulus.resamples = resamples;
+            if stimulus.invisible.is_none() || resamples == RESAMPLES {
+                return Ok(stimulus);
+            }
+            resamples += 1;
+        }
+    }
+
+    /// One scene for one seed, rendered and judged visible or not.
+    async fn draw(&self, set: ConceptSet, seed: u64) -> Result<Stimulus, ObserveError> {
         let scene =
             self.world.scene(set, seed).map_err(|message| ObserveError::Scene { set: self.names(set), message })?;
         // Exactly the text `revelio emit prompt` prints for this scene.
         let image_prompt = crate::emit::prompt(&self.domain, &scene)
             .map_err(|e| ObserveError::Scene { set: self.names(set), message: e.to_string() })?;
-        let mut stimulus =
-            Stimulus { set, seed, scene, image_prompt, image: None, image_hash: String::new(), blocked: None };
+        let mut stimulus = Stimulus {
+            set,
+            seed,
+            scene,
+            image_prompt,
+            image: None,
+            image_hash: String::new(),
+            blocked: None,
+            visibility: Vec::new(),
+            resamples: 0,
+            invisible: None,
+        };
         match &self.renderer {
             None => stimulus.image_hash = sha256(&serde_json::to_vec(&stimulus.scene).expect("scenes serialise")),
             Some(r) => match r.render(&stimulus.scene, &stimulus.image_prompt).await {
                 Ok(img) => {
                     stimulus.image_hash = sha256(&img.png);
                     stimulus.image = Some(Arc::new(img.png));
+                    if let Some(seen) = img.visibility {
+                        stimulus.invisible =
+                            unseen(&self.domain, &stimulus.scene, &seen).map(|why| format!("not visible: {why}"));
+                        stimulus.visibility = seen;
+                    }
                 }
                 Err(e) if e.blocked => stimulus.blocked = Some(e.message),
                 Err(e) => return Err(ObserveError::Render { set: self.names(set), message: e.message }),
@@ -196,7 +245,8 @@ impl Observer {
         }
     }
 
-    /// The outcome and journal line of a reply (`None`: the image was blocked, nobody asked).
+    /// The outcome and journal line of a reply (`None`: the image was blocked or an entity was
+    /// not visible, nobody asked).
     pub fn record(
         &self,
         key: ObsKey,
@@ -205,9 +255,11 @@ impl Observer {
         query: &Query,
         reply: Option<Reply>,
     ) -> Observation {
-        let (outcome, raw) = match (&reply, &stimulus.blocked) {
-            (Some(r), _) => (Outcome::from_answer(r.answer, task.expected), r.raw.clone()),
-            (None, blocked) => (Outcome::ImageBlocked, blocked.clone().unwrap_or_default()),
+        let (outcome, raw) = match (&reply, &stimulus.blocked, &stimulus.invisible) {
+            (Some(r), _, _) => (Outcome::from_answer(r.answer, task.expected), r.raw.clone()),
+            (None, Some(blocked), _) => (Outcome::ImageBlocked, blocked.clone()),
+            (None, None, Some(why)) => (Outcome::Invisible, why.clone()),
+            (None, None, None) => (Outcome::ImageBlocked, String::new()),
         };
         let record = Record {
             phase: key.phase,
@@ -228,6 +280,8 @@ impl Observer {
             latency_ms: reply.as_ref().map_or(0, |r| r.latency_ms),
             cached: reply.as_ref().is_some_and(|r| r.cached),
             model: None,
+            visibility: stimulus.visibility.clone(),
+            resamples: stimulus.resamples,
         };
         Observation { key, outcome, reply, record }
     }
@@ -259,9 +313,9 @@ impl Observer {
             j.store_image(png)?;
         }
         let query = self.query(&stimulus, task);
-        let reply = match stimulus.blocked {
-            Some(_) => None,
-            None => Some(model.ask(&query).await),
+        let reply = match (&stimulus.blocked, &stimulus.invisible) {
+            (None, None) => Some(model.ask(&query).await),
+            _ => None,
         };
         let observation = self.record(key, &stimulus, task, &query, reply);
         if let Some(j) = journal {
@@ -269,4 +323,25 @@ impl Observer {
         }
         Ok(observation)
     }
+}
+
+/// The entities a concept placed that `seen` reports as not visible by the domain's thresholds,
+/// with their figures (`None`: all visible).
+pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Option<String> {
+    let hidden: Vec<String> = scene
+        .entities
+        .iter()
+        .zip(seen)
+        .filter(|(e, _)| e.concept.is_some())
+        .filter_map(|(e, v)| {
+            let t = domain.visibility.threshold(&e.kind, e.concept.as_deref());
+            (!t.holds(v.pixels, v.contrast)).then(|| {
+                format!(
+                    "`{}` ({}) has {} px at contrast {:.3}, needs {} px at {:.3}",
+                    e.name, e.kind, v.pixels, v.contrast, t.pixels, t.contrast
+                )
+            })
+        })
+        .collect();
+    (!hidden.is_empty()).then(|| hidden.join("; "))
 }

@@ -218,7 +218,11 @@ impl crate::render::Renderer for Recorder {
                     "the image was blocked by the provider (IMAGE_SAFETY)",
                 ));
             }
-            Ok(crate::render::Rendered { png: format!("png of {}", scene.seed).into_bytes(), cached: false })
+            Ok(crate::render::Rendered {
+                png: format!("png of {}", scene.seed).into_bytes(),
+                cached: false,
+                visibility: None,
+            })
         })
     }
     fn blocking(&self) -> bool {
@@ -322,7 +326,7 @@ fn a_blocking_renderer_never_holds_an_async_worker() {
                         return Err(crate::render::RenderError::new("stalled: no model call finished while rendering"));
                     }
                 }
-                Ok(crate::render::Rendered { png: vec![scene.seed as u8], cached: false })
+                Ok(crate::render::Rendered { png: vec![scene.seed as u8], cached: false, visibility: None })
             })
         }
         fn blocking(&self) -> bool {

@@ -246,6 +246,7 @@ pub(crate) fn tiny_domain() -> Domain {
         rules: vec![],
         camera: Camera::default(),
         allow: vec![],
+        visibility: Default::default(),
     }
 }
 

@@ -120,6 +120,11 @@ pub enum ItemKind {
     Camera {
         stmts: Vec<CameraStmt>,
     },
+    /// `visible [NAME] { pixels = N  contrast = X }`.
+    Visible {
+        target: Option<Ident>,
+        params: Vec<(Ident, Num)>,
+    },
     Stage {
         name: Ident,
         opts: Vec<StageOpt>,

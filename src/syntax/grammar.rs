@@ -34,6 +34,7 @@ pub fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_rules => "rules",
         kw_rule => "rule",
         kw_allow => "allow",
+        kw_visible => "visible",
         kw_description => "description",
         kw_category => "category",
         kw_add => "add",
@@ -96,4 +97,5 @@ pub const ITEM_KEYWORDS: &[&str] = &[
     "question",
     "rules",
     "allow",
+    "visible",
 ];

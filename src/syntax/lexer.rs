@@ -136,6 +136,7 @@ pub const KEYWORDS: &[&str] = &[
     "rules",
     "rule",
     "allow",
+    "visible",
     "description",
     "category",
     "add",

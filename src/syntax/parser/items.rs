@@ -48,6 +48,7 @@ impl Builder<'_> {
                 ItemKind::Region { name, stmts }
             }
             Rule::preset_item => self.preset_item(c),
+            Rule::visible_item => self.visible_item(c),
             Rule::camera_item => ItemKind::Camera { stmts: c.rest().filter_map(|p| self.camera_stmt(p)).collect() },
             Rule::stage_item => self.stage_item(c),
             Rule::concept_item | Rule::modifier_item => {
@@ -158,6 +159,21 @@ impl Builder<'_> {
             }
         }
         ItemKind::Preset { name, for_variant, params }
+    }
+
+    pub(super) fn visible_item(&mut self, mut c: Children) -> ItemKind {
+        let target = c.next_if(Rule::ident).map(|p| self.ident(p));
+        let mut params = Vec::new();
+        for p in c.rest() {
+            if p.as_rule() == Rule::preset_param {
+                let mut pc = Children::of(p);
+                let n = self.ident(pc.next());
+                params.push((n, self.number(pc.next())));
+            } else {
+                self.junk(p);
+            }
+        }
+        ItemKind::Visible { target, params }
     }
 
     pub(super) fn stage_item(&mut self, mut c: Children) -> ItemKind {

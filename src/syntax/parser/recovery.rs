@@ -110,6 +110,7 @@ fn item_rule(text: &str, pos: usize) -> Option<Rule> {
         "world" => Rule::world_item,
         "region" => Rule::region_item,
         "preset" => Rule::preset_item,
+        "visible" => Rule::visible_item,
         "camera" => Rule::camera_item,
         "stage" => Rule::stage_item,
         "concept" => Rule::concept_item,
