@@ -10,7 +10,7 @@ use lsp_types::{CompletionItem, CompletionItemKind};
 use super::analysis::Analysis;
 use super::index::{Index, Sort};
 use crate::check::STDLIB;
-use crate::syntax::lexer::{self, KEYWORDS, Token, TokenKind};
+use crate::syntax::lexer::{self, Token, TokenKind};
 
 /// Completions at byte `offset` of the document `text` (file 0 of `a`).
 pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
@@ -239,45 +239,6 @@ fn expression_starts(ix: &Index) -> Vec<CompletionItem> {
 /// The tokens of the statement the cursor is in: back to the nearest statement keyword of the
 /// enclosing block, `{` or `}`.
 fn statement_tokens(sig: &[Token], text: &str) -> Vec<Token> {
-    const STARTS: &[&str] = &[
-        "domain",
-        "use",
-        "unit",
-        "enum",
-        "tag",
-        "relation",
-        "kind",
-        "look",
-        "world",
-        "region",
-        "preset",
-        "camera",
-        "stage",
-        "concept",
-        "modifier",
-        "constraint",
-        "question",
-        "rules",
-        "rule",
-        "allow",
-        "visible",
-        "description",
-        "category",
-        "add",
-        "set",
-        "probe",
-        "scenic",
-        "prompt",
-        "shape",
-        "target",
-        "move",
-        "text",
-        "option",
-        "when",
-        "expect",
-        "elements",
-        "safe",
-    ];
     let mut start = sig.len();
     while start > 0 {
         let t = sig[start - 1];
@@ -285,7 +246,7 @@ fn statement_tokens(sig: &[Token], text: &str) -> Vec<Token> {
             break;
         }
         start -= 1;
-        if t.kind == TokenKind::Ident && STARTS.contains(&t.text(text)) {
+        if t.kind == TokenKind::Ident && lexer::starts_statement(t.text(text)) {
             break;
         }
     }
@@ -353,7 +314,7 @@ fn keywords(block: Option<&str>) -> Vec<CompletionItem> {
     words
         .iter()
         .filter(|w| {
-            KEYWORDS.contains(w)
+            lexer::is_keyword(w)
                 || matches!(**w, "x" | "y" | "z" | "box" | "cylinder" | "capsule" | "sphere" | "plane" | "cone")
         })
         .map(|w| item(w, CompletionItemKind::KEYWORD, ""))

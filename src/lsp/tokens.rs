@@ -9,7 +9,7 @@ use super::analysis::Analysis;
 use super::index::Sort;
 use super::text::{Encoding, LineIndex};
 use crate::syntax::ast::ItemKind;
-use crate::syntax::lexer::{self, KEYWORDS, TokenKind};
+use crate::syntax::lexer::{self, TokenKind};
 
 const TYPES: &[SemanticTokenType] = &[
     SemanticTokenType::COMMENT,
@@ -93,7 +93,7 @@ pub fn tokens(a: &Analysis, lines: &LineIndex, enc: Encoding) -> Vec<SemanticTok
                     }
                     (type_of(s.sort), mods)
                 }
-                None if KEYWORDS.contains(&t.text(text))
+                None if lexer::is_keyword(t.text(text))
                     || matches!(t.text(text), "ego" | "self")
                     || placement_words.contains(&t.start) =>
                 {

@@ -77,25 +77,4 @@ pub fn keyword_text(r: Rule) -> Option<&'static str> {
 }
 
 /// The item keywords, for messages and recovery.
-pub const ITEM_KEYWORDS: &[&str] = &[
-    "domain",
-    "use",
-    "unit",
-    "enum",
-    "tag",
-    "relation",
-    "kind",
-    "look",
-    "world",
-    "region",
-    "preset",
-    "camera",
-    "stage",
-    "concept",
-    "modifier",
-    "constraint",
-    "question",
-    "rules",
-    "allow",
-    "visible",
-];
+pub use super::lexer::ITEM_KEYWORDS;

@@ -112,12 +112,10 @@ impl Token {
     }
 }
 
-/// The words the grammar reads as keywords where they stand in keyword position (`true` and
-/// `false` included). Some are also valid names elsewhere (`color`, `size`, `text`).
-pub const KEYWORDS: &[&str] = &[
+/// The keywords that open an item at the top level of a file.
+pub const ITEM_KEYWORDS: &[&str] = &[
     "domain",
     "use",
-    "std",
     "unit",
     "enum",
     "tag",
@@ -134,9 +132,13 @@ pub const KEYWORDS: &[&str] = &[
     "constraint",
     "question",
     "rules",
-    "rule",
     "allow",
     "visible",
+];
+
+/// The keywords that open a statement inside an item's block.
+pub const STATEMENT_KEYWORDS: &[&str] = &[
+    "rule",
     "description",
     "category",
     "add",
@@ -153,29 +155,24 @@ pub const KEYWORDS: &[&str] = &[
     "expect",
     "elements",
     "safe",
-    "for",
-    "at",
-    "look_at",
-    "fov",
-    "size",
-    "color",
-    "material",
-    "yaw",
-    "roll",
-    "pitch",
-    "repeat",
-    "step",
-    "in",
-    "not",
-    "and",
-    "or",
-    "has",
-    "exists",
-    "count",
-    "where",
-    "true",
-    "false",
 ];
+
+/// The keywords that stand inside a statement.
+const INNER_KEYWORDS: &[&str] = &[
+    "std", "for", "at", "look_at", "fov", "size", "color", "material", "yaw", "roll", "pitch", "repeat", "step", "in",
+    "not", "and", "or", "has", "exists", "count", "where", "true", "false",
+];
+
+/// Whether the grammar reads `word` as a keyword where it stands in keyword position (`true` and
+/// `false` included). Some are also valid names elsewhere (`color`, `size`, `text`).
+pub fn is_keyword(word: &str) -> bool {
+    starts_statement(word) || INNER_KEYWORDS.contains(&word)
+}
+
+/// Whether `word` opens an item or a statement.
+pub fn starts_statement(word: &str) -> bool {
+    ITEM_KEYWORDS.contains(&word) || STATEMENT_KEYWORDS.contains(&word)
+}
 
 /// Split `text` into tokens; their concatenation is `text`.
 pub fn lex(text: &str) -> Vec<Token> {
