@@ -17,6 +17,24 @@ fn revelio(args: &[&str]) -> Command {
     c
 }
 
+/// `revelio search domains/driving.rev` against `model` without rendering.
+fn search(model: &str, algo: &str, budget: &str, samples: &str) -> Command {
+    revelio(&[
+        "search",
+        "domains/driving.rev",
+        "--model",
+        model,
+        "--renderer",
+        "none",
+        "--algo",
+        algo,
+        "--budget",
+        budget,
+        "--samples",
+        samples,
+    ])
+}
+
 fn text(o: &Output) -> (i32, String, String) {
     (
         o.status.code().unwrap_or(-1),
@@ -54,37 +72,21 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     std::fs::write(&config, "[model.\"openai:vlm-test\"]\nconcurrency = 64\n").unwrap();
     let (uri, d) = (server.uri(), dir.path().to_path_buf());
     let cache = d.join("cache");
-    let search = move |out: &str, extra: &[&str], cache: &Path| {
+    let beam = move |out: &str, extra: &[&str], cache: &Path| {
         let out = d.join(out);
-        let mut args = vec![
-            "search",
-            "domains/driving.rev",
-            "--model",
-            "openai:vlm-test",
-            "--renderer",
-            "none",
-            "--algo",
-            "beam",
-            "--budget",
-            "30",
-            "--samples",
-            "3",
-        ];
-        args.extend_from_slice(extra);
-        let (o, c) = (out.to_str().unwrap().to_string(), cache.to_str().unwrap().to_string());
-        let mut cmd = revelio(&args);
-        cmd.args(["--out", &o, "--cache-dir", &c]);
+        let mut cmd = search("openai:vlm-test", "beam", "30", "3");
+        cmd.args(extra).arg("--out").arg(&out).arg("--cache-dir").arg(cache);
         (cmd, out)
     };
     let with_config = ["--base-url", uri.as_str(), "--model-config", config.to_str().unwrap()];
     let (cache2, with_config2) = (cache.clone(), with_config.map(String::from));
     let results = tokio::task::spawn_blocking(move || {
         let w: Vec<&str> = with_config2.iter().map(String::as_str).collect();
-        let (mut a, a_out) = search("a", &w, &cache2);
+        let (mut a, a_out) = beam("a", &w, &cache2);
         let a = text(&a.output().unwrap());
         let mut five = w.clone();
         five.extend(["--concurrency", "5"]);
-        let (mut b, _) = search("b", &five, &cache2);
+        let (mut b, _) = beam("b", &five, &cache2);
         let b = text(&b.output().unwrap());
         // No model flags: all of them come from a's config.json.
         let validate = text(
@@ -115,23 +117,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let (c, cache2, w) = (cache.clone(), cache.clone(), with_config.map(String::from));
     let again = tokio::task::spawn_blocking(move || {
         let w: Vec<&str> = w.iter().map(String::as_str).collect();
-        let mut cmd = revelio(&[
-            "search",
-            "domains/driving.rev",
-            "--model",
-            "openai:vlm-test",
-            "--renderer",
-            "none",
-            "--algo",
-            "beam",
-            "--budget",
-            "30",
-            "--samples",
-            "3",
-            "--shrink",
-            "0",
-            "--out",
-        ]);
+        let mut cmd = search("openai:vlm-test", "beam", "30", "3");
+        cmd.args(["--shrink", "0", "--out"]);
         cmd.arg(d.join("again")).args(&w).args(["--cache-dir", c.to_str().unwrap()]);
         text(&cmd.output().unwrap())
     })
@@ -150,23 +137,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let (d, w) = (dir.path().to_path_buf(), with_config.map(String::from));
     let gpts = tokio::task::spawn_blocking(move || {
         let w: Vec<&str> = w.iter().map(String::as_str).collect();
-        let mut cmd = revelio(&[
-            "search",
-            "domains/driving.rev",
-            "--model",
-            "openai:vlm-test",
-            "--renderer",
-            "none",
-            "--algo",
-            "gpts",
-            "--budget",
-            "30",
-            "--samples",
-            "3",
-            "--shrink",
-            "0",
-            "--out",
-        ]);
+        let mut cmd = search("openai:vlm-test", "gpts", "30", "3");
+        cmd.args(["--shrink", "0", "--out"]);
         cmd.arg(d.join("gpts")).args(&w).args(["--cache-dir", cache2.to_str().unwrap()]);
         text(&cmd.output().unwrap())
     })
@@ -185,22 +157,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
         let children: Vec<_> = ["p", "q"]
             .iter()
             .map(|name| {
-                let mut cmd = revelio(&[
-                    "search",
-                    "domains/driving.rev",
-                    "--model",
-                    "openai:vlm-test",
-                    "--renderer",
-                    "none",
-                    "--algo",
-                    "random",
-                    "--budget",
-                    "60",
-                    "--samples",
-                    "3",
-                    "--json",
-                    "--out",
-                ]);
+                let mut cmd = search("openai:vlm-test", "random", "60", "3");
+                cmd.args(["--json", "--out"]);
                 cmd.arg(d.join(name)).args(&w).args(["--cache-dir", shared.to_str().unwrap()]);
                 cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap()
             })
@@ -225,23 +183,8 @@ fn slow_profile(dir: &Path, latency_ms: u64) -> String {
 }
 
 fn slow_search(model: &str, out: &Path, budget: &str) -> Command {
-    let mut c = revelio(&[
-        "search",
-        "domains/driving.rev",
-        "--model",
-        model,
-        "--renderer",
-        "none",
-        "--algo",
-        "random",
-        "--budget",
-        budget,
-        "--samples",
-        "2",
-        "--concurrency",
-        "2",
-        "--json",
-    ]);
+    let mut c = search(model, "random", budget, "2");
+    c.args(["--concurrency", "2", "--json"]);
     c.arg("--out").arg(out);
     c
 }
@@ -345,25 +288,8 @@ async fn a_run_whose_model_calls_all_fail_exits_1() {
     let (uri, d) = (server.uri(), dir.path().to_path_buf());
     let outcome = tokio::task::spawn_blocking(move || {
         let run = |out: &str, extra: &[&str]| {
-            let mut cmd = revelio(&[
-                "search",
-                "domains/driving.rev",
-                "--model",
-                "openai:vlm-test",
-                "--renderer",
-                "none",
-                "--algo",
-                "random",
-                "--budget",
-                "40",
-                "--samples",
-                "2",
-                "--concurrency",
-                "2",
-                "--no-cache",
-                "--base-url",
-                &uri,
-            ]);
+            let mut cmd = search("openai:vlm-test", "random", "40", "2");
+            cmd.args(["--concurrency", "2", "--no-cache", "--base-url", &uri]);
             cmd.args(extra).arg("--out").arg(d.join(out));
             text(&cmd.output().unwrap())
         };
