@@ -1,7 +1,7 @@
 //! Sequential sampling and the shrink phase through the journaled runner: resume, budgets,
 //! `summary.json`.
 use super::runner;
-use super::tests::{block_on, config, journal_lines, setup};
+use super::tests::{block_on, config, journal_lines, killed_copy, setup};
 use crate::search::Algo;
 
 #[test]
@@ -25,11 +25,7 @@ fn a_run_killed_during_the_shrink_phase_resumes_to_the_same_summary() {
     let cuts =
         [start, start + 1, journal.len() - 1].into_iter().chain((0..5).map(|_| rng.random_range(start..journal.len())));
     for (k, cut) in cuts.enumerate() {
-        let run = dir.path().join(format!("killed{k}"));
-        std::fs::create_dir_all(&run).unwrap();
-        std::fs::copy(full.join("config.json"), run.join("config.json")).unwrap();
-        std::fs::write(run.join("journal.jsonl"), &journal[..cut]).unwrap();
-        let kept = journal[..cut].iter().filter(|&&b| b == b'\n').count() as u64;
+        let (run, kept) = killed_copy(&full, &journal[..cut], &dir.path().join(format!("killed{k}")));
         let (s, space) = setup(&run, 8);
         let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert_eq!(r.summary, reference, "cut at byte {cut}");

@@ -1,5 +1,5 @@
 //! End-to-end runs on synthetic domains: sim model, journal, resume, validation.
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::runner::{self, RunConfig, Setup};
@@ -64,6 +64,15 @@ fn same_seed_same_journal_and_summary() {
     }
 }
 
+/// A run folder `run` as a run killed after writing `journal` would leave it: `full`'s
+/// configuration and that journal prefix. Returns the folder and how many whole lines it kept.
+pub(super) fn killed_copy(full: &Path, journal: &[u8], run: &Path) -> (PathBuf, u64) {
+    std::fs::create_dir_all(run).unwrap();
+    std::fs::copy(full.join("config.json"), run.join("config.json")).unwrap();
+    std::fs::write(run.join("journal.jsonl"), journal).unwrap();
+    (run.to_path_buf(), journal.iter().filter(|&&b| b == b'\n').count() as u64)
+}
+
 /// A run killed at any byte of its journal resumes to the uninterrupted run's summary.
 fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
     use rand::{RngExt, SeedableRng};
@@ -77,11 +86,7 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
     let cuts =
         [0, 1, journal.len() - 1, journal.len()].into_iter().chain((0..6).map(|_| rng.random_range(0..journal.len())));
     for (k, cut) in cuts.enumerate() {
-        let run = dir.path().join(format!("crash{k}"));
-        std::fs::create_dir_all(&run).unwrap();
-        std::fs::copy(full.join("config.json"), run.join("config.json")).unwrap();
-        std::fs::write(run.join("journal.jsonl"), &journal[..cut]).unwrap();
-        let kept = journal[..cut].iter().filter(|&&b| b == b'\n').count() as u64;
+        let (run, kept) = killed_copy(&full, &journal[..cut], &dir.path().join(format!("crash{k}")));
         let (s, space) = setup(&run, 8);
         let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert_eq!(r.summary, reference, "cut at byte {cut}");
