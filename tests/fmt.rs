@@ -8,24 +8,8 @@ use std::path::{Path, PathBuf};
 use revelio::fmt::format;
 use revelio::syntax::{self, lexer};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn rev_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else { return out };
-    let mut entries: Vec<PathBuf> = entries.map(|e| e.unwrap().path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            out.extend(rev_files(&p));
-        } else if p.extension().is_some_and(|e| e == "rev") {
-            out.push(p);
-        }
-    }
-    out
-}
+mod common;
+use common::{rev_files, root};
 
 fn shipped() -> Vec<PathBuf> {
     let files: Vec<PathBuf> =

@@ -7,31 +7,15 @@
 //! text after the colon (the text is optional). Several annotations may share a line. Every
 //! diagnostic of the file must be annotated and every annotation must be matched.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use revelio::check::{self, Compiled};
 use revelio::cli::check::{Report, compile_path, line_col};
 use revelio::diag::codes::CODES;
 use revelio::diag::{Diagnostic, Severity};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn rev_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else { return out };
-    let mut entries: Vec<PathBuf> = entries.map(|e| e.unwrap().path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            out.extend(rev_files(&p));
-        } else if p.extension().is_some_and(|e| e == "rev") {
-            out.push(p);
-        }
-    }
-    out
-}
+mod common;
+use common::{rev_files, root};
 
 #[derive(Debug, PartialEq)]
 struct Expected {
