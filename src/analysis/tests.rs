@@ -8,16 +8,7 @@ fn names(s: &[&str]) -> Vec<String> {
 }
 
 fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
-    SetRow {
-        concepts: names(concepts),
-        fr: (answered > 0).then(|| f64::from(wrong) / f64::from(answered)),
-        ci95: crate::search::interval::wilson(wrong, answered),
-        wrong,
-        answered,
-        observations: answered,
-        unanswered: BTreeMap::new(),
-        core: None,
-    }
+    SetRow::from_counts(concepts, wrong, answered)
 }
 
 fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {

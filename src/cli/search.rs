@@ -429,16 +429,7 @@ mod tests {
     use crate::search::metrics::Metrics;
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
-        SetRow {
-            concepts: concepts.iter().map(|c| c.to_string()).collect(),
-            fr: Some(f64::from(wrong) / f64::from(answered)),
-            ci95: crate::search::interval::wilson(wrong, answered),
-            wrong,
-            answered,
-            observations: 5,
-            unanswered: BTreeMap::new(),
-            core: None,
-        }
+        SetRow { observations: 5, ..SetRow::from_counts(concepts, wrong, answered) }
     }
 
     fn summary(failure_modes: Vec<SetRow>, cores: Vec<CoreRow>, shrink: Option<ShrinkSummary>) -> Summary {

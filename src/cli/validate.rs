@@ -171,16 +171,7 @@ mod tests {
     use crate::run::runner::{SetRow, ValidatedSet};
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
-        SetRow {
-            concepts: concepts.iter().map(|c| c.to_string()).collect(),
-            fr: Some(f64::from(wrong) / f64::from(answered)),
-            ci95: crate::search::interval::wilson(wrong, answered),
-            wrong,
-            answered,
-            observations: answered,
-            unanswered: Default::default(),
-            core: None,
-        }
+        SetRow::from_counts(concepts, wrong, answered)
     }
 
     #[test]

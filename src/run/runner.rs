@@ -273,6 +273,21 @@ fn unit_interval() -> [f64; 2] {
 }
 
 impl SetRow {
+    /// A row from counts alone, every observation answered (tests' fixtures).
+    #[cfg(test)]
+    pub(crate) fn from_counts(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
+        SetRow {
+            concepts: concepts.iter().map(|c| c.to_string()).collect(),
+            fr: (answered > 0).then(|| f64::from(wrong) / f64::from(answered)),
+            ci95: crate::search::interval::wilson(wrong, answered),
+            wrong,
+            answered,
+            observations: answered,
+            unanswered: BTreeMap::new(),
+            core: None,
+        }
+    }
+
     pub fn new(domain: &Domain, s: &SetStats) -> SetRow {
         SetRow {
             concepts: domain.set_names(s.set).into_iter().map(String::from).collect(),
