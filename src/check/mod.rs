@@ -355,11 +355,12 @@ pub fn size_text(bytes: usize) -> String {
     }
 }
 
-/// `rel` resolved against the folder of `from`, with `.` and `..` segments collapsed.
-fn join_relative(from: &str, rel: &str) -> String {
+/// `rel` resolved against the folder of `from`, with `.` and `..` segments collapsed: the file
+/// a `use "…"` in `from` names.
+pub(crate) fn join_relative(from: &str, rel: &str) -> String {
     let base = if rel.starts_with('/') { "" } else { from.rsplit_once('/').map_or("", |(dir, _)| dir) };
     let mut parts: Vec<&str> = Vec::new();
-    let absolute = rel.starts_with('/') || (base.starts_with('/') && !base.is_empty());
+    let absolute = rel.starts_with('/') || base.starts_with('/');
     for seg in base.split('/').chain(rel.split('/')) {
         match seg {
             "" | "." => {}

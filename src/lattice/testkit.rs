@@ -31,27 +31,7 @@ pub fn world_filter() -> TargetFilter {
 
 impl Dom {
     pub fn new(selection: Selection) -> Dom {
-        let d = Domain {
-            name: "test".into(),
-            files: vec![SourceFile { name: "test.rev".into(), text: String::new() }],
-            units: vec![],
-            relations: vec![],
-            enums: vec![],
-            tags: vec![],
-            kinds: vec![],
-            world: vec![],
-            regions: vec![],
-            presets: vec![],
-            stage: vec![],
-            concepts: vec![],
-            constraints: vec![],
-            questions: vec![],
-            selection,
-            rules: vec![],
-            camera: Camera::default(),
-            allow: vec![],
-            visibility: Default::default(),
-        };
+        let d = Domain { selection, ..crate::ir::testkit::domain(&[]) };
         let mut dom = Dom { d, next_span: 1 };
         dom.region("lane");
         dom.region("sidewalk");

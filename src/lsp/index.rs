@@ -393,7 +393,7 @@ impl Index {
             ItemKind::Use(target) => {
                 let (name, span) = match target {
                     UseTarget::Std(m) => (format!("std/{}.rev", m.name), m.span),
-                    UseTarget::File(p) => (join_relative(s.name, &p.value), p.span),
+                    UseTarget::File(p) => (crate::check::join_relative(s.name, &p.value), p.span),
                 };
                 let module = self.all(&[Sort::Module]).find(|(_, m)| m.name == name).map(|(i, _)| i);
                 self.refer(span, module);
@@ -725,24 +725,6 @@ impl Index {
             _ => None,
         }
     }
-}
-
-/// `rel` resolved against the folder of `from`, as `use "…"` resolves it.
-fn join_relative(from: &str, rel: &str) -> String {
-    let base = if rel.starts_with('/') { "" } else { from.rsplit_once('/').map_or("", |(dir, _)| dir) };
-    let absolute = rel.starts_with('/') || base.starts_with('/');
-    let mut parts: Vec<&str> = Vec::new();
-    for seg in base.split('/').chain(rel.split('/')) {
-        match seg {
-            "" | "." => {}
-            ".." if parts.last().is_some_and(|p| *p != "..") => {
-                parts.pop();
-            }
-            _ => parts.push(seg),
-        }
-    }
-    let joined = parts.join("/");
-    if absolute { format!("/{joined}") } else { joined }
 }
 
 fn space_of(sort: Sort) -> Option<Space> {
