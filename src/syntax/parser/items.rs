@@ -145,9 +145,8 @@ impl Builder<'_> {
         AttrDecl { doc, name, ty, bounds, default, span }
     }
 
-    pub(super) fn preset_item(&mut self, mut c: Children) -> ItemKind {
-        let name = self.ident(c.next());
-        let for_variant = c.next_if(Rule::path).map(|p| self.path(p));
+    /// `name = number` parameters (of a preset or a `visible` item) up to the block's end.
+    fn preset_params(&mut self, c: Children) -> Vec<(Ident, Num)> {
         let mut params = Vec::new();
         for p in c.rest() {
             if p.as_rule() == Rule::preset_param {
@@ -158,21 +157,19 @@ impl Builder<'_> {
                 self.junk(p);
             }
         }
+        params
+    }
+
+    pub(super) fn preset_item(&mut self, mut c: Children) -> ItemKind {
+        let name = self.ident(c.next());
+        let for_variant = c.next_if(Rule::path).map(|p| self.path(p));
+        let params = self.preset_params(c);
         ItemKind::Preset { name, for_variant, params }
     }
 
     pub(super) fn visible_item(&mut self, mut c: Children) -> ItemKind {
         let target = c.next_if(Rule::ident).map(|p| self.ident(p));
-        let mut params = Vec::new();
-        for p in c.rest() {
-            if p.as_rule() == Rule::preset_param {
-                let mut pc = Children::of(p);
-                let n = self.ident(pc.next());
-                params.push((n, self.number(pc.next())));
-            } else {
-                self.junk(p);
-            }
-        }
+        let params = self.preset_params(c);
         ItemKind::Visible { target, params }
     }
 
