@@ -27,13 +27,12 @@ use revelio::vlm::{Query, prompt};
 use serde_json::{Value, json};
 use wiremock::{MockServer, Request, Respond, ResponseTemplate};
 
+mod common;
+use common::{root, walk};
+
 /// Long enough for any of these commands in a debug build on a loaded machine; a hang or a spin
 /// (what these attacks did before) runs into it.
 const GUARD: Duration = Duration::from_secs(240);
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Run `revelio` with exactly `env` (nothing inherited), killed after [`GUARD`].
 fn revelio(args: &[&str], env: &[(&str, &str)]) -> Output {
@@ -657,15 +656,6 @@ fn the_journal_keeps_a_bounded_prefix_of_long_replies() {
     for f in walk(&out.join("cache")) {
         assert!(std::fs::metadata(&f).unwrap().len() < 40 << 10, "{} is large", f.display());
     }
-}
-
-fn walk(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let p = e.path();
-        if p.is_dir() { out.extend(walk(&p)) } else { out.push(p) }
-    }
-    out
 }
 
 #[test]

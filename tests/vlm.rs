@@ -17,6 +17,9 @@ use serde_json::{Value, json};
 use wiremock::matchers::{method, path};
 use wiremock::{Mock, MockServer, Request, Respond, ResponseTemplate};
 
+mod common;
+use common::walk;
+
 /// Distinctive fake credentials, grepped for in every output.
 const KEY: &str = "sk-revelio-CANARY-5e1f0c9d";
 const AWS_SECRET: &str = "aws-secret-CANARY-77ab19";
@@ -578,15 +581,6 @@ async fn keys_never_leak_into_replies_ids_or_cache() {
         }
         assert!(outputs.iter().any(|o| o.contains("[redacted]")), "{spec}: the echo was not redacted");
     }
-}
-
-fn walk(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let p = e.path();
-        if p.is_dir() { out.extend(walk(&p)) } else { out.push(p) }
-    }
-    out
 }
 
 #[test]

@@ -1,4 +1,7 @@
-//! What several integration tests share: the checkout's root and its `.rev` files.
+//! What several integration tests share: the checkout's root and walks over its files. Each
+//! test binary uses a part of it.
+#![allow(dead_code)]
+
 use std::path::{Path, PathBuf};
 
 pub fn root() -> PathBuf {
@@ -17,6 +20,16 @@ pub fn rev_files(dir: &Path) -> Vec<PathBuf> {
         } else if p.extension().is_some_and(|e| e == "rev") {
             out.push(p);
         }
+    }
+    out
+}
+
+/// Every file under `dir`, recursively (none when it does not exist).
+pub fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let p = e.path();
+        if p.is_dir() { out.extend(walk(&p)) } else { out.push(p) }
     }
     out
 }
