@@ -420,19 +420,7 @@ mod tests {
     #[test]
     fn tokens_agree_with_pest_on_every_shipped_and_corpus_file() {
         use TokenKind::*;
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let mut files = Vec::new();
-        let mut dirs: Vec<_> = ["stdlib", "domains", "examples", "tests/corpus"].iter().map(|d| root.join(d)).collect();
-        while let Some(d) = dirs.pop() {
-            for e in std::fs::read_dir(&d).unwrap() {
-                let p = e.unwrap().path();
-                if p.is_dir() {
-                    dirs.push(p);
-                } else if p.extension().is_some_and(|x| x == "rev") {
-                    files.push(p);
-                }
-            }
-        }
+        let files = crate::syntax::rev_files(&["stdlib", "domains", "examples", "tests/corpus"]);
         assert!(files.len() >= 25, "{files:?}");
         let punctuation = [LBrace, RBrace, LParen, RParen, Comma, Colon, ColonColon, Dot, DotDot, Eq, Pipe];
         let mut leaves_seen = 0;

@@ -138,20 +138,10 @@ fn doc_sites(file: &File) -> Vec<(u32, String)> {
 fn token_doc_comments_agree_with_the_text_scan() {
     // Shipped and corpus files, and a few thousand cut-and-spliced variants of them (comments,
     // blank lines and odd characters moved into every position).
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut texts = Vec::new();
-    let mut dirs = vec![root.join("stdlib"), root.join("domains"), root.join("tests/corpus")];
-    while let Some(d) = dirs.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                dirs.push(p);
-            } else if p.extension().is_some_and(|x| x == "rev") {
-                texts.push(std::fs::read_to_string(p).unwrap());
-            }
-        }
-    }
-    texts.sort();
+    let texts: Vec<String> = crate::syntax::rev_files(&["stdlib", "domains", "tests/corpus"])
+        .into_iter()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .collect();
     let pieces =
         ["/// d\n", "//// x\n", "// c\n", "\n\n", "  ", "\u{feff}", "\u{a0}", "\r\n", "/// e  \r\n", "\"", "x "];
     let mut seed = 0x2545_F491_4F6C_DD1Du64;
