@@ -1,8 +1,10 @@
 //! The weight-space GP against scikit-learn's `GaussianProcessRegressor(DotProduct() +
-//! WhiteKernel())` on the datasets of `tests/gp/fixture.json` (made by `tests/gp/make_fixture.py`).
+//! WhiteKernel())` on the datasets of `tests/gp/fixture.json` (made by `tests/gp/make_fixture.py`),
+//! and the kernel ablation's RBF GP against `RBF() + WhiteKernel()` (`tests/gp/rbf_fixture.json`).
 
 use revelio::ir::{ConceptId, ConceptSet};
 use revelio::search::gp::{BOUNDS, Gp};
+use revelio::search::gp_rbf::RbfGp;
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -104,6 +106,93 @@ fn fitted_optimum_is_at_least_as_good_as_scikit_learns() {
         assert!(
             best - lml_at(theirs[0], theirs[1]) <= flat,
             "{name}: scikit-learn's θ {theirs:?} is far from our optimum {ours:?}"
+        );
+        for i in 0..2 {
+            let mut mixed = ours;
+            mixed[i] = theirs[i];
+            let agree = (ours[i].ln() - theirs[i].ln()).abs() <= 1e-3;
+            assert!(
+                agree || best - lml_at(mixed[0], mixed[1]) <= flat,
+                "{name}: hyperparameter {i}: {ours:?} vs {theirs:?}"
+            );
+        }
+        for v in ours {
+            assert!((BOUNDS.0..=BOUNDS.1).contains(&v), "{name}: {ours:?} outside the bounds");
+        }
+    }
+}
+
+// The kernel ablation's RBF + White GP against scikit-learn's `GaussianProcessRegressor(RBF() +
+// WhiteKernel())` on the same datasets (`tests/gp/rbf_fixture.json`, made by
+// `tests/gp/make_fixture.py rbf`).
+
+#[derive(Deserialize)]
+struct RbfFixture {
+    datasets: Vec<RbfDataset>,
+}
+
+#[derive(Deserialize)]
+struct RbfDataset {
+    name: String,
+    d: usize,
+    x: Vec<Vec<u32>>,
+    y: Vec<f64>,
+    test_x: Vec<Vec<u32>>,
+    fitted: RbfReference,
+    fixed: Vec<RbfReference>,
+}
+
+#[derive(Deserialize)]
+struct RbfReference {
+    length_scale: f64,
+    noise_level: f64,
+    lml: f64,
+    mean: Vec<f64>,
+    var: Vec<f64>,
+}
+
+fn rbf_fixture() -> RbfFixture {
+    serde_json::from_str(include_str!("gp/rbf_fixture.json")).expect("tests/gp/rbf_fixture.json parses")
+}
+
+fn assert_rbf_predictions(case: &str, gp: &RbfGp, test_x: &[ConceptSet], reference: &RbfReference) {
+    for (i, &set) in test_x.iter().enumerate() {
+        let (mean, var) = gp.predict(set);
+        assert_close(&format!("{case}: mean at test set {i}"), mean, reference.mean[i]);
+        assert_close(&format!("{case}: variance at test set {i}"), var + gp.noise_level(), reference.var[i]);
+    }
+}
+
+#[test]
+fn rbf_at_fixed_and_fitted_hyperparameters_matches_scikit_learn() {
+    for ds in rbf_fixture().datasets {
+        let (x, test_x) = (sets(&ds.x), sets(&ds.test_x));
+        for r in ds.fixed.iter().chain([&ds.fitted]) {
+            let case = format!("rbf {} at length_scale={} noise={}", ds.name, r.length_scale, r.noise_level);
+            let gp = RbfGp::with_params(&x, &ds.y, ds.d, r.length_scale, r.noise_level).unwrap();
+            assert_close(&format!("{case}: lml"), gp.log_marginal_likelihood(), r.lml);
+            assert_rbf_predictions(&case, &gp, &test_x, r);
+        }
+    }
+}
+
+/// As for the dot-product kernel: at least scikit-learn's likelihood, its θ near-optimal under
+/// ours, each hyperparameter equal to 0.1 % unless the likelihood is flat along it.
+#[test]
+fn rbf_fitted_optimum_is_at_least_as_good_as_scikit_learns() {
+    for ds in rbf_fixture().datasets {
+        let (r, x, name) = (&ds.fitted, sets(&ds.x), &ds.name);
+        let lml_at =
+            |l: f64, noise: f64| RbfGp::with_params(&x, &ds.y, ds.d, l, noise).unwrap().log_marginal_likelihood();
+        let gp = RbfGp::fit(&x, &ds.y, ds.d).unwrap();
+        let (ours, theirs) = ([gp.length_scale(), gp.noise_level()], [r.length_scale, r.noise_level]);
+        let best = gp.log_marginal_likelihood();
+        println!("rbf {name}: ours θ={ours:?} lml={best}; scikit-learn θ={theirs:?} lml={}", r.lml);
+        assert!(best >= r.lml - TOL, "{name}: lml {best} < scikit-learn's {}", r.lml);
+        let flat = 1e-5 * best.abs().max(1.0);
+        assert!(
+            best - lml_at(theirs[0], theirs[1]) <= flat,
+            "{name}: scikit-learn's θ {theirs:?} is far from ours {ours:?}"
         );
         for i in 0..2 {
             let mut mixed = ours;

@@ -14,6 +14,7 @@ use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup, Summary};
 use crate::run::setup::{self, ModelSettings, Parts};
+use crate::search::gp::Kernel;
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
 
 #[derive(clap::Args, Debug)]
@@ -56,6 +57,10 @@ pub struct SearchArgs {
     /// GPTS: Thompson draws per round, evaluated in parallel
     #[arg(long, default_value_t = 1)]
     pub batch: usize,
+    /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the
+    /// paper's kernel ablation)
+    #[arg(long, default_value = "dot", value_parser = kernel_parser())]
+    pub kernel: Kernel,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Largest concept set searched
@@ -166,6 +171,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
             .unwrap_or(args.budget / 2)
             .min(args.budget),
         batch: args.batch,
+        kernel: args.kernel,
         seed: args.seed,
         max_size: args.max_size,
         max_samples: args.max_samples,
@@ -177,6 +183,10 @@ pub fn run(args: SearchArgs) -> ExitCode {
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    if params.kernel != Kernel::Dot && params.algo != Algo::Gpts {
+        eprintln!("error: invalid `--kernel`: the GP kernel is GPTS's; `--algo {}` has no GP", params.algo.name());
         return ExitCode::from(2);
     }
     let settings = match &previous {
@@ -284,6 +294,12 @@ pub(crate) fn watch_ctrl_c(rt: &tokio::runtime::Runtime, stop: &crate::run::Stop
 }
 
 /// `--algo`: the search algorithms by name, listed in `--help`.
+pub(crate) fn kernel_parser() -> impl clap::builder::TypedValueParser<Value = Kernel> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Kernel::ALL.map(Kernel::name))
+        .map(|name| name.parse::<Kernel>().expect("the parser only lets listed names through"))
+}
+
 pub(crate) fn algo_parser() -> impl clap::builder::TypedValueParser<Value = Algo> {
     use clap::builder::TypedValueParser as _;
     clap::builder::PossibleValuesParser::new(Algo::ALL.map(Algo::name))

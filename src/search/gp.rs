@@ -13,6 +13,9 @@
 //! w ~ N(0, I), so everything here is done in weight space: the cost is O(n·k² + d³) for n
 //! observations of sets of size k over d concepts, never an n×n (or lattice-sized) matrix. A
 //! Thompson draw is one weight vector, so scoring a set costs O(|set|). See `docs/gp.md`.
+//!
+//! The paper's kernel ablation (appendix D) swaps in RBF + White: that GP lives in
+//! [`super::gp_rbf`]; [`Kernel`] names the choice and this module's optimiser fits both.
 
 use std::f64::consts::{PI, TAU};
 
@@ -26,6 +29,55 @@ use crate::ir::{ConceptSet, MAX_CONCEPTS};
 pub const ALPHA: f64 = 1e-10;
 /// scikit-learn's default hyperparameter bounds for both `sigma_0` and `noise_level`.
 pub const BOUNDS: (f64, f64) = (1e-5, 1e5);
+
+/// The GP kernel of GPTS (`--kernel`): the paper's DotProduct + White (the default), or RBF +
+/// White (its appendix D ablation).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kernel {
+    #[default]
+    Dot,
+    Rbf,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 2] = [Kernel::Dot, Kernel::Rbf];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Dot => "dot",
+            Kernel::Rbf => "rbf",
+        }
+    }
+
+    /// The kernel as scikit-learn writes it.
+    pub fn formula(self) -> &'static str {
+        match self {
+            Kernel::Dot => "DotProduct + White",
+            Kernel::Rbf => "RBF + White",
+        }
+    }
+
+    pub fn is_default(&self) -> bool {
+        *self == Kernel::Dot
+    }
+}
+
+impl std::fmt::Display for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Kernel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Kernel, String> {
+        Kernel::ALL.into_iter().find(|k| k.name() == s.trim()).ok_or_else(|| {
+            let names: Vec<&str> = Kernel::ALL.iter().map(|k| k.name()).collect();
+            format!("unknown kernel `{}`: expected one of {}", s.trim(), names.join(", "))
+        })
+    }
+}
 
 /// Why a GP could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -44,6 +96,30 @@ pub enum GpError {
     BadHyperparameter { name: &'static str, value: f64 },
     #[error("the failure rates are too large to fit: the marginal likelihood overflows")]
     Overflow,
+    #[error("a set of `{size}` concepts is too large for an exact RBF Thompson draw (at most {max})")]
+    SetTooLarge { size: usize, max: usize },
+}
+
+/// Check the training data: as many rates as sets, at least one, finite rates, concepts < `d`.
+pub(super) fn check_data(x: &[ConceptSet], y: &[f64], d: usize) -> Result<(), GpError> {
+    if x.len() != y.len() {
+        return Err(GpError::LengthMismatch { sets: x.len(), rates: y.len() });
+    }
+    if x.is_empty() {
+        return Err(GpError::Empty);
+    }
+    if d > MAX_CONCEPTS {
+        return Err(GpError::TooManyConcepts { d });
+    }
+    for (index, (&set, &value)) in x.iter().zip(y).enumerate() {
+        if !value.is_finite() {
+            return Err(GpError::NonFiniteTarget { index, value });
+        }
+        if let Some(concept) = set.iter().map(|c| c.index()).find(|&c| c >= d) {
+            return Err(GpError::ConceptOutOfRange { index, concept, d });
+        }
+    }
+    Ok(())
 }
 
 /// A fitted GP: hyperparameters plus the Gaussian posterior N(mean, cov) of the weights
@@ -95,7 +171,9 @@ impl Gp {
     pub fn fit(x: &[ConceptSet], y: &[f64], d: usize) -> Result<Gp, GpError> {
         let stats = Stats::new(x, y, d)?;
         // exp(ln 1e-5) is not exactly 1e-5: report a hyperparameter on its bound as the bound.
-        let [sigma0, noise_level] = maximise(&Spectrum::new(&stats)).map(|t| t.exp().clamp(BOUNDS.0, BOUNDS.1));
+        let spec = Spectrum::new(&stats);
+        let [sigma0, noise_level] =
+            maximise(|th| spec.lml_and_grad(th[0], th[1])).map(|t| t.exp().clamp(BOUNDS.0, BOUNDS.1));
         Gp::condition(&stats, sigma0, noise_level)
     }
 
@@ -193,13 +271,13 @@ impl Gp {
 
 /// Standard normal variates by the Box–Muller transform (`rand` without `rand_distr` has no
 /// normal distribution); both variates of each pair are used.
-struct StandardNormals<'a, R: Rng + ?Sized> {
+pub(super) struct StandardNormals<'a, R: Rng + ?Sized> {
     rng: &'a mut R,
     spare: Option<f64>,
 }
 
 impl<'a, R: Rng + ?Sized> StandardNormals<'a, R> {
-    fn new(rng: &'a mut R) -> Self {
+    pub(super) fn new(rng: &'a mut R) -> Self {
         StandardNormals { rng, spare: None }
     }
 }
@@ -235,15 +313,7 @@ struct Stats {
 
 impl Stats {
     fn new(x: &[ConceptSet], y: &[f64], d: usize) -> Result<Stats, GpError> {
-        if x.len() != y.len() {
-            return Err(GpError::LengthMismatch { sets: x.len(), rates: y.len() });
-        }
-        if x.is_empty() {
-            return Err(GpError::Empty);
-        }
-        if d > MAX_CONCEPTS {
-            return Err(GpError::TooManyConcepts { d });
-        }
+        check_data(x, y, d)?;
         let mut s = Stats {
             n: x.len(),
             d,
@@ -253,14 +323,8 @@ impl Stats {
             sum_y: 0.0,
             yy: 0.0,
         };
-        for (index, (&set, &value)) in x.iter().zip(y).enumerate() {
-            if !value.is_finite() {
-                return Err(GpError::NonFiniteTarget { index, value });
-            }
+        for (&set, &value) in x.iter().zip(y) {
             let idx: Vec<usize> = set.iter().map(|c| c.index()).collect();
-            if let Some(&concept) = idx.iter().find(|&&c| c >= d) {
-                return Err(GpError::ConceptOutOfRange { index, concept, d });
-            }
             for &i in &idx {
                 s.counts[i] += 1.0;
                 s.xty[i] += value;
@@ -336,17 +400,18 @@ impl Spectrum {
     }
 }
 
-/// Maximises the log marginal likelihood over θ = (log σ0, log noise) within [`BOUNDS`], from
+/// Maximises a log marginal likelihood `lml_and_grad(θ) → (LML, ∇LML)` over two log
+/// hyperparameters θ (log σ0 or log length scale, then log noise) within [`BOUNDS`], from
 /// scikit-learn's start θ = (0, 0): projected Newton with an Armijo backtracking line search
 /// (Hessian by central differences of the analytic gradient, shifted to be positive definite
 /// where the surface is not concave), with variables at a bound that the gradient pushes out
 /// of held fixed. Runs to a far tighter tolerance than L-BFGS-B's defaults.
-fn maximise(spec: &Spectrum) -> [f64; 2] {
+pub(super) fn maximise(lml_and_grad: impl Fn([f64; 2]) -> (f64, [f64; 2])) -> [f64; 2] {
     const MAX_ITER: usize = 200;
     let (lo, hi) = (BOUNDS.0.ln(), BOUNDS.1.ln());
     // Minimise f = −LML.
     let eval = |th: [f64; 2]| {
-        let (l, g) = spec.lml_and_grad(th[0], th[1]);
+        let (l, g) = lml_and_grad(th);
         (-l, [-g[0], -g[1]])
     };
     let mut theta = [0.0, 0.0];

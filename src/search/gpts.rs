@@ -6,13 +6,47 @@
 //! round), and evaluates the distinct argmaxes over all unexplored valid sets in parallel. Ties go
 //! to the set earliest in the lattice order. When the beam phase produced no data (a beam budget
 //! of 0) the first round draws uniformly, since a fit on no data says nothing.
+//!
+//! The surrogate is the paper's DotProduct + White GP ([`Gp`], drawn in weight space) unless
+//! `--kernel rbf` asks for its ablation's RBF + White ([`RbfGp`], an exact joint draw by
+//! Matheron's rule); both are scored over every unexplored valid set.
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::ir::ConceptSet;
 
-use super::gp::{Draw, Gp};
+use super::gp::{Gp, GpError, Kernel};
+use super::gp_rbf::RbfGp;
 use super::{Driver, Evaluate, Params, Space};
+
+/// A fitted surrogate of the chosen kernel.
+enum Fitted {
+    Dot(Gp),
+    Rbf(RbfGp),
+}
+
+impl Fitted {
+    fn fit(kernel: Kernel, x: &[ConceptSet], y: &[f64], d: usize) -> Result<Fitted, GpError> {
+        Ok(match kernel {
+            Kernel::Dot => Fitted::Dot(Gp::fit(x, y, d)?),
+            Kernel::Rbf => Fitted::Rbf(RbfGp::fit(x, y, d)?),
+        })
+    }
+
+    /// The argmax of one fresh Thompson draw over the unexplored sets.
+    fn pick(&self, rng: &mut ChaCha8Rng, explored: &[bool], space: &Space) -> Option<ConceptSet> {
+        match self {
+            Fitted::Dot(gp) => {
+                let draw = gp.draw(rng);
+                argmax(explored, space, |s| draw.score(s))
+            }
+            Fitted::Rbf(gp) => {
+                let draw = gp.draw(rng);
+                argmax(explored, space, |s| draw.score(s))
+            }
+        }
+    }
+}
 
 /// Salt for the GPTS random stream, so it differs from Random's stream for the same seed.
 const STREAM: u64 = 0x6770_7473_0000_0001;
@@ -45,15 +79,15 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
         } else {
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
-            let model = Gp::fit(&x, &y, space.dim).map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
+            let model = Fitted::fit(params.kernel, &x, &y, space.dim)
+                .map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
             // More draws than unexplored sets or than the budget pays for only repeat argmaxes:
             // each costs a pass over the lattice, so a huge `--batch` would spin.
             let affordable = driver.remaining() / u64::from(params.samples.max(1));
             let draws = params.batch.min(left).min(usize::try_from(affordable).unwrap_or(usize::MAX));
             let mut picks: Vec<ConceptSet> = Vec::with_capacity(draws);
             for _ in 0..draws {
-                let draw = model.draw(&mut rng);
-                if let Some(best) = argmax(&explored, space, &draw).filter(|b| !picks.contains(b)) {
+                if let Some(best) = model.pick(&mut rng, &explored, space).filter(|b| !picks.contains(b)) {
                     picks.push(best);
                 }
             }
@@ -68,13 +102,13 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
 }
 
 /// The unexplored set with the highest drawn score; ties go to the earliest in lattice order.
-fn argmax(explored: &[bool], space: &Space, draw: &Draw) -> Option<ConceptSet> {
+fn argmax(explored: &[bool], space: &Space, score: impl Fn(ConceptSet) -> f64) -> Option<ConceptSet> {
     let mut best: Option<(usize, f64)> = None;
     for (i, set) in space.sets.iter().enumerate() {
         if explored[i] {
             continue;
         }
-        let v = draw.score(*set);
+        let v = score(*set);
         if best.is_none_or(|(_, b)| v > b) {
             best = Some((i, v));
         }

@@ -21,6 +21,7 @@
 
 pub mod beam;
 pub mod gp;
+pub mod gp_rbf;
 pub mod gpts;
 pub mod interact;
 pub mod interval;
@@ -100,6 +101,10 @@ pub struct Params {
     pub beam_budget: u64,
     /// GPTS: Thompson draws (and sets evaluated in parallel) per round.
     pub batch: usize,
+    /// GPTS: the GP kernel (the paper's DotProduct + White unless its kernel ablation asks for
+    /// RBF + White).
+    #[serde(default, skip_serializing_if = "gp::Kernel::is_default")]
+    pub kernel: gp::Kernel,
     pub seed: u64,
     /// Largest set size in the lattice.
     pub max_size: usize,
@@ -146,6 +151,7 @@ impl Default for Params {
             lambda: DEFAULT_LAMBDA,
             beam_budget: 500,
             batch: 1,
+            kernel: gp::Kernel::Dot,
             seed: 0,
             max_size: 5,
             surrogate: interact::Surrogate::default(),
@@ -199,6 +205,16 @@ impl Params {
                 &format!(
                     "{} inferences cannot test one subset of {} samples (0 turns shrinking off)",
                     self.shrink, self.samples
+                ),
+            );
+        }
+        if self.algo == Algo::Gpts && self.kernel == gp::Kernel::Rbf && self.max_size > gp_rbf::MAX_DRAW_SET {
+            return bad(
+                "kernel",
+                &format!(
+                    "rbf's exact Thompson draw sums over every subset of a set, so it needs `--max-size` ≤ {}, got {}",
+                    gp_rbf::MAX_DRAW_SET,
+                    self.max_size
                 ),
             );
         }

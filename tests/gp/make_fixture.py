@@ -1,16 +1,19 @@
 """Reference values for `tests/gp.rs` from scikit-learn's GaussianProcessRegressor.
 
-The Rust GP (`src/search/gp.rs`) must reproduce
-`GaussianProcessRegressor(kernel=DotProduct() + WhiteKernel())` with all other defaults
-(normalize_y=False, alpha=1e-10, one L-BFGS-B run from sigma_0=1, noise_level=1, bounds
+The Rust GPs must reproduce `GaussianProcessRegressor(kernel=DotProduct() + WhiteKernel())`
+(`src/search/gp.rs`) and, for the kernel ablation, `GaussianProcessRegressor(kernel=RBF() +
+WhiteKernel())` (`src/search/gp_rbf.rs`), with all other defaults (normalize_y=False,
+alpha=1e-10, one L-BFGS-B run from sigma_0=1 or length_scale=1 and noise_level=1, bounds
 1e-5..1e5). Regenerate with:
 
-    python3 -m venv /work/target/sk-venv && /work/target/sk-venv/bin/pip install scikit-learn
-    /work/target/sk-venv/bin/python tests/gp/make_fixture.py > tests/gp/fixture.json
+    python3 -m venv /tmp/sk-venv && /tmp/sk-venv/bin/pip install scikit-learn
+    /tmp/sk-venv/bin/python tests/gp/make_fixture.py > tests/gp/fixture.json
+    /tmp/sk-venv/bin/python tests/gp/make_fixture.py rbf > tests/gp/rbf_fixture.json
 
 Concept sets are written as lists of concept indices; `var` is scikit-learn's predicted
 `std ** 2`, which includes the WhiteKernel's noise_level (the Rust `predict` returns the
-variance of the latent function without it).
+variance of the latent function without it). The first hyperparameter is written as `sigma0`
+(DotProduct) or `length_scale` (RBF).
 """
 
 import json
@@ -22,10 +25,16 @@ import scipy
 import sklearn
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import DotProduct, WhiteKernel
+from sklearn.gaussian_process.kernels import RBF, DotProduct, WhiteKernel
 
 D = 30
-FIXED_THETAS = [(1.0, 1.0), (0.3, 0.05), (2.0, 1e-3)]
+# Per kernel: how to build it at a first hyperparameter, that hyperparameter's names in
+# scikit-learn and in the fixture, and the fixed values to check.
+KERNELS = {
+    "dot": (lambda p: DotProduct(sigma_0=p), "k1__sigma_0", "sigma0", [(1.0, 1.0), (0.3, 0.05), (2.0, 1e-3)]),
+    "rbf": (lambda p: RBF(length_scale=p), "k1__length_scale", "length_scale", [(1.0, 1.0), (0.5, 0.05), (3.0, 1e-3)]),
+}
+KERNEL = KERNELS[sys.argv[1] if len(sys.argv) > 1 else "dot"]
 
 
 def random_sets(rng, n, d, sizes=(1, 5)):
@@ -50,7 +59,7 @@ def summary(gp, x_test):
     mean, std = gp.predict(x_test, return_std=True)
     params = gp.kernel_.get_params()
     return {
-        "sigma0": params["k1__sigma_0"],
+        KERNEL[2]: params[KERNEL[1]],
         "noise_level": params["k2__noise_level"],
         "lml": gp.log_marginal_likelihood_value_,
         "mean": mean.tolist(),
@@ -63,15 +72,13 @@ def dataset(name, sets, y, test_sets):
     with warnings.catch_warnings():
         # A hyperparameter ending on its bound is one of the cases under test.
         warnings.simplefilter("ignore", ConvergenceWarning)
-        fitted = GaussianProcessRegressor(kernel=DotProduct() + WhiteKernel()).fit(x, y)
+        fitted = GaussianProcessRegressor(kernel=KERNEL[0](1.0) + WhiteKernel()).fit(x, y)
     fixed = [
         summary(
-            GaussianProcessRegressor(kernel=DotProduct(sigma_0=s0) + WhiteKernel(noise_level=nl), optimizer=None).fit(
-                x, y
-            ),
+            GaussianProcessRegressor(kernel=KERNEL[0](p) + WhiteKernel(noise_level=nl), optimizer=None).fit(x, y),
             x_test,
         )
-        for s0, nl in FIXED_THETAS
+        for p, nl in KERNEL[3]
     ]
     return {
         "name": name,
@@ -100,7 +107,7 @@ def main():
     out.append(dataset("never_fails", sets, np.zeros(len(sets)), test_sets))
     json.dump(
         {
-            "generator": "tests/gp/make_fixture.py",
+            "generator": " ".join(["tests/gp/make_fixture.py"] + sys.argv[1:]),
             "versions": {"sklearn": sklearn.__version__, "scipy": scipy.__version__, "numpy": np.__version__},
             "datasets": out,
         },

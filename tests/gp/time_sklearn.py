@@ -1,6 +1,6 @@
 """Times scikit-learn on the workload of `benches/gp.rs`, for the comparison in docs/gp.md.
 
-    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 /work/target/sk-venv/bin/python tests/gp/time_sklearn.py
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 /tmp/sk-venv/bin/python tests/gp/time_sklearn.py
 """
 
 import time
