@@ -100,7 +100,8 @@ pub struct SearchBenchArgs {
     #[arg(long, default_value = "fallback")]
     pub supersets: Supersets,
     /// Ablation: run every algorithm at each value of one parameter (beam_width, beam_budget,
-    /// samples, threshold, lambda), e.g. `beam_width=1,5,10`; prints a table and writes an SVG plot
+    /// samples, threshold, lambda; or GPTS at each GP kernel: kernel=dot,rbf), e.g.
+    /// `beam_width=1,5,10`; prints a table and writes an SVG plot
     #[arg(long, value_name = "PARAM=V1,V2,…")]
     pub sweep: Option<crate::analysis::sweep::Sweep>,
     /// Where `--sweep` writes its plot [default: sweep-PARAM.svg]

@@ -1,6 +1,7 @@
 //! `revelio bench search --sweep PARAM=v1,v2,…`: every algorithm over the bench's seeds at each
-//! value of one search parameter; a table of PFM, MFR and Div (mean ± sd over seeds) and an SVG
-//! plot (`--plot FILE`, default `sweep-PARAM.svg`).
+//! value of one search parameter (GPTS alone for `kernel`, the only one it changes); a table of
+//! PFM, MFR and Div (mean ± sd over seeds) and an SVG plot (`--plot FILE`, default
+//! `sweep-PARAM.svg`).
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -10,7 +11,7 @@ use crate::analysis::sweep::{Point, Sweep, plot};
 use crate::ir::{ConceptSet, Domain};
 use crate::run::observe::World;
 use crate::search::metrics::mean_sd;
-use crate::search::{Algo, Params, Space};
+use crate::search::{Params, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::Profile;
 
@@ -35,7 +36,17 @@ fn stat(xs: &[f64]) -> Option<(f64, f64)> {
 
 pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> ExitCode {
     let mut points = Vec::new();
-    let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
+    let changed = sweep.param.algos();
+    let algos = if args.algos.is_empty() { changed.to_vec() } else { args.algos.clone() };
+    if let Some(a) = algos.iter().find(|a| !changed.contains(a)) {
+        eprintln!(
+            "error: `--sweep {}` changes only {}; `--algos` names `{}`",
+            sweep.param.name(),
+            changed.iter().map(|a| a.name()).collect::<Vec<_>>().join(", "),
+            a.name()
+        );
+        return ExitCode::from(2);
+    }
     for &value in &sweep.values {
         let at = sweep.param.apply(base, value);
         // The beam phase of GPTS cannot outgrow the budget.
@@ -68,7 +79,7 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
         }
     }
     let path = args.plot.clone().unwrap_or_else(|| PathBuf::from(format!("sweep-{}.svg", sweep.param.name())));
-    match plot(sweep.param, &points) {
+    match plot(sweep, &points) {
         Ok(svg) => {
             if let Err(e) = std::fs::write(&path, svg) {
                 eprintln!("error: cannot write `{}`: {}", path.display(), e.to_string().to_lowercase());
@@ -109,7 +120,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, sweep: &Sweep, points: &[Po
         writeln!(
             w,
             "{:>12}  {:<6}  {:>13}  {:>13}  {:>11}",
-            p.value,
+            p.value.to_string(),
             p.algo,
             format!("{:.1} ± {:.1}", p.pfm.0, p.pfm.1),
             format!("{:.1} ± {:.1}", p.mfr.0, p.mfr.1),
