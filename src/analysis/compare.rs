@@ -57,18 +57,13 @@ pub struct Row {
     pub cost_usd: f64,
 }
 
-/// Wilson score interval of `k` successes in `n` at 95 %.
+/// `k` of `n` with its Wilson score 95 % interval ([`crate::search::interval::wilson`]); no
+/// trial at all says nothing: 0 in [0, 1].
 pub fn wilson(k: u64, n: u64) -> Rate {
-    if n == 0 {
-        return Rate { value: 0.0, low: 0.0, high: 1.0 };
+    match super::wilson95(k, n) {
+        Some((low, high)) => Rate { value: k.min(n) as f64 / n as f64, low, high },
+        None => Rate { value: 0.0, low: 0.0, high: 1.0 },
     }
-    let (k, n) = (k as f64, n as f64);
-    let z = 1.959_964;
-    let p = k / n;
-    let denom = 1.0 + z * z / n;
-    let centre = (p + z * z / (2.0 * n)) / denom;
-    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / denom;
-    Rate { value: p, low: (centre - half).max(0.0), high: (centre + half).min(1.0) }
 }
 
 fn jaccard_distance(a: &BTreeSet<&str>, b: &BTreeSet<&str>) -> f64 {
@@ -104,7 +99,7 @@ pub fn diversity(modes: &[Vec<String>]) -> Option<Rate> {
     let loo: Vec<f64> = (0..n).map(|i| mean_distance(&sets, Some(i))).collect();
     let mean = loo.iter().sum::<f64>() / n as f64;
     let var = (n as f64 - 1.0) / n as f64 * loo.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
-    let half = 1.959_964 * var.sqrt();
+    let half = crate::search::interval::Z95 * var.sqrt();
     Some(Rate { value, low: (value - half).max(0.0), high: (value + half).min(1.0) })
 }
 

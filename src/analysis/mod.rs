@@ -37,24 +37,26 @@ pub fn same_set(a: &[String], b: &[String]) -> bool {
     a.len() == b.len() && is_subset(a, b)
 }
 
-/// z for a two-sided 95 % interval.
-const Z95: f64 = 1.959_963_984_540_054;
-
-/// Wilson score 95 % interval of `k` failures in `n` answered observations; `None` for n = 0.
+/// Wilson score 95 % interval ([`crate::search::interval::wilson`], the one the search's
+/// sequential test uses) of `k` failures in `n` answered observations; `None` for n = 0.
 ///
-/// Only for runs whose `summary.json` carries no `ci95` (written before intervals were added):
-/// the report reads the summary's own intervals when they are there.
+/// For counts a run's `summary.json` carries no interval for (runs written before intervals
+/// were added, PFM and MFR); the report reads the summary's own intervals when they are there.
 pub fn wilson95(k: u64, n: u64) -> Option<(f64, f64)> {
     if n == 0 {
         return None;
     }
-    let (k, n) = (k.min(n) as f64, n as f64);
-    let p = k / n;
-    let z2 = Z95 * Z95;
-    let denom = 1.0 + z2 / n;
-    let centre = (p + z2 / (2.0 * n)) / denom;
-    let half = Z95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denom;
-    Some(((centre - half).max(0.0), (centre + half).min(1.0)))
+    match (u32::try_from(k.min(n)), u32::try_from(n)) {
+        (Ok(k), Ok(n)) => {
+            let [lo, hi] = crate::search::interval::wilson(k, n);
+            Some((lo, hi))
+        }
+        // Beyond 4·10⁹ trials the interval is narrower than any rate is printed.
+        _ => {
+            let p = k.min(n) as f64 / n as f64;
+            Some((p, p))
+        }
+    }
 }
 
 /// F(c) for one concept: the mean failure rate of the evaluated sets that contain it.
@@ -152,6 +154,103 @@ pub fn outcome_counts(observations: &[&Record]) -> BTreeMap<Phase, BTreeMap<Outc
     for r in observations {
         *out.entry(r.phase).or_default().entry(r.outcome).or_default() += 1;
     }
+    out
+}
+
+/// How a set of scenes fared with the visibility guard (`run::observe`): each scene shown to a
+/// model — or not, when an entity a concept placed stayed hidden — counted once however many
+/// models saw it (a transfer shows one scene to every model).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SceneVisibility {
+    pub scenes: u64,
+    /// Scenes whose renderer measured visibility (the builtin renderer does).
+    pub measured: u64,
+    /// Scenes drawn again at least once because an entity was not visible.
+    pub resampled: u64,
+    /// Draws thrown away, summed over the scenes.
+    pub redraws: u64,
+    /// Scenes recorded `invisible`: still hiding an entity after every redraw.
+    pub invisible: u64,
+}
+
+impl SceneVisibility {
+    fn add(&mut self, r: &Record) {
+        self.scenes += 1;
+        self.measured += u64::from(!r.visibility.is_empty());
+        self.resampled += u64::from(r.resamples > 0);
+        self.redraws += u64::from(r.resamples);
+        self.invisible += u64::from(r.outcome == Outcome::Invisible);
+    }
+}
+
+/// The visibility guard's counts per phase over `observations` (each (phase, set, index) once).
+pub fn visibility_by_phase(observations: &[&Record]) -> BTreeMap<Phase, SceneVisibility> {
+    let mut seen: std::collections::HashSet<(Phase, &[String], u32)> = std::collections::HashSet::new();
+    let mut out: BTreeMap<Phase, SceneVisibility> = BTreeMap::new();
+    for r in observations {
+        if seen.insert((r.phase, r.set.as_slice(), r.obs)) {
+            out.entry(r.phase).or_default().add(r);
+        }
+    }
+    out
+}
+
+/// The visibility guard's counts over `observations`, all phases together.
+pub fn visibility(observations: &[&Record]) -> SceneVisibility {
+    let mut total = SceneVisibility::default();
+    for v in visibility_by_phase(observations).values() {
+        total.scenes += v.scenes;
+        total.measured += v.measured;
+        total.resampled += v.resampled;
+        total.redraws += v.redraws;
+        total.invisible += v.invisible;
+    }
+    total
+}
+
+/// The figures measured for one concept's entities across scenes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConceptVisibility {
+    pub concept: String,
+    /// Entities measured (one per scene and entity the concept placed).
+    pub n: usize,
+    pub min_pixels: u32,
+    pub median_pixels: u32,
+    pub median_contrast: f64,
+}
+
+/// Per concept, the visible pixels and contrast of the entities it placed in the scenes of
+/// `observations` (each scene once), fewest pixels first.
+pub fn concept_visibility(observations: &[&Record]) -> Vec<ConceptVisibility> {
+    let mut seen: std::collections::HashSet<(Phase, &[String], u32)> = std::collections::HashSet::new();
+    let mut by: BTreeMap<&str, (Vec<u32>, Vec<f64>)> = BTreeMap::new();
+    for r in observations {
+        if !seen.insert((r.phase, r.set.as_slice(), r.obs)) {
+            continue;
+        }
+        for v in &r.visibility {
+            if let Some(c) = &v.concept {
+                let e = by.entry(c).or_default();
+                e.0.push(v.pixels);
+                e.1.push(v.contrast);
+            }
+        }
+    }
+    let mut out: Vec<ConceptVisibility> = by
+        .into_iter()
+        .map(|(c, (mut px, mut contrast))| {
+            px.sort_unstable();
+            contrast.sort_by(f64::total_cmp);
+            ConceptVisibility {
+                concept: c.to_string(),
+                n: px.len(),
+                min_pixels: px[0],
+                median_pixels: px[px.len() / 2],
+                median_contrast: contrast[contrast.len() / 2],
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.min_pixels.cmp(&b.min_pixels).then_with(|| a.concept.cmp(&b.concept)));
     out
 }
 
