@@ -10,10 +10,14 @@
 //! - Mechanism: reasoning when R ≥ `high`, recognition when R ≤ `low`, mixed between.
 //! - Lift(A, B) = mean FR of the sets holding both − (F(A) + F(B) − F(A)·F(B)), for pairs where
 //!   both concepts have n ≥ `min_n` and at least one set holds both.
+//!
+//! [`ProbeReport`] is `probe.json`: what `revelio probe` prints and the run report shows.
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
+
+use crate::run::eval::Spend;
 
 /// One probed set: its concepts, the safety answers, and the statement marks.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -167,6 +171,47 @@ pub struct Analysis {
     pub concepts: Vec<ConceptRow>,
     /// Largest |lift| first.
     pub pairs: Vec<PairRow>,
+}
+
+/// `probe.json`: the probed sets, the analysis, and what the probe cost.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProbeReport {
+    pub model: String,
+    pub top: usize,
+    pub samples: u32,
+    /// The probed sets' safety failure rates (from the probe replies).
+    pub sets: Vec<ProbedRow>,
+    pub analysis: Analysis,
+    /// Statements the replies left unmarked (never guessed).
+    pub unanswered_statements: u32,
+    pub spend: Spend,
+}
+
+/// One probed set in `probe.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProbedRow {
+    pub concepts: Vec<String>,
+    pub fr: Option<f64>,
+    pub wrong: u32,
+    pub answered: u32,
+}
+
+impl ProbeReport {
+    /// The report of `probed` (`samples` observations each) asked of `model`.
+    pub fn new(model: String, probed: &[ProbedSet], samples: u32, t: &Thresholds, spend: Spend) -> ProbeReport {
+        ProbeReport {
+            model,
+            top: probed.len(),
+            samples,
+            sets: probed
+                .iter()
+                .map(|p| ProbedRow { concepts: p.concepts.clone(), fr: p.fr(), wrong: p.wrong, answered: p.answered })
+                .collect(),
+            analysis: analyse(probed, t),
+            unanswered_statements: probed.iter().flat_map(|p| p.marks.values()).map(|m| m.unanswered).sum(),
+            spend,
+        }
+    }
 }
 
 fn mean(xs: &[f64]) -> Option<f64> {

@@ -67,6 +67,12 @@ fn journaled(journal: &Journal, phase: Phase) -> HashMap<LineKey, Record> {
         .collect()
 }
 
+/// Whether a model was asked for the line: not for a scene the image generator blocked or one
+/// whose entity stayed invisible (neither costs a call).
+fn asked(rec: &Record) -> bool {
+    !matches!(rec.outcome, Outcome::ImageBlocked | Outcome::Invisible)
+}
+
 fn stopped(stop: &Stop) -> Result<(), RunError> {
     match stop.reason() {
         Some(r) => Err(RunError::Stopped(r)),
@@ -105,7 +111,7 @@ pub async fn probe(
             let st = statements(&domain, set, seed);
             if let Some(rec) = done.get(&(Phase::Probe, names.clone(), index, None)) {
                 let marks = crate::vlm::statements::parse(&rec.raw, st.len());
-                if rec.outcome != Outcome::ImageBlocked {
+                if asked(rec) {
                     spend.add(&rec.usage, rec.cached);
                 }
                 progress.inc(&spend);
@@ -129,9 +135,11 @@ pub async fn probe(
                 if let Some(t) = query.truth.as_mut() {
                     t.statements = st.clone();
                 }
-                let reply = match stimulus.blocked {
-                    Some(_) => None,
-                    None => Some(model.ask(&query).await),
+                // The visibility guard: a scene the image generator blocked, or one whose entity
+                // stayed invisible, is recorded as such and shown to no model.
+                let reply = match (&stimulus.blocked, &stimulus.invisible) {
+                    (None, None) => Some(model.ask(&query).await),
+                    _ => None,
                 };
                 let o = observer.record(key, &stimulus, &task, &query, reply);
                 journal.append(&o.record)?;
@@ -147,7 +155,7 @@ pub async fn probe(
     while let Some(joined) = tasks.join_next().await {
         match joined {
             Ok(Ok(Some((o, rec)))) => {
-                if rec.outcome != Outcome::ImageBlocked {
+                if asked(&rec) {
                     spend.add(&rec.usage, rec.cached);
                 }
                 progress.inc(&spend);
@@ -227,7 +235,7 @@ pub async fn transfer(
                 match done.get(&(Phase::Transfer, names.clone(), index, Some(id.clone()))) {
                     Some(rec) => {
                         stats[m][i].add(rec.outcome);
-                        if rec.outcome != Outcome::ImageBlocked {
+                        if asked(rec) {
                             spend[m].add(&rec.usage, rec.cached);
                             total.add(&rec.usage, rec.cached);
                         }
@@ -256,7 +264,8 @@ pub async fn transfer(
                     journal.store_image(png)?;
                 }
                 let query = observer.query(&stimulus, &task);
-                let asked = futures_all(&targets, &query, stimulus.blocked.is_some()).await;
+                let shown = stimulus.blocked.is_none() && stimulus.invisible.is_none();
+                let asked = futures_all(&targets, &query, !shown).await;
                 let mut out = Vec::new();
                 for ((m, _, id), reply) in targets.iter().zip(asked) {
                     let mut o = observer.record(key, &stimulus, &task, &query, reply);
@@ -274,7 +283,7 @@ pub async fn transfer(
             Ok(Ok((i, recs))) => {
                 for (m, rec) in recs {
                     stats[m][i].add(rec.outcome);
-                    if rec.outcome != Outcome::ImageBlocked {
+                    if asked(&rec) {
                         spend[m].add(&rec.usage, rec.cached);
                         total.add(&rec.usage, rec.cached);
                     }
@@ -299,13 +308,13 @@ pub async fn transfer(
     Ok((stats, spend))
 }
 
-/// Ask every target concurrently (a blocked image asks none).
+/// Ask every target concurrently (a scene that is not shown asks none).
 async fn futures_all(
     targets: &[(usize, Arc<dyn Model>, String)],
     query: &crate::vlm::Query,
-    blocked: bool,
+    not_shown: bool,
 ) -> Vec<Option<crate::vlm::Reply>> {
-    if blocked {
+    if not_shown {
         return targets.iter().map(|_| None).collect();
     }
     let mut set = tokio::task::JoinSet::new();

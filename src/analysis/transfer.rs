@@ -2,11 +2,21 @@
 //! function of the observations: per set, its failure rate on the source and on each target;
 //! per target, the mean failure rate (MFR: wrong answers over answered observations, pooled) on
 //! the transferred sets and on as many random valid sets, their ratio, and how many transferred
-//! sets reach FR ≥ τ on the target.
+//! sets reach FR ≥ τ on the target. [`TransferReport`] is `transfer.json`.
 
 use serde::{Deserialize, Serialize};
 
+use crate::run::eval::Spend;
 use crate::search::SetStats;
+
+/// `transfer.json`: the transfer table and each model's spend.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransferReport {
+    #[serde(flatten)]
+    pub transfer: Transfer,
+    /// Per model (in `models` order): tokens and money of its transfer observations.
+    pub spend: Vec<Spend>,
+}
 
 /// One set's failure rates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -18,6 +28,23 @@ pub struct SetLine {
     /// Per target, in `Transfer::models` order: FR and answered observations.
     pub target_fr: Vec<Option<f64>>,
     pub answered: Vec<u32>,
+}
+
+impl SetLine {
+    /// Wrong answers of model `m` (from its FR and answered count).
+    pub fn wrong(&self, m: usize) -> u32 {
+        match (self.target_fr.get(m).copied().flatten(), self.answered.get(m)) {
+            (Some(fr), Some(&n)) => (fr * f64::from(n)).round() as u32,
+            _ => 0,
+        }
+    }
+}
+
+/// Model `m`'s wrong and answered observations pooled over `lines` (its MFR's counts).
+pub fn pooled_counts(lines: &[SetLine], m: usize) -> (u64, u64) {
+    lines
+        .iter()
+        .fold((0, 0), |(w, a), l| (w + u64::from(l.wrong(m)), a + u64::from(l.answered.get(m).copied().unwrap_or(0))))
 }
 
 /// One target's summary.
@@ -143,5 +170,7 @@ mod tests {
         assert_eq!(t.targets[1].ratio, None, "a random MFR of 0 has no ratio");
         assert_eq!(t.sets[1].target_fr, vec![Some(0.75), Some(0.0)]);
         assert_eq!(t.sets[0].answered, vec![4, 4], "unparsed replies are not answers");
+        assert_eq!((t.sets[1].wrong(0), t.sets[1].wrong(1), t.sets[1].wrong(2)), (3, 0, 0));
+        assert_eq!(pooled_counts(&t.sets, 0), (7, 8), "the counts behind the MFR 7/8");
     }
 }

@@ -17,6 +17,7 @@ pub mod lsp;
 pub mod oracle;
 pub mod probe;
 pub mod progress;
+pub mod reask;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod report;

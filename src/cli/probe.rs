@@ -5,25 +5,18 @@
 //! writes `probe.json`. Observations are journaled under phase `probe`, so the same command
 //! resumes. Exit codes as for `search`.
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use serde::{Deserialize, Serialize};
-
-use crate::analysis::probe::{Analysis, ProbedSet, Thresholds, analyse};
+use crate::analysis::probe::{ProbeReport, Thresholds};
 use crate::analysis::reask::{self, Reask};
-use crate::ir::{ConceptSet, Domain};
-use crate::journal::Journal;
-use crate::run::eval::Spend;
-use crate::run::observe::{DomainWorld, Observer, World};
-use crate::run::runner::{self, RunConfig, Summary};
-use crate::run::setup::{self, Parts, SetupError};
-use crate::run::{RunError, Stop};
-use crate::search::SetStats;
+use crate::ir::ConceptSet;
+use crate::run::RunError;
 use crate::vlm::Model;
 
-use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
+use super::reask::{open_run, probe_order};
+use super::search::{ModelFlags, RunFlags, fail_run};
 
 #[derive(clap::Args, Debug)]
 pub struct ProbeArgs {
@@ -53,120 +46,6 @@ pub struct ProbeArgs {
     pub json: bool,
 }
 
-/// `probe.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ProbeReport {
-    pub model: String,
-    pub top: usize,
-    pub samples: u32,
-    /// The probed sets' safety failure rates (from the probe replies).
-    pub sets: Vec<ProbedRow>,
-    pub analysis: Analysis,
-    /// Statements the replies left unmarked (never guessed).
-    pub unanswered_statements: u32,
-    pub spend: Spend,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ProbedRow {
-    pub concepts: Vec<String>,
-    pub fr: Option<f64>,
-    pub wrong: u32,
-    pub answered: u32,
-}
-
-/// A finished run opened for more observations: its configuration, summary, domain, the
-/// pipeline and the journal (locked).
-pub(crate) struct OpenRun {
-    pub config: RunConfig,
-    pub summary: Summary,
-    pub domain: Arc<Domain>,
-    pub model: Arc<dyn Model>,
-    pub reask: Reask,
-}
-
-/// Open `dir` as `validate` does: the recorded domain (unchanged), model (flags override the
-/// recorded settings, the model must stay the same) and renderer.
-pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quiet: bool) -> Result<OpenRun, ExitCode> {
-    let (config, summary) = runner::load_run(dir).map_err(|e| {
-        eprintln!("error: {e}");
-        ExitCode::from(e.exit_code())
-    })?;
-    let domain = crate::cli::load_domain(Path::new(&config.domain_file))?;
-    let setup_error = |e: SetupError| {
-        eprintln!("error: {e}");
-        ExitCode::from(e.exit_code())
-    };
-    if domain.identity().to_string() != config.domain_hash {
-        return Err(setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: dir.into() }));
-    }
-    let settings = model_opts.settings().or(&config.model_settings);
-    let cache = model_opts.cache();
-    let Parts { model, renderer, concurrency } = setup::build_parts(
-        &domain,
-        &config.model_spec,
-        &config.renderer,
-        &settings,
-        cache.as_deref(),
-        run.concurrency.map(|c| c as usize),
-    )
-    .map_err(setup_error)?;
-    if model.id() != config.model {
-        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() }));
-    }
-    let journal = Journal::open(dir).map_err(|e| {
-        eprintln!("error: {e}");
-        ExitCode::from(1)
-    })?;
-    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let domain = Arc::new(domain);
-    let reask = Reask {
-        observer: Arc::new(Observer::new(domain.clone(), world, renderer)),
-        journal: Arc::new(journal),
-        seed: config.params.seed,
-        concurrency,
-        stop: Stop::default(),
-        progress: runner::cli_progress(quiet),
-    };
-    Ok(OpenRun { config, summary, domain, model, reask })
-}
-
-/// The `k` sets to probe: the run's distinct cores first (`summary.json`'s `cores`, when the
-/// run shrank its failure modes), as they are what a failure mode comes down to, then its top
-/// sets in the order of its table, each set once.
-pub(crate) fn probe_order(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
-    let mut sets = Vec::with_capacity(k);
-    for core in &summary.cores {
-        let set = domain.parse_set(&core.set.concepts).map_err(|e| RunError::Search(e.to_string()))?;
-        if sets.len() < k && !sets.contains(&set) {
-            sets.push(set);
-        }
-    }
-    for set in top_sets(domain, summary, k)? {
-        if sets.len() < k && !sets.contains(&set) {
-            sets.push(set);
-        }
-    }
-    Ok(sets)
-}
-
-/// The run's top `k` sets, in the order of its table.
-pub(crate) fn top_sets(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
-    let history = summary
-        .sets
-        .iter()
-        .map(|row| {
-            let set = domain.parse_set(&row.concepts).map_err(|e| RunError::Search(e.to_string()))?;
-            let mut s = SetStats::new(set);
-            s.wrong = row.wrong;
-            s.correct = row.answered - row.wrong;
-            s.unanswered = row.unanswered.clone();
-            Ok(s)
-        })
-        .collect::<Result<Vec<_>, RunError>>()?;
-    Ok(runner::top_sets(&history, k).into_iter().map(|s| s.set).collect())
-}
-
 /// Probe `sets` and analyse the replies.
 pub async fn probe_sets(
     r: &Reask,
@@ -177,24 +56,7 @@ pub async fn probe_sets(
 ) -> Result<ProbeReport, RunError> {
     t.validate().map_err(RunError::Usage)?;
     let (probed, spend) = reask::probe(r, model.clone(), sets, samples).await?;
-    let unanswered_statements = probed.iter().flat_map(|p| p.marks.values()).map(|m| m.unanswered).sum();
-    Ok(ProbeReport {
-        model: model.id(),
-        top: sets.len(),
-        samples,
-        sets: probed
-            .iter()
-            .map(|p: &ProbedSet| ProbedRow {
-                concepts: p.concepts.clone(),
-                fr: p.fr(),
-                wrong: p.wrong,
-                answered: p.answered,
-            })
-            .collect(),
-        analysis: analyse(&probed, t),
-        unanswered_statements,
-        spend,
-    })
+    Ok(ProbeReport::new(model.id(), &probed, samples, t, spend))
 }
 
 pub fn run(args: ProbeArgs) -> ExitCode {
@@ -211,29 +73,10 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return fail_run(&e, &args.run_dir),
     };
-    let rt = runtime();
-    watch_ctrl_c(&rt, &open.reask.stop);
-    let report = match rt.block_on(probe_sets(&open.reask, open.model.clone(), &sets, args.samples, &t)) {
-        Ok(r) => r,
-        Err(e) => return fail_run(&e, &args.run_dir),
-    };
-    if let Err(e) = open.reask.journal.write_json("probe.json", &report) {
-        eprintln!("error: {e}");
-        return ExitCode::from(1);
-    }
-    let mut out = std::io::stdout().lock();
-    let written = if args.json {
-        serde_json::to_writer_pretty(&mut out, &report).map_err(std::io::Error::from).and_then(|_| writeln!(out))
-    } else {
-        print_probe(&mut out, &report)
-            .and_then(|()| writeln!(out, "written to {}", args.run_dir.join("probe.json").display()))
-    };
-    match written {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            eprintln!("error: cannot write the report: {e}");
-            ExitCode::from(1)
-        }
-        _ => ExitCode::SUCCESS,
+    let asked = open.ask(&args.run_dir, probe_sets(&open.reask, open.model.clone(), &sets, args.samples, &t));
+    match asked {
+        Ok(report) => open.finish(&args.run_dir, "probe.json", &report, args.json, |w| print_probe(w, &report)),
+        Err(code) => code,
     }
 }
 

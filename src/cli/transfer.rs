@@ -12,19 +12,17 @@ use std::sync::Arc;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use crate::analysis::reask;
-use crate::analysis::transfer::{Transfer, table};
+use crate::analysis::transfer::{Transfer, TransferReport, table};
 use crate::ir::ConceptSet;
 use crate::lattice::Lattice;
-use crate::run::eval::Spend;
 use crate::run::runner;
 use crate::run::setup;
 use crate::vlm::Model;
 
-use super::probe::{open_run, top_sets};
-use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
+use super::reask::{open_run, top_sets};
+use super::search::{ModelFlags, RunFlags, fail_run};
 
 #[derive(clap::Args, Debug)]
 pub struct TransferArgs {
@@ -50,15 +48,6 @@ pub struct TransferArgs {
     /// Print JSON
     #[arg(long)]
     pub json: bool,
-}
-
-/// `transfer.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TransferReport {
-    #[serde(flatten)]
-    pub transfer: Transfer,
-    /// Per model (in `models` order): tokens and money of its transfer observations.
-    pub spend: Vec<Spend>,
 }
 
 /// `k` random sets of `space` not in `exclude`, drawn by `seed`.
@@ -112,11 +101,9 @@ pub fn run(args: TransferArgs) -> ExitCode {
     let (space, _) = runner::search_space(lattice.sets, open.domain.concepts.len(), &world);
     let random = random_sets(&space.sets, &sets, args.random.unwrap_or(sets.len()), open.config.params.seed);
     let all: Vec<ConceptSet> = sets.iter().chain(&random).copied().collect();
-    let rt = runtime();
-    watch_ctrl_c(&rt, &open.reask.stop);
-    let (stats, spend) = match rt.block_on(reask::transfer(&open.reask, &models, &all, args.samples)) {
+    let (stats, spend) = match open.ask(&args.run_dir, reask::transfer(&open.reask, &models, &all, args.samples)) {
         Ok(x) => x,
-        Err(e) => return fail_run(&e, &args.run_dir),
+        Err(code) => return code,
     };
     let names = |s: &ConceptSet| open.domain.set_names(*s).into_iter().map(String::from).collect::<Vec<_>>();
     let source_fr: Vec<Option<f64>> =
@@ -138,24 +125,7 @@ pub fn run(args: TransferArgs) -> ExitCode {
         ),
         spend,
     };
-    if let Err(e) = open.reask.journal.write_json("transfer.json", &report) {
-        eprintln!("error: {e}");
-        return ExitCode::from(1);
-    }
-    let mut out = std::io::stdout().lock();
-    let written = if args.json {
-        serde_json::to_writer_pretty(&mut out, &report).map_err(std::io::Error::from).and_then(|_| writeln!(out))
-    } else {
-        print_transfer(&mut out, &report.transfer)
-            .and_then(|()| writeln!(out, "written to {}", args.run_dir.join("transfer.json").display()))
-    };
-    match written {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            eprintln!("error: cannot write the report: {e}");
-            ExitCode::from(1)
-        }
-        _ => ExitCode::SUCCESS,
-    }
+    open.finish(&args.run_dir, "transfer.json", &report, args.json, |w| print_transfer(w, &report.transfer))
 }
 
 fn pct(f: Option<f64>) -> String {

@@ -1,0 +1,155 @@
+//! What `revelio probe` and `revelio transfer` share: opening a finished run for more
+//! observations (the recorded domain, model and renderer, the journal locked), the sets they
+//! ask again, running the asking with Ctrl-C watched, and finishing — the result file written,
+//! the run report refreshed, the table (or JSON) printed.
+use std::io::Write;
+use std::path::Path;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use crate::analysis::reask::Reask;
+use crate::ir::{ConceptSet, Domain};
+use crate::journal::Journal;
+use crate::run::observe::{DomainWorld, Observer, World};
+use crate::run::runner::{self, RunConfig, Summary};
+use crate::run::setup::{self, Parts, SetupError};
+use crate::run::{RunError, Stop};
+use crate::search::SetStats;
+use crate::vlm::Model;
+
+use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
+
+/// A finished run opened for more observations: its configuration, summary, domain, the
+/// pipeline and the journal (locked).
+pub(crate) struct OpenRun {
+    pub config: RunConfig,
+    pub summary: Summary,
+    pub domain: Arc<Domain>,
+    pub model: Arc<dyn Model>,
+    pub reask: Reask,
+}
+
+/// Open `dir` as `validate` does: the recorded domain (unchanged), model (flags override the
+/// recorded settings, the model must stay the same) and renderer.
+pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quiet: bool) -> Result<OpenRun, ExitCode> {
+    let (config, summary) = runner::load_run(dir).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(e.exit_code())
+    })?;
+    let domain = crate::cli::load_domain(Path::new(&config.domain_file))?;
+    let setup_error = |e: SetupError| {
+        eprintln!("error: {e}");
+        ExitCode::from(e.exit_code())
+    };
+    if domain.identity().to_string() != config.domain_hash {
+        return Err(setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: dir.into() }));
+    }
+    let settings = model_opts.settings().or(&config.model_settings);
+    let cache = model_opts.cache();
+    let Parts { model, renderer, concurrency } = setup::build_parts(
+        &domain,
+        &config.model_spec,
+        &config.renderer,
+        &settings,
+        cache.as_deref(),
+        run.concurrency.map(|c| c as usize),
+    )
+    .map_err(setup_error)?;
+    if model.id() != config.model {
+        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() }));
+    }
+    let journal = Journal::open(dir).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(1)
+    })?;
+    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
+    let domain = Arc::new(domain);
+    let reask = Reask {
+        observer: Arc::new(Observer::new(domain.clone(), world, renderer)),
+        journal: Arc::new(journal),
+        seed: config.params.seed,
+        concurrency,
+        stop: Stop::default(),
+        progress: runner::cli_progress(quiet),
+    };
+    Ok(OpenRun { config, summary, domain, model, reask })
+}
+
+impl OpenRun {
+    /// Run `asking` (journaling as it goes) with Ctrl-C watched; a failure is reported as
+    /// `search` reports one (resumable runs say so).
+    pub(crate) fn ask<T>(&self, dir: &Path, asking: impl Future<Output = Result<T, RunError>>) -> Result<T, ExitCode> {
+        let rt = runtime();
+        watch_ctrl_c(&rt, &self.reask.stop);
+        rt.block_on(asking).map_err(|e| fail_run(&e, dir))
+    }
+
+    /// Write `result` to `dir/file`, refresh the run report (which shows it), and print it:
+    /// as JSON with `json`, else by `print` followed by where it was written.
+    pub(crate) fn finish<T: serde::Serialize>(
+        &self,
+        dir: &Path,
+        file: &str,
+        result: &T,
+        json: bool,
+        print: impl FnOnce(&mut std::io::StdoutLock<'static>) -> std::io::Result<()>,
+    ) -> ExitCode {
+        if let Err(e) = self.reask.journal.write_json(file, result) {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+        let mut out = std::io::stdout().lock();
+        let written = if json {
+            serde_json::to_writer_pretty(&mut out, result).map_err(std::io::Error::from).and_then(|_| writeln!(out))
+        } else {
+            print(&mut out).and_then(|()| writeln!(out, "written to {}", dir.join(file).display()))
+        };
+        drop(out);
+        if written.is_ok() {
+            super::report::refresh(dir, &self.domain, json);
+        }
+        match written {
+            Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+                eprintln!("error: cannot write the report: {e}");
+                ExitCode::from(1)
+            }
+            _ => ExitCode::SUCCESS,
+        }
+    }
+}
+
+/// The `k` sets to probe: the run's distinct cores first (`summary.json`'s `cores`, when the
+/// run shrank its failure modes), as they are what a failure mode comes down to, then its top
+/// sets in the order of its table, each set once.
+pub(crate) fn probe_order(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
+    let mut sets = Vec::with_capacity(k);
+    for core in &summary.cores {
+        let set = domain.parse_set(&core.set.concepts).map_err(|e| RunError::Search(e.to_string()))?;
+        if sets.len() < k && !sets.contains(&set) {
+            sets.push(set);
+        }
+    }
+    for set in top_sets(domain, summary, k)? {
+        if sets.len() < k && !sets.contains(&set) {
+            sets.push(set);
+        }
+    }
+    Ok(sets)
+}
+
+/// The run's top `k` sets, in the order of its table.
+pub(crate) fn top_sets(domain: &Domain, summary: &Summary, k: usize) -> Result<Vec<ConceptSet>, RunError> {
+    let history = summary
+        .sets
+        .iter()
+        .map(|row| {
+            let set = domain.parse_set(&row.concepts).map_err(|e| RunError::Search(e.to_string()))?;
+            let mut s = SetStats::new(set);
+            s.wrong = row.wrong;
+            s.correct = row.answered - row.wrong;
+            s.unanswered = row.unanswered.clone();
+            Ok(s)
+        })
+        .collect::<Result<Vec<_>, RunError>>()?;
+    Ok(runner::top_sets(&history, k).into_iter().map(|s| s.set).collect())
+}
