@@ -238,3 +238,64 @@ fn transfer_between_two_sim_profiles_same_images_rendered_once() {
         crate::run::eval::observation_seed(7, key)
     });
 }
+
+/// A renderer that draws every entity a concept placed hidden (0 visible pixels).
+struct Hiding;
+
+impl Renderer for Hiding {
+    fn id(&self) -> String {
+        "hiding".into()
+    }
+
+    fn render<'a>(&'a self, scene: &'a Scene, _prompt: &'a str) -> BoxFuture<'a, Result<Rendered, RenderError>> {
+        let seen = scene
+            .entities
+            .iter()
+            .map(|e| crate::render::EntityVisibility {
+                entity: e.name.clone(),
+                concept: e.concept.clone(),
+                pixels: 0,
+                contrast: 0.0,
+            })
+            .collect();
+        let png = format!("{}:{}", scene.seed, scene.concepts.join(",")).into_bytes();
+        Box::pin(async move { Ok(Rendered { png, cached: false, visibility: Some(seen) }) })
+    }
+}
+
+/// A model that counts the questions it is asked.
+struct Asked(AtomicUsize, Arc<dyn Model>);
+
+impl Model for Asked {
+    fn id(&self) -> String {
+        self.1.id()
+    }
+
+    fn ask<'a>(&'a self, query: &'a crate::vlm::Query) -> BoxFuture<'a, crate::vlm::Reply> {
+        self.0.fetch_add(1, Ordering::SeqCst);
+        self.1.ask(query)
+    }
+}
+
+/// The visibility guard holds in probe and transfer as in a search: a scene whose entity stays
+/// hidden after every redraw is recorded `invisible`, costs no call and counts in no rate.
+#[test]
+fn probe_and_transfer_show_no_model_a_scene_whose_entity_stays_hidden() {
+    let d = driving();
+    let dir = tempfile::tempdir().unwrap();
+    let asked = Arc::new(Asked(AtomicUsize::new(0), sim("name = \"m\"\nbase_error = 0.5\n", &d)));
+    let chosen = sets(&d, &[&["debris_far"]]);
+    let r = reask(&d, dir.path(), Some(Arc::new(Hiding)));
+    let (probed, spend) = block_on(reask::probe(&r, asked.clone(), &chosen, 3)).unwrap();
+    let (stats, spends) = block_on(reask::transfer(&r, &[asked.clone() as Arc<dyn Model>], &chosen, 3)).unwrap();
+    assert_eq!(asked.0.load(Ordering::SeqCst), 0, "no model saw a scene it could not see");
+    assert_eq!((probed[0].answered, probed[0].wrong, spend.calls), (0, 0, 0));
+    assert_eq!((stats[0][0].answered(), stats[0][0].fr(), spends[0].calls), (0, None, 0));
+    drop(r);
+    let records = Journal::open(dir.path()).unwrap().records;
+    assert_eq!(records.len(), 6);
+    for rec in &records {
+        assert_eq!((rec.outcome, rec.answer, rec.resamples), (crate::outcome::Outcome::Invisible, None, 5));
+        assert!(rec.raw.starts_with("not visible: "), "{}", rec.raw);
+    }
+}

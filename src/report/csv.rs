@@ -4,6 +4,9 @@
 use std::collections::BTreeSet;
 
 use super::{Findings, Run, outcome_name};
+use crate::analysis::probe::ProbeReport;
+use crate::analysis::transfer::Transfer;
+use crate::analysis::wilson95;
 use crate::outcome::Outcome;
 
 fn field(s: &str) -> String {
@@ -86,6 +89,58 @@ pub fn sets(run: &Run) -> String {
         ];
         row.extend(outcomes.iter().map(|o| r.unanswered.get(o).copied().unwrap_or(0).to_string()));
         line(&mut out, &row);
+    }
+    out
+}
+
+/// `recognition.csv`: one row per probed concept (highest F(c) first): R(c) with its interval
+/// and the statements behind it, F(c), n and the mechanism.
+pub fn recognition(p: &ProbeReport) -> String {
+    let mut out = String::new();
+    let head = "concept,r,r_ci95_lo,r_ci95_hi,statements_right,statements_answered,statements_unanswered,f,n,mechanism";
+    line(&mut out, &head.split(',').map(String::from).collect::<Vec<_>>());
+    for c in &p.analysis.concepts {
+        let m = &c.marks;
+        let (right, answered) = (m.pos_correct + m.neg_correct, m.pos_total + m.neg_total);
+        let [lo, hi] = ci(wilson95(u64::from(right), u64::from(answered)));
+        line(
+            &mut out,
+            &[
+                c.concept.clone(),
+                num(c.recognition),
+                lo,
+                hi,
+                right.to_string(),
+                answered.to_string(),
+                m.unanswered.to_string(),
+                num(c.failure),
+                c.n.to_string(),
+                c.mechanism.map_or("", |m| m.name()).to_string(),
+            ],
+        );
+    }
+    out
+}
+
+/// `transfer.csv`: one row per transferred set (in the source's order), then per random set;
+/// the source run's FR, and each model's FR and answered count (columns named by model).
+pub fn transfer(t: &Transfer) -> String {
+    let mut head: Vec<String> = ["kind", "rank", "concepts", "search_fr"].map(String::from).to_vec();
+    for m in &t.models {
+        head.push(format!("fr {m}"));
+        head.push(format!("answered {m}"));
+    }
+    let mut out = String::new();
+    line(&mut out, &head);
+    for (kind, lines) in [("transferred", &t.sets), ("random", &t.random)] {
+        for (i, s) in lines.iter().enumerate() {
+            let mut row = vec![kind.to_string(), (i + 1).to_string(), s.concepts.join(" + "), num(s.source_fr)];
+            for m in 0..t.models.len() {
+                row.push(num(s.target_fr.get(m).copied().flatten()));
+                row.push(s.answered.get(m).map(u32::to_string).unwrap_or_default());
+            }
+            line(&mut out, &row);
+        }
     }
     out
 }

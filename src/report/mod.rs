@@ -10,7 +10,10 @@
 //! What it shows comes from [`crate::analysis`]: cores first (the summary's `cores` when the run
 //! was shrunk; otherwise the minimal failure modes stand in), each with its observations, the
 //! oracle's deciding rule, FR with its 95 % interval, the validated FR and the failure modes that
-//! contain it; then F(c), pair rates, the discovery curve and the outcome breakdown.
+//! contain it; then F(c), pair rates, the discovery curve and the outcome breakdown; how often
+//! the visibility guard redrew or withheld a scene; and, once `revelio probe` and `revelio
+//! transfer` have written `probe.json` and `transfer.json`, recognition vs. reasoning and the
+//! transfer table (with `recognition.csv` and `transfer.csv`).
 
 mod csv;
 mod files;
@@ -22,6 +25,8 @@ use std::time::SystemTime;
 
 use serde::Deserialize;
 
+use crate::analysis::probe::ProbeReport;
+use crate::analysis::transfer::TransferReport;
 use crate::analysis::{self, is_subset, same_set, wilson95};
 use crate::ir::Domain;
 use crate::journal::{Phase, Record};
@@ -42,6 +47,12 @@ pub struct Run {
     pub records: Vec<Record>,
     /// When `summary.json` was last written.
     pub finished: Option<SystemTime>,
+    /// `probe.json`, once `revelio probe` has run.
+    pub probe: Option<ProbeReport>,
+    /// `transfer.json`, once `revelio transfer` has run.
+    pub transfer: Option<TransferReport>,
+    /// Files of the run folder the report could not read (it shows the rest and says so).
+    pub unreadable: Vec<String>,
 }
 
 /// Fields of `summary.json` that only newer runs carry: intervals per set, the cores found by
@@ -142,7 +153,30 @@ pub fn load(dir: &Path) -> Result<Run, String> {
     };
     let records = crate::journal::read(dir).map_err(|e| e.to_string())?;
     let finished = std::fs::metadata(dir.join("summary.json")).and_then(|m| m.modified()).ok();
-    Ok(Run { dir: dir.to_path_buf(), config, params, summary, extras, validation, validation_file, records, finished })
+    // What `probe` and `transfer` wrote is an addition: a damaged file costs its section only.
+    let mut unreadable = Vec::new();
+    let probe: Option<ProbeReport> = read_json(dir, "probe.json").unwrap_or_else(|e| {
+        unreadable.push(e);
+        None
+    });
+    let transfer: Option<TransferReport> = read_json(dir, "transfer.json").unwrap_or_else(|e| {
+        unreadable.push(e);
+        None
+    });
+    Ok(Run {
+        dir: dir.to_path_buf(),
+        config,
+        params,
+        summary,
+        extras,
+        validation,
+        validation_file,
+        records,
+        finished,
+        probe,
+        transfer,
+        unreadable,
+    })
 }
 
 /// A core as the report shows it.
@@ -295,6 +329,25 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     put("heatmap.svg", &heatmap)?;
     put("failure_modes.csv", &csv::failure_modes(run, &findings))?;
     put("sets.csv", &csv::sets(run))?;
+    for (name, table) in [
+        ("recognition.csv", run.probe.as_ref().map(csv::recognition)),
+        ("transfer.csv", run.transfer.as_ref().map(|t| csv::transfer(&t.transfer))),
+    ] {
+        match table {
+            Some(t) => put(name, &t)?,
+            // A table of an earlier probe or transfer that the run folder no longer holds.
+            None => match std::fs::remove_file(out.join(name)) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(format!(
+                        "cannot remove `{}`: {}",
+                        out.join(name).display(),
+                        e.to_string().to_lowercase()
+                    ));
+                }
+                _ => {}
+            },
+        }
+    }
     put("index.html", &html)?;
     Ok(Written { index: out.join("index.html"), images: images.len() })
 }

@@ -8,7 +8,9 @@ use std::time::SystemTime;
 
 use super::files::ImageRef;
 use super::{Core, Findings, Run, outcome_name, phase_name};
-use crate::analysis::wilson95;
+use crate::analysis::probe::{Mechanism, ProbeReport};
+use crate::analysis::transfer::{Transfer, TransferReport, pooled_counts};
+use crate::analysis::{SceneVisibility, wilson95};
 use crate::ir::{Domain, Question};
 use crate::journal::{Phase, Record};
 use crate::oracle::{self, option_letter};
@@ -45,6 +47,11 @@ pub struct ObsView {
     pub reply: String,
     pub full: Option<String>,
     pub chars: usize,
+    /// The measured visibility of each entity a concept placed: `debris (debris_far): 412 px ·
+    /// contrast 0.213`.
+    pub seen: Vec<String>,
+    /// Scenes drawn again before this one because an entity was not visible.
+    pub resamples: u32,
 }
 
 pub struct ModeRow {
@@ -77,6 +84,8 @@ pub struct CoreView {
     /// Why the oracle gave no verdict (the domain is there but the set has no ground truth).
     pub verdict_error: Option<String>,
     pub observations: Vec<ObsView>,
+    /// Where the visibility guard had to redraw or withhold this core's scenes.
+    pub visibility: Option<String>,
 }
 
 pub struct ConceptRow {
@@ -119,11 +128,22 @@ pub struct IndexPage<'a> {
     pub discovery: &'a str,
     pub outcome_phases: Vec<String>,
     pub outcome_rows: Vec<OutcomeRow>,
+    pub visibility: VisibilityView,
+    pub probe: Option<&'a ProbeReport>,
+    pub transfer: Option<&'a TransferReport>,
     pub files: Vec<(String, String)>,
     pub notes: Vec<String>,
     /// The validation file the page shows, if the run was validated.
     pub validation_file: Option<String>,
     pub version: &'static str,
+}
+
+/// The visibility guard's figures: per phase, per core that needed it, per concept.
+pub struct VisibilityView {
+    pub phases: Vec<(String, SceneVisibility)>,
+    /// Cores whose scenes were redrawn or withheld: anchor, concepts, counts.
+    pub cores: Vec<(String, String, SceneVisibility)>,
+    pub concepts: Vec<crate::analysis::ConceptVisibility>,
 }
 
 fn pct(f: Option<f64>) -> String {
@@ -222,7 +242,32 @@ fn observation(r: &Record, q: Option<&Question>, images: &BTreeMap<String, Image
         reply,
         full: (long || thinking.is_some()).then(|| r.raw.clone()),
         chars,
+        seen: r
+            .visibility
+            .iter()
+            .filter_map(|v| {
+                let concept = v.concept.as_ref()?;
+                Some(format!("{} ({concept}): {} px · contrast {:.3}", v.entity, v.pixels, v.contrast))
+            })
+            .collect(),
+        resamples: r.resamples,
     }
+}
+
+/// Where the guard redrew or withheld scenes, in words (`None`: never).
+fn visibility_text(v: &SceneVisibility) -> Option<String> {
+    if v.resampled == 0 && v.invisible == 0 {
+        return None;
+    }
+    let mut parts = Vec::new();
+    if v.resampled > 0 {
+        let redrawn = if v.redraws == 1 { "1 scene".to_string() } else { format!("{} scenes", v.redraws) };
+        parts.push(format!("{} of {} observations needed resampling ({redrawn} redrawn)", v.resampled, v.scenes));
+    }
+    if v.invisible > 0 {
+        parts.push(format!("{} stayed invisible (never shown to the model)", v.invisible));
+    }
+    Some(parts.join("; "))
 }
 
 fn verdict<'d>(domain: &'d Domain, concepts: &[String]) -> Result<(VerdictView, &'d Question), String> {
@@ -302,6 +347,24 @@ fn core_view(
         verdict,
         verdict_error,
         observations,
+        visibility: visibility_text(&crate::analysis::visibility(&f.core_observations[i])),
+    }
+}
+
+fn visibility_view(f: &Findings<'_>, all: &[&Record]) -> VisibilityView {
+    let cores = f
+        .cores
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            (format!("core-{}", i + 1), c.concepts.join(" + "), crate::analysis::visibility(&f.core_observations[i]))
+        })
+        .filter(|(_, _, v)| v.resampled > 0 || v.invisible > 0)
+        .collect();
+    VisibilityView {
+        phases: crate::analysis::visibility_by_phase(all).into_iter().map(|(p, v)| (phase_name(p), v)).collect(),
+        cores,
+        concepts: crate::analysis::concept_visibility(all),
     }
 }
 
@@ -311,8 +374,9 @@ fn algorithm_text(run: &Run) -> String {
         Algo::Random => "random (uniform over the valid lattice)".into(),
         Algo::Beam => format!("beam (width {}, depth {}, λ = {})", p.beam_width, p.max_depth, p.lambda),
         Algo::Gpts => format!(
-            "gpts ({} inferences of beam warm-up, then Thompson sampling, {} per round)",
+            "gpts ({} inferences of beam warm-up, then Thompson sampling on a {} GP, {} per round)",
             grouped(p.beam_budget),
+            p.kernel.formula(),
             p.batch
         ),
         Algo::Interact => format!(
@@ -491,7 +555,20 @@ pub fn render(
         "This run has no shrink phase: the cores shown are its minimal failure modes — failure modes none of whose evaluated subsets failed. A smaller failing subset may exist that the search never evaluated."
     }
     .to_string();
-    let mut notes = Vec::new();
+    let mut notes: Vec<String> = run.unreadable.iter().map(|e| format!("Left out: {e}.")).collect();
+    let all = crate::analysis::latest_observations(&run.records);
+    let mut files = vec![
+        ("failure_modes.csv".to_string(), "every failure mode with its interval, core and validated FR".to_string()),
+        ("sets.csv".into(), "every evaluated set, in evaluation order".into()),
+        ("discovery.svg".into(), "the discovery curve".into()),
+        ("heatmap.svg".into(), "the pair failure-rate heatmap".into()),
+    ];
+    if run.probe.is_some() {
+        files.push(("recognition.csv".into(), "R(c), F(c), n and the mechanism per probed concept".into()));
+    }
+    if run.transfer.is_some() {
+        files.push(("transfer.csv".into(), "each transferred and random set's FR on every model".into()));
+    }
     if domain.is_none() {
         notes.push("The domain file could not be loaded unchanged, so the oracle's explanations and the options' names are left out.".to_string());
     }
@@ -513,12 +590,10 @@ pub fn render(
         discovery,
         outcome_phases,
         outcome_rows,
-        files: vec![
-            ("failure_modes.csv".into(), "every failure mode with its interval, core and validated FR".into()),
-            ("sets.csv".into(), "every evaluated set, in evaluation order".into()),
-            ("discovery.svg".into(), "the discovery curve".into()),
-            ("heatmap.svg".into(), "the pair failure-rate heatmap".into()),
-        ],
+        visibility: visibility_view(f, &all),
+        probe: run.probe.as_ref(),
+        transfer: run.transfer.as_ref(),
+        files,
         notes,
         validation_file: run.validation.as_ref().and(run.validation_file.clone()),
         version: env!("CARGO_PKG_VERSION"),
@@ -591,6 +666,13 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     write_concepts(out, p)?;
     write_pairs(out, p)?;
     write_discovery_and_outcomes(out, p)?;
+    write_visibility(out, &p.visibility)?;
+    if let Some(probe) = p.probe {
+        write_probe(out, probe)?;
+    }
+    if let Some(t) = p.transfer {
+        write_transfer(out, t)?;
+    }
     out.push_str("<section id=\"files\">\n<h2>Files</h2>\n<div class=\"card\">\n<ul class=\"files\">\n");
     for (href, what) in &p.files {
         writeln!(out, "<li><a href=\"{}\">{}</a> — {}</li>", Esc(href), Esc(href), Esc(what))?;
@@ -599,14 +681,23 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     for n in &p.notes {
         writeln!(out, "<p class=\"note\">{}</p>", Esc(n))?;
     }
-    let validation = match &p.validation_file {
-        Some(file) => format!(" and {}", Esc(file)),
-        None => String::new(),
-    };
+    let mut sources = vec!["config.json", "summary.json", "journal.jsonl"];
+    if let Some(file) = &p.validation_file {
+        sources.push(file);
+    }
+    if p.probe.is_some() {
+        sources.push("probe.json");
+    }
+    if p.transfer.is_some() {
+        sources.push("transfer.json");
+    }
+    let (last, rest) = sources.split_last().expect("three sources at least");
     writeln!(
         out,
-        "<footer>Written by revelio {} from the run folder's config.json, summary.json, journal.jsonl{validation}. Static: no network, no scripts.</footer>\n</main>\n</body>\n</html>",
-        Esc(p.version)
+        "<footer>Written by revelio {} from the run folder's {} and {}. Static: no network, no scripts.</footer>\n</main>\n</body>\n</html>",
+        Esc(p.version),
+        Esc(&rest.join(", ")),
+        Esc(last)
     )
 }
 
@@ -627,7 +718,14 @@ fn write_nav(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     if !p.refuted.is_empty() {
         out.push_str("<a href=\"#refuted\">Refuted</a>");
     }
-    out.push_str("<a href=\"#concepts\">Concepts</a><a href=\"#pairs\">Pairs</a><a href=\"#discovery\">Discovery</a><a href=\"#outcomes\">Outcomes</a><a href=\"#files\">Files</a>\n</nav>\n\n");
+    out.push_str("<a href=\"#concepts\">Concepts</a><a href=\"#pairs\">Pairs</a><a href=\"#discovery\">Discovery</a><a href=\"#outcomes\">Outcomes</a><a href=\"#visibility\">Visibility</a>");
+    if p.probe.is_some() {
+        out.push_str("<a href=\"#probe\">Recognition</a>");
+    }
+    if p.transfer.is_some() {
+        out.push_str("<a href=\"#transfer\">Transfer</a>");
+    }
+    out.push_str("<a href=\"#files\">Files</a>\n</nav>\n\n");
     Ok(())
 }
 
@@ -686,6 +784,9 @@ fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
         out.push_str(
             "<span>not shown minimal: the shrink budget ran out before every smaller subset was tested</span>\n",
         );
+    }
+    if let Some(v) = &c.visibility {
+        writeln!(out, "<span class=\"vis\">visibility: {}</span>", Esc(v))?;
     }
     out.push_str("</div>\n");
     if let Some(v) = &c.verdict {
@@ -753,6 +854,17 @@ fn write_observation(out: &mut String, c: &CoreView, o: &ObsView) -> fmt::Result
     writeln!(out, "<div class=\"line\"><span>expected</span><b>{}</b></div>", Esc(&o.expected))?;
     writeln!(out, "<div class=\"line\"><span>given</span><b>{}</b></div>", Esc(&o.given))?;
     writeln!(out, "<p class=\"reply\">{}</p>", Esc(&o.reply))?;
+    if o.resamples > 0 {
+        writeln!(
+            out,
+            "<div class=\"line vis\"><span>resampled</span><b>{} scene{} redrawn</b></div>",
+            o.resamples,
+            if o.resamples == 1 { "" } else { "s" }
+        )?;
+    }
+    for seen in &o.seen {
+        writeln!(out, "<div class=\"seen\">{}</div>", Esc(seen))?;
+    }
     if let Some(full) = &o.full {
         writeln!(
             out,
@@ -838,6 +950,240 @@ fn write_discovery_and_outcomes(out: &mut String, p: &IndexPage<'_>) -> fmt::Res
         out.push_str("</tr>\n");
     }
     out.push_str("</tbody>\n</table>\n</div>\n</section>\n</div>\n\n");
+    Ok(())
+}
+
+/// `12/20`: wrong of answered, the counts behind a rate.
+fn counts(wrong: u64, answered: u64) -> String {
+    format!("{wrong}/{answered}")
+}
+
+fn write_visibility(out: &mut String, v: &VisibilityView) -> fmt::Result {
+    out.push_str("<section id=\"visibility\">\n<h2>Visibility</h2>\n<p class=\"note\">The builtin renderer measures, in the image it shows, each placed entity's visible pixels after occlusion and its contrast against its surround. A scene in which an entity that a concept placed is not visible by the domain's thresholds is drawn again with the next seed; if it stays hidden the observation is <b>invisible</b>: never shown to the model, neither failure nor success. Each scene counts once, however many models a transfer showed it to.</p>\n<div class=\"card\">\n");
+    let measured: u64 = v.phases.iter().map(|(_, s)| s.measured).sum();
+    if measured == 0 {
+        out.push_str("<p class=\"note\">No scene of this run has visibility figures: its renderer does not measure them (only the builtin one does), or the run predates them.</p>\n");
+    }
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th>phase</th><th class=\"num\">scenes</th><th class=\"num\">measured</th><th class=\"num\">resampled</th><th class=\"num\">scenes redrawn</th><th class=\"num\">invisible</th></tr></thead>\n<tbody>\n");
+    for (phase, s) in &v.phases {
+        writeln!(
+            out,
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            Esc(phase),
+            s.scenes,
+            s.measured,
+            s.resampled,
+            s.redraws,
+            s.invisible
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n");
+    if v.cores.is_empty() {
+        out.push_str("<p class=\"note\">No core's scene needed resampling.</p>\n");
+    } else {
+        out.push_str("<h3>Cores whose scenes needed resampling</h3>\n<table class=\"tbl\">\n<thead><tr><th>core</th><th class=\"num\">scenes</th><th class=\"num\">resampled</th><th class=\"num\">scenes redrawn</th><th class=\"num\">invisible</th></tr></thead>\n<tbody>\n");
+        for (anchor, key, s) in &v.cores {
+            writeln!(
+                out,
+                "<tr><td><a href=\"#{}\"><code>{}</code></a></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+                Esc(anchor),
+                Esc(key),
+                s.scenes,
+                s.resampled,
+                s.redraws,
+                s.invisible
+            )?;
+        }
+        out.push_str("</tbody>\n</table>\n");
+    }
+    if !v.concepts.is_empty() {
+        writeln!(
+            out,
+            "<details><summary>visible pixels and contrast of each concept's entities ({} concepts, fewest pixels first)</summary>",
+            v.concepts.len()
+        )?;
+        out.push_str("<table class=\"tbl\">\n<thead><tr><th>concept</th><th class=\"num\">entities measured</th><th class=\"num\">min px</th><th class=\"num\">median px</th><th class=\"num\">median contrast</th></tr></thead>\n<tbody>\n");
+        for c in &v.concepts {
+            writeln!(
+                out,
+                "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{:.3}</td></tr>",
+                Esc(&c.concept),
+                c.n,
+                c.min_pixels,
+                c.median_pixels,
+                c.median_contrast
+            )?;
+        }
+        out.push_str("</tbody>\n</table>\n</details>\n");
+    }
+    out.push_str("</div>\n</section>\n\n");
+    Ok(())
+}
+
+fn mechanism_class(m: Option<Mechanism>) -> &'static str {
+    match m {
+        Some(Mechanism::Recognition) => "o-wrong",
+        Some(Mechanism::Reasoning) => "o-correct",
+        _ => "o-other",
+    }
+}
+
+fn write_probe(out: &mut String, p: &ProbeReport) -> fmt::Result {
+    let a = &p.analysis;
+    let t = &a.thresholds;
+    writeln!(
+        out,
+        "<section id=\"probe\">\n<h2>Recognition vs reasoning</h2>\n<p class=\"note\">From <code>probe.json</code> (<code>revelio probe</code>, paper appendix G): {} sets × {} observations asked of <code>{}</code> with the safety question and, for each concept present, its probe statement and its counterfactual, marked True or False in the same reply. R(c): the share of c's statements marked right; F(c): the mean failure rate of the probed sets holding c, over n sets. A concept the model sees (R ≥ {:.0}%) yet fails on is a <b>reasoning</b> failure; one it does not see (R ≤ {:.0}%) a <b>recognition</b> failure; between, mixed. A statement the reply left unmarked is unanswered, never guessed.</p>",
+        p.top,
+        p.samples,
+        Esc(&p.model),
+        100.0 * t.high,
+        100.0 * t.low
+    )?;
+    out.push_str("<div class=\"card\">\n<table class=\"tbl\">\n<thead><tr><th>concept</th><th class=\"num\">R(c)</th><th class=\"num\">95% CI</th><th class=\"num\">statements right</th><th class=\"num\">F(c)</th><th class=\"num\">n sets</th><th>mechanism</th></tr></thead>\n<tbody>\n");
+    for c in &a.concepts {
+        let m = &c.marks;
+        let (right, answered) = (u64::from(m.pos_correct + m.neg_correct), u64::from(m.pos_total + m.neg_total));
+        writeln!(
+            out,
+            "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td><span class=\"badge {}\">{}</span></td></tr>",
+            Esc(&c.concept),
+            Esc(&pct(c.recognition)),
+            Esc(&interval(wilson95(right, answered))),
+            Esc(&counts(right, answered)),
+            Esc(&pct(c.failure)),
+            c.n,
+            mechanism_class(c.mechanism),
+            Esc(c.mechanism.map_or("no answer", |m| m.name()))
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n");
+    if p.unanswered_statements > 0 {
+        writeln!(
+            out,
+            "<p class=\"note\">{} statements were left unmarked by the replies.</p>",
+            p.unanswered_statements
+        )?;
+    }
+    out.push_str("</div>\n");
+    writeln!(
+        out,
+        "<h3>Lift</h3>\n<p class=\"note\">Lift(A, B) = the mean FR of the probed sets holding both − the independence prediction F(A) + F(B) − F(A)·F(B): positive when A and B fail together more than apart (synergy), negative when they fail less (interference). Pairs whose concepts are each in ≥ {} probed sets; n: sets holding both — with few, read the sign, not the size. Largest |lift| first.</p>\n<div class=\"card\">",
+        t.min_n
+    )?;
+    if a.pairs.is_empty() {
+        writeln!(
+            out,
+            "<p class=\"note\">No pair has both concepts in ≥ {} probed sets and a set holding both.</p>",
+            t.min_n
+        )?;
+    } else {
+        out.push_str("<table class=\"tbl\">\n<thead><tr><th>pair</th><th class=\"num\">joint FR</th><th class=\"num\">independent</th><th class=\"num\">lift</th><th class=\"num\">n sets</th></tr></thead>\n<tbody>\n");
+        for r in &a.pairs {
+            writeln!(
+                out,
+                "<tr><td><code>{}</code> + <code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{:+.1}</td><td class=\"num\">{}</td></tr>",
+                Esc(&r.a),
+                Esc(&r.b),
+                Esc(&pct(Some(r.joint))),
+                Esc(&pct(Some(r.independent))),
+                100.0 * r.lift,
+                r.n
+            )?;
+        }
+        out.push_str("</tbody>\n</table>\n");
+    }
+    writeln!(out, "<details><summary>the {} probed sets and their failure rates</summary>", p.sets.len())?;
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">wrong/answered</th></tr></thead>\n<tbody>\n");
+    for (i, s) in p.sets.iter().enumerate() {
+        writeln!(
+            out,
+            "<tr><td class=\"num\">{}</td><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            i + 1,
+            Esc(&s.concepts.join(" + ")),
+            Esc(&pct(s.fr)),
+            Esc(&interval(wilson95(u64::from(s.wrong), u64::from(s.answered)))),
+            Esc(&counts(u64::from(s.wrong), u64::from(s.answered)))
+        )?;
+    }
+    writeln!(
+        out,
+        "</tbody>\n</table>\n</details>\n<p class=\"note\">Probe spend: {}</p>\n</div>\n</section>\n",
+        Esc(&p.spend.line())
+    )
+}
+
+/// One set's row of the transfer table: its FR on the search, then on each model.
+fn write_transfer_rows(out: &mut String, t: &Transfer, lines: &[crate::analysis::transfer::SetLine]) -> fmt::Result {
+    for (i, s) in lines.iter().enumerate() {
+        write!(
+            out,
+            "<tr><td class=\"num\">{}</td><td><code>{}</code></td><td class=\"num\">{}</td>",
+            i + 1,
+            Esc(&s.concepts.join(" + ")),
+            Esc(&pct(s.source_fr))
+        )?;
+        for m in 0..t.models.len() {
+            let (wrong, n) = (u64::from(s.wrong(m)), u64::from(s.answered.get(m).copied().unwrap_or(0)));
+            let hit = s.target_fr.get(m).copied().flatten().is_some_and(|f| f >= t.threshold);
+            write!(
+                out,
+                "<td class=\"num{}\">{} <span class=\"ci\">{}</span></td>",
+                if hit { " hit" } else { "" },
+                Esc(&pct(s.target_fr.get(m).copied().flatten())),
+                Esc(&interval(wilson95(wrong, n)))
+            )?;
+        }
+        out.push_str("</tr>\n");
+    }
+    Ok(())
+}
+
+fn write_transfer(out: &mut String, r: &TransferReport) -> fmt::Result {
+    let t = &r.transfer;
+    writeln!(
+        out,
+        "<section id=\"transfer\">\n<h2>Transfer to other models</h2>\n<p class=\"note\">From <code>transfer.json</code> (<code>revelio transfer</code>, paper RQ3): the run's top {} sets and {} random valid sets, {} observations each, asked of every model on the same scenes — each image rendered once and shown to all. M1 is the run's own model, asked again on those scenes. A set transfers to a model when its FR there is ≥ τ = {:.0}% (shaded). Brackets are 95% Wilson intervals.</p>\n<div class=\"card\">",
+        t.sets.len(),
+        t.random.len(),
+        t.samples,
+        100.0 * t.threshold
+    )?;
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th>model</th><th></th><th class=\"num\">MFR transferred</th><th class=\"num\">MFR random</th><th class=\"num\">ratio</th><th class=\"num\">transfers</th><th class=\"num\">spend</th></tr></thead>\n<tbody>\n");
+    for (m, row) in t.targets.iter().enumerate() {
+        let (tw, tn) = pooled_counts(&t.sets, m);
+        let (rw, rn) = pooled_counts(&t.random, m);
+        writeln!(
+            out,
+            "<tr><td class=\"num\">M{}</td><td><code>{}</code></td><td class=\"num\">{} <span class=\"ci\">{}</span></td><td class=\"num\">{} <span class=\"ci\">{}</span></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            m + 1,
+            Esc(&row.model),
+            Esc(&pct(row.transferred_mfr)),
+            Esc(&interval(wilson95(tw, tn))),
+            Esc(&pct(row.random_mfr)),
+            Esc(&interval(wilson95(rw, rn))),
+            Esc(&row.ratio.map_or_else(|| "–".into(), |x| format!("{x:.1}×"))),
+            Esc(&format!("{}/{}", row.transfers, t.sets.len())),
+            Esc(&r.spend.get(m).map_or_else(|| "–".into(), |s| format!("${:.4}", s.cost_usd)))
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n</div>\n<div class=\"card\">\n<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>transferred set</th><th class=\"num\">search</th>");
+    for m in 1..=t.models.len() {
+        write!(out, "<th class=\"num\">M{m}</th>")?;
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    write_transfer_rows(out, t, &t.sets)?;
+    out.push_str("</tbody>\n</table>\n");
+    writeln!(out, "<details><summary>the {} random sets (the baseline)</summary>", t.random.len())?;
+    out.push_str(
+        "<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>random set</th><th class=\"num\">search</th>",
+    );
+    for m in 1..=t.models.len() {
+        write!(out, "<th class=\"num\">M{m}</th>")?;
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    write_transfer_rows(out, t, &t.random)?;
+    out.push_str("</tbody>\n</table>\n</details>\n</div>\n</section>\n\n");
     Ok(())
 }
 

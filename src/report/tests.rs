@@ -337,3 +337,129 @@ fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() 
     let e = load(&f.dir).err().expect("an unknown outcome is refused");
     assert!(e.contains("journal.jsonl") && e.contains(&format!("line {}", text.lines().count())), "{e}");
 }
+
+/// A probe, a transfer and visibility figures in a run folder: the sections show them, escaped,
+/// with their counts and intervals; the CSV tables hold them; a damaged `probe.json` costs its
+/// section only.
+#[test]
+fn probe_transfer_and_visibility_sections() {
+    use crate::analysis::probe::{Marks, ProbeReport, ProbedSet, Thresholds};
+    use crate::analysis::transfer::{TransferReport, table};
+    use crate::render::EntityVisibility;
+
+    let f = fixture("builtin");
+    // Visibility: the first observation of the first core was drawn three times before its
+    // debris showed; a search observation of {debris_far} stayed invisible.
+    let path = f.dir.join("journal.jsonl");
+    let mut lines: Vec<Record> =
+        std::fs::read_to_string(&path).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    lines[0].resamples = 3;
+    lines[0].visibility = vec![
+        EntityVisibility {
+            entity: "debris".into(),
+            concept: Some("obstruction_near".into()),
+            pixels: 412,
+            contrast: 0.2134,
+        },
+        EntityVisibility { entity: "tree_3".into(), concept: None, pixels: 90, contrast: 0.5 },
+    ];
+    let mut hidden = lines[11].clone();
+    (hidden.obs, hidden.outcome, hidden.answer, hidden.resamples) = (5, Outcome::Invisible, None, 5);
+    lines.push(hidden);
+    let text: String = lines.iter().map(|r| serde_json::to_string(r).unwrap() + "\n").collect();
+    std::fs::write(&path, text).unwrap();
+
+    let probed = |concepts: &[&str], wrong: u32, marks: &[(&str, Marks)]| ProbedSet {
+        concepts: concepts.iter().map(|c| c.to_string()).collect(),
+        wrong,
+        answered: 5,
+        marks: marks.iter().map(|(c, m)| (c.to_string(), *m)).collect(),
+    };
+    let seen = Marks { pos_correct: 5, pos_total: 5, neg_correct: 4, neg_total: 5, unanswered: 0 };
+    let blind = Marks { pos_correct: 1, pos_total: 5, neg_correct: 0, neg_total: 4, unanswered: 1 };
+    let sets = [
+        probed(&["debris_far"], 4, &[("debris_far", blind)]),
+        probed(&["<b>cone</b>", "debris_far"], 5, &[("debris_far", blind), ("<b>cone</b>", seen)]),
+        probed(&["<b>cone</b>"], 1, &[("<b>cone</b>", seen)]),
+    ];
+    let t = Thresholds { min_n: 1, ..Thresholds::default() };
+    let probe = ProbeReport::new("sim:<evil>@1".into(), &sets, 5, &t, Spend::default());
+    std::fs::write(f.dir.join("probe.json"), serde_json::to_string(&probe).unwrap()).unwrap();
+    let d = driving();
+    let stats = |w: u32, r: u32| {
+        let mut s = SetStats::new(d.parse_set(&["debris_far"]).unwrap());
+        (0..w).for_each(|_| s.add(Outcome::Wrong));
+        (0..r).for_each(|_| s.add(Outcome::Correct));
+        s
+    };
+    let names = vec![vec!["debris_far".to_string()]];
+    let transfer = TransferReport {
+        transfer: table(
+            "sim:test@0",
+            &["sim:test@0".into(), "sim:other@1".into()],
+            0.6,
+            10,
+            &names,
+            &[Some(0.6)],
+            &[vec![stats(7, 3)], vec![stats(2, 8)]],
+            &[vec!["town_town01".to_string()]],
+            &[vec![stats(1, 9)], vec![stats(1, 9)]],
+        ),
+        spend: vec![Spend::default(); 2],
+    };
+    std::fs::write(f.dir.join("transfer.json"), serde_json::to_string(&transfer).unwrap()).unwrap();
+
+    let out = f.dir.join("report");
+    let html = write_report(&f, &out);
+    // Visibility on the card and in its section.
+    assert!(html.contains("<div class=\"seen\">debris (obstruction_near): 412 px · contrast 0.213</div>"));
+    assert!(!html.contains("tree_3"), "scenery is not a concept's entity");
+    assert!(html.contains("<b>3 scenes redrawn</b>"));
+    assert!(html.contains("visibility: 1 of 5 observations needed resampling (3 scenes redrawn)"));
+    assert!(
+        html.contains("visibility: 1 of 6 observations needed resampling (5 scenes redrawn); 1 stayed invisible (never shown to the model)"),
+        "{{debris_far}}'s card"
+    );
+    let vis = html.split("<section id=\"visibility\">").nth(1).expect("a visibility section");
+    assert!(
+        vis.contains("<tr><td>search</td><td class=\"num\">21</td><td class=\"num\">1</td><td class=\"num\">2</td><td class=\"num\">8</td><td class=\"num\">1</td></tr>"),
+        "{}",
+        &vis[..vis.find("</table>").unwrap()]
+    );
+    assert!(vis.contains("<a href=\"#core-1\"><code>intersection_ego + obstruction_near</code></a>"));
+    // Recognition vs reasoning, escaped.
+    let p = html.split("<section id=\"probe\">").nth(1).expect("a probe section");
+    assert!(
+        p.contains("<code>sim:&#60;evil&#62;@1</code>") && !html.contains("<evil>") && !html.contains("<b>cone</b>")
+    );
+    assert!(p.contains(
+        "<tr><td><code>debris_far</code></td><td class=\"num\">11%</td><td class=\"num\">[3–33%]</td><td class=\"num\">2/18</td><td class=\"num\">90%</td><td class=\"num\">2</td><td><span class=\"badge o-wrong\">recognition</span></td></tr>"
+    ), "{p}");
+    assert!(p.contains("<span class=\"badge o-correct\">reasoning</span>"));
+    assert!(p.contains("<code>&#60;b&#62;cone&#60;/b&#62;</code> + <code>debris_far</code>"), "the lift table");
+    assert!(p.contains("2 statements were left unmarked"));
+    // Transfer: MFRs with intervals, a set's FR per model, the random baseline.
+    let t = html.split("<section id=\"transfer\">").nth(1).expect("a transfer section");
+    assert!(t.contains("<td class=\"num\">70% <span class=\"ci\">[40–89%]</span></td><td class=\"num\">10% <span class=\"ci\">[2–40%]</span></td><td class=\"num\">7.0×</td><td class=\"num\">1/1</td>"), "{t}");
+    assert!(t.contains("<td class=\"num hit\">70%") && t.contains("<td class=\"num\">20%"));
+    assert!(t.contains("<code>town_town01</code>"));
+    for nav in ["#visibility", "#probe", "#transfer"] {
+        assert!(html.contains(&format!("<a href=\"{nav}\">")), "{nav} in the navigation");
+    }
+    let csv = std::fs::read_to_string(out.join("recognition.csv")).unwrap();
+    assert!(csv.lines().any(|l| l.starts_with("debris_far,0.1111,0.0310,0.3280,2,18,2,0.9000,2,recognition")), "{csv}");
+    let csv = std::fs::read_to_string(out.join("transfer.csv")).unwrap();
+    assert_eq!(
+        csv.lines().next().unwrap(),
+        "kind,rank,concepts,search_fr,fr sim:test@0,answered sim:test@0,fr sim:other@1,answered sim:other@1"
+    );
+    assert_eq!(csv.lines().nth(1).unwrap(), "transferred,1,debris_far,0.6000,0.7000,10,0.2000,10");
+    assert_eq!(csv.lines().nth(2).unwrap(), "random,1,town_town01,,0.1000,10,0.1000,10");
+
+    // A damaged probe.json: the report says so and shows the rest; its table is removed.
+    std::fs::write(f.dir.join("probe.json"), "{ not json").unwrap();
+    let html = write_report(&f, &out);
+    assert!(!html.contains("<section id=\"probe\">") && html.contains("<section id=\"transfer\">"));
+    assert!(html.contains("Left out: invalid `probe.json` in"), "a note names the damaged file");
+    assert!(!out.join("recognition.csv").exists());
+}
