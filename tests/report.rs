@@ -1,6 +1,7 @@
-//! The run report of a real run (builtin renderer, sim model): `revelio search` and `revelio
-//! validate` refresh it and print its path, every file the page links exists, every core has its
-//! card — and a real browser (headless Chromium) opens it with every image loaded and no error
+//! The run report of a real run (builtin renderer, sim model): `revelio search`, `validate`,
+//! `probe` and `transfer` refresh it and print its path, every file the page links exists, every
+//! core has its card with the renderer's visibility figures, the probe and transfer sections are
+//! there — and a real browser (headless Chromium) opens it with every image loaded and no error
 //! logged. Without Chromium the browser test says so and skips (`.ci/run` installs it).
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
@@ -66,6 +67,23 @@ fn run_dir() -> &'static Path {
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(stdout.ends_with(&format!("report: {}\n", index.display())), "validate printed no report path:\n{stdout}");
         assert!(std::fs::metadata(&index).unwrap().modified().unwrap() >= before);
+        let probed = revelio(&["probe", d, "--top", "3", "--samples", "2", "--min-n", "1", "--concurrency", "4"]);
+        let transferred = revelio(&[
+            "transfer",
+            d,
+            "--model",
+            "sim:examples/sim/driving_paper.toml",
+            "--top",
+            "2",
+            "--samples",
+            "2",
+            "--concurrency",
+            "4",
+        ]);
+        for (what, out) in [("probe", probed), ("transfer", transferred)] {
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            assert!(stdout.ends_with(&format!("report: {}\n", index.display())), "{what} printed no report path:\n{stdout}");
+        }
         (tmp, dir)
     });
     dir
@@ -107,9 +125,21 @@ fn check_report(run: &Path, out: &Path) {
             assert!(html.contains(&format!(" of {}</b>", v.validation.answered)), "validated FR of a core missing");
         }
     }
-    for name in ["failure_modes.csv", "sets.csv", "discovery.svg", "heatmap.svg"] {
+    for name in ["failure_modes.csv", "sets.csv", "discovery.svg", "heatmap.svg", "recognition.csv", "transfer.csv"] {
         assert!(out.join(name).is_file(), "{name} missing");
     }
+    // The builtin renderer's visibility figures on the cards, the guard's counts per phase, and
+    // the sections of `probe` and `transfer`.
+    assert!(html.contains(" px · contrast 0."), "no observation shows its visibility figures");
+    let visibility = html.split("<section id=\"visibility\">").nth(1).expect("a visibility section");
+    for phase in ["search", "validate", "probe", "transfer"] {
+        assert!(visibility.contains(&format!("<tr><td>{phase}</td>")), "no visibility row for {phase}");
+    }
+    assert!(html.contains("<section id=\"probe\">") && html.contains("<section id=\"transfer\">"));
+    let probe = loaded.probe.as_ref().expect("probe.json");
+    assert!(probe.analysis.concepts.iter().all(|c| html.contains(&format!("<td><code>{}</code></td>", c.concept))));
+    let transfer = &loaded.transfer.as_ref().expect("transfer.json").transfer;
+    assert!(html.contains(&format!("<code>{}</code>", transfer.models[1])));
     let sets = std::fs::read_to_string(out.join("sets.csv")).unwrap();
     assert_eq!(sets.lines().count(), 1 + loaded.summary.sets.len());
 }
