@@ -48,7 +48,7 @@ pub struct ObsView {
     pub full: Option<String>,
     pub chars: usize,
     /// The measured visibility of each entity a concept placed: `debris (debris_far): 412 px ·
-    /// contrast 0.213`.
+    /// contrast 0.213` (the entity's name alone when the concept's is the same).
     pub seen: Vec<String>,
     /// Scenes drawn again before this one because an entity was not visible.
     pub resamples: u32,
@@ -247,7 +247,8 @@ fn observation(r: &Record, q: Option<&Question>, images: &BTreeMap<String, Image
             .iter()
             .filter_map(|v| {
                 let concept = v.concept.as_ref()?;
-                Some(format!("{} ({concept}): {} px · contrast {:.3}", v.entity, v.pixels, v.contrast))
+                let who = if *concept == v.entity { v.entity.clone() } else { format!("{} ({concept})", v.entity) };
+                Some(format!("{who}: {} px · contrast {:.3}", v.pixels, v.contrast))
             })
             .collect(),
         resamples: r.resamples,
@@ -959,7 +960,7 @@ fn counts(wrong: u64, answered: u64) -> String {
 }
 
 fn write_visibility(out: &mut String, v: &VisibilityView) -> fmt::Result {
-    out.push_str("<section id=\"visibility\">\n<h2>Visibility</h2>\n<p class=\"note\">The builtin renderer measures, in the image it shows, each placed entity's visible pixels after occlusion and its contrast against its surround. A scene in which an entity that a concept placed is not visible by the domain's thresholds is drawn again with the next seed; if it stays hidden the observation is <b>invisible</b>: never shown to the model, neither failure nor success. Each scene counts once, however many models a transfer showed it to.</p>\n<div class=\"card\">\n");
+    out.push_str("<section id=\"visibility\">\n<h2>Visibility</h2>\n<p class=\"note\">The builtin renderer measures, in the image it shows, each placed entity's visible pixels after occlusion and its contrast against its surround. A scene in which an entity that a concept placed is not visible by the domain's thresholds is drawn again with the next seed; if it stays hidden the observation is <b>invisible</b>: never shown to the model, neither failure nor success. Each scene counts once, however many models a transfer showed it to; a scene whose concepts place no entity (a weather, a town) has nothing to measure.</p>\n<div class=\"card\">\n");
     let measured: u64 = v.phases.iter().map(|(_, s)| s.measured).sum();
     if measured == 0 {
         out.push_str("<p class=\"note\">No scene of this run has visibility figures: its renderer does not measure them (only the builtin one does), or the run predates them.</p>\n");
