@@ -180,6 +180,8 @@ impl VisibleIf {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Visibility {
     pub default: VisibleIf,
+    /// Per kind, already resolved by the checker: the kind's own `visible` override or the one
+    /// it inherits from its nearest parent kind or tag. A kind without any is not listed.
     pub kinds: BTreeMap<String, VisibleIf>,
     pub concepts: BTreeMap<String, VisibleIf>,
 }
