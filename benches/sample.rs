@@ -30,6 +30,18 @@ fn bench(c: &mut Criterion) {
             black_box(sampler.sample(black_box(set), seed).unwrap())
         })
     });
+    // Two entities that rarely stand behind one another, and a near container that hides
+    // what stands behind it unless the sampler moves them apart.
+    for names in [&["pedestrian", "cone"][..], &["obstruction_near", "pedestrian"]] {
+        let pair = domain.parse_set(names).expect("paper concepts");
+        let mut seed = 0u64;
+        c.bench_function(&format!("sample {}", names.join(" + ")), |b| {
+            b.iter(|| {
+                seed += 1;
+                black_box(sampler.sample(black_box(pair), seed).unwrap())
+            })
+        });
+    }
     c.bench_function("sample via sample() (hashes the domain)", |b| {
         b.iter(|| black_box(revelio::sample::sample(&domain, black_box(set), 7).unwrap()))
     });

@@ -180,6 +180,8 @@ impl VisibleIf {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Visibility {
     pub default: VisibleIf,
+    /// Per kind, already resolved by the checker: the kind's own `visible` override or the one
+    /// it inherits from its nearest parent kind or tag. A kind without any is not listed.
     pub kinds: BTreeMap<String, VisibleIf>,
     pub concepts: BTreeMap<String, VisibleIf>,
 }
@@ -440,6 +442,27 @@ pub struct ShapePart {
     pub material: String,
     /// Only draw this part when the condition holds for the entity/world (e.g. a lit lamp).
     pub when: Option<Expr>,
+}
+
+impl ShapePart {
+    /// The part's rotation as a row-major matrix, R = Rz(yaw)·Ry(pitch)·Rx(roll): a point is
+    /// rolled about x, then pitched about y, then yawed about z, about the part's own centre.
+    /// The renderer and the sampler's view of the scene both turn parts with it.
+    pub fn rotation(&self) -> [[f64; 3]; 3] {
+        rotation(self.yaw_deg, self.pitch_deg, self.roll_deg)
+    }
+}
+
+/// R = Rz(yaw)·Ry(pitch)·Rx(roll), angles in degrees, row-major (see [`ShapePart::rotation`]).
+pub fn rotation(yaw_deg: f64, pitch_deg: f64, roll_deg: f64) -> [[f64; 3]; 3] {
+    let (sz, cz) = yaw_deg.to_radians().sin_cos();
+    let (sy, cy) = pitch_deg.to_radians().sin_cos();
+    let (sx, cx) = roll_deg.to_radians().sin_cos();
+    [
+        [cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
+        [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
+        [-sy, cy * sx, cy * cx],
+    ]
 }
 
 fn is_zero(x: &f64) -> bool {

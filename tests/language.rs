@@ -317,3 +317,60 @@ fn deep_nesting_is_a_diagnostic_not_a_crash() {
     let c = check::compile("ok.rev", &deep("(", ")", 100), &revelio::check::std_only);
     assert!(c.diagnostics.iter().all(|d| d.code != "R0003"));
 }
+
+/// A `visible` override of a kind or tag applies to every kind that descends from it; the
+/// nearest one wins (the kind's own, then its parents', then theirs), and a concept's override
+/// wins over all of them.
+#[test]
+fn visible_overrides_apply_to_descendant_kinds_most_specific_first() {
+    // `Hazard` is the standard library's tag (std::core).
+    let text = r#"domain d
+tag Sharp: Hazard
+kind Thing {}
+kind Knife: Thing, Sharp {}
+kind Cleaver: Knife {}
+kind Puddle: Hazard {}
+kind Spill: Puddle {}
+kind Cup: Thing {}
+region r { x 1m..2m  y 0m..1m  z 0m }
+concept knife { description "d" add knife: Knife in r  probe "a" not "b" }
+concept cleaver { description "d" add cleaver: Cleaver in r  probe "a" not "b" }
+concept spill { description "d" add spill: Spill in r  probe "a" not "b" }
+visible { pixels = 30  contrast = 0.05 }
+visible Hazard { pixels = 10 }
+visible Sharp { pixels = 5 }
+visible Cleaver { contrast = 0.2 }
+visible spill { pixels = 99 }
+question q { text "?" option a "A" option b "B" }
+rules priority { rule r { expect q.a } }
+"#;
+    let d = check::compile_source("d.rev", text).unwrap_or_else(|e| panic!("{e:?}"));
+    let v = &d.visibility;
+    let t = |kind: &str, concept: Option<&str>| {
+        let x = v.threshold(kind, concept);
+        (x.pixels, x.contrast)
+    };
+    // Knife: Sharp is one step up, Hazard two.
+    assert_eq!(t("Knife", None), (5, 0.05));
+    // Cleaver's own override wins over Sharp's (two steps up); what it leaves out is the default's.
+    assert_eq!(t("Cleaver", None), (30, 0.2));
+    // Spill inherits through its parent kind Puddle from the tag Hazard.
+    assert_eq!(t("Spill", None), (10, 0.05));
+    assert_eq!(t("Spill", Some("spill")), (99, 0.05));
+    // Kinds under no override keep the default.
+    assert_eq!(t("Cup", None), (30, 0.05));
+    assert!(!v.kinds.contains_key("Cup") && !v.kinds.contains_key("Thing"));
+    // Two different overrides equally near a kind: R0027, pointing at the kind.
+    let tie = text.replace(
+        "kind Cup: Thing {}",
+        "kind Cup: Thing {}\nkind Shard: Sharp, Puddle {}\nvisible Puddle { pixels = 12 }",
+    );
+    let errs = check::compile_source("d.rev", &tie).unwrap_err();
+    let r0027: Vec<_> = errs.iter().filter(|e| e.code == "R0027").collect();
+    assert_eq!(r0027.len(), 1, "{errs:?}");
+    assert!(r0027[0].message.contains("`Shard`") && r0027[0].related.len() == 2, "{:?}", r0027[0]);
+    // Equal overrides equally near are no conflict.
+    let same = tie.replace("visible Puddle { pixels = 12 }", "visible Puddle { pixels = 5 }");
+    let d = check::compile_source("d.rev", &same).unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(d.visibility.threshold("Shard", None).pixels, 5);
+}

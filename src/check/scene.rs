@@ -243,9 +243,12 @@ impl Checker<'_> {
     }
 
     /// `visible [NAME] { pixels = N  contrast = X }` items: the default (no name) and overrides
-    /// for a kind or a concept. Parameters left out keep the default's value.
+    /// for a kind, a tag or a concept. Parameters left out keep the default's value. Kind and
+    /// tag overrides are resolved here into one threshold per kind (see [`Self::inherit_visibility`]).
     pub(super) fn lower_visibility(&mut self, items: &[(u32, &Item)]) {
         let mut firsts: Vec<(Option<String>, Span)> = Vec::new();
+        // Overrides written for a kind or a tag, applied to kinds once all are read.
+        let mut typed: Vec<(TypeSym, VisibleIf, Span)> = Vec::new();
         // The default first, so that overrides inherit what it sets.
         let mut ordered: Vec<&Item> = items.iter().map(|(_, i)| *i).collect();
         ordered.sort_by_key(|i| !matches!(i.kind, ItemKind::Visible { target: None, .. }));
@@ -259,21 +262,37 @@ impl Checker<'_> {
                 continue;
             }
             firsts.push((key.clone(), item.span));
-            let is_kind = target.as_ref().is_some_and(|t| self.d.kinds.iter().any(|k| k.name == t.name));
             let is_concept = target.as_ref().is_some_and(|t| self.d.concepts.iter().any(|c| c.name == t.name));
+            let sym = target.as_ref().filter(|_| !is_concept).and_then(|t| self.types.get(&t.name).copied());
             if let Some(t) = target
-                && !is_kind
                 && !is_concept
             {
-                let names: Vec<&str> = self
-                    .d
-                    .kinds
-                    .iter()
-                    .map(|k| k.name.as_str())
-                    .chain(self.d.concepts.iter().map(|c| c.name.as_str()))
-                    .collect();
-                self.error(super::names::unknown("kind or concept", t, names));
-                continue;
+                match sym {
+                    Some(TypeSym::Kind(_) | TypeSym::Tag(_)) => {}
+                    Some(TypeSym::Enum(_)) => {
+                        self.error(
+                            Diagnostic::error(
+                                codes::WRONG_SORT,
+                                t.span,
+                                format!("`{}` is an enum, not a kind, tag or concept", t.name),
+                            )
+                            .with_label("`visible` names a kind, a tag or a concept"),
+                        );
+                        continue;
+                    }
+                    None => {
+                        let names: Vec<&str> = self
+                            .d
+                            .kinds
+                            .iter()
+                            .map(|k| k.name.as_str())
+                            .chain(self.d.tags.iter().map(|t| t.name.as_str()))
+                            .chain(self.d.concepts.iter().map(|c| c.name.as_str()))
+                            .collect();
+                        self.error(super::names::unknown("kind, tag or concept", t, names));
+                        continue;
+                    }
+                }
             }
             let mut v = self.d.visibility.default;
             let mut seen: Vec<(&str, Span)> = Vec::new();
@@ -323,15 +342,96 @@ impl Checker<'_> {
                     }
                 }
             }
-            match target {
-                None => self.d.visibility.default = v,
-                Some(t) if is_concept => {
+            match (target, sym) {
+                (None, _) => self.d.visibility.default = v,
+                (Some(t), _) if is_concept => {
                     self.d.visibility.concepts.insert(t.name.clone(), v);
                 }
-                Some(t) => {
-                    self.d.visibility.kinds.insert(t.name.clone(), v);
-                }
+                (Some(_), Some(s)) => typed.push((s, v, target.as_ref().map_or(item.span, |t| t.span))),
+                (Some(_), None) => {}
             }
+        }
+        self.inherit_visibility(&typed);
+    }
+
+    /// Give every kind the most specific kind or tag override that applies to it: its own, else
+    /// that of the nearest ancestor — parent kinds and tags one step up, their parents two
+    /// steps up, and so on. Two different overrides equally near a kind are an error (R0027):
+    /// nothing says which one is meant.
+    fn inherit_visibility(&mut self, typed: &[(TypeSym, VisibleIf, Span)]) {
+        if typed.is_empty() {
+            return;
+        }
+        for k in 0..self.d.kinds.len() {
+            let mut level = vec![TypeSym::Kind(KindId(k as u32))];
+            let mut visited = level.clone();
+            while !level.is_empty() {
+                let hits: Vec<&(TypeSym, VisibleIf, Span)> =
+                    typed.iter().filter(|(s, _, _)| level.contains(s)).collect();
+                if let Some(&&(first, v, first_span)) = hits.first() {
+                    match hits.iter().find(|(_, w, _)| *w != v) {
+                        None => {
+                            let name = self.d.kinds[k].name.clone();
+                            self.d.visibility.kinds.insert(name, v);
+                        }
+                        Some(&&(other, _, span)) => {
+                            let kind = &self.d.kinds[k];
+                            let d = Diagnostic::error(
+                                codes::AMBIGUOUS_INHERITANCE,
+                                kind.span,
+                                format!(
+                                    "kind `{}` inherits two different `visible` overrides, from `{}` and `{}`",
+                                    kind.name,
+                                    self.sym_name(first),
+                                    self.sym_name(other)
+                                ),
+                            )
+                            .with_label("equally near to both")
+                            .with_related(first_span, "one override")
+                            .with_related(span, "the other")
+                            .with_help(format!("say which applies with `visible {} {{ … }}`", kind.name));
+                            self.error(d);
+                        }
+                    }
+                    break;
+                }
+                let mut next = Vec::new();
+                for s in &level {
+                    for p in self.type_parents(*s) {
+                        if !visited.contains(&p) {
+                            visited.push(p);
+                            next.push(p);
+                        }
+                    }
+                }
+                level = next;
+            }
+        }
+    }
+
+    /// The direct parents of a kind (kinds and tags) or a tag (tags), as written.
+    fn type_parents(&self, s: TypeSym) -> Vec<TypeSym> {
+        let (item, kinds) = match s {
+            TypeSym::Kind(k) => (self.kind_items[k.index()], self.kind_parents[k.index()].clone()),
+            TypeSym::Tag(t) => (self.tag_items[t.index()], Vec::new()),
+            TypeSym::Enum(_) => return Vec::new(),
+        };
+        let parents = match &item.kind {
+            ItemKind::Kind { parents, .. } | ItemKind::Tag { parents, .. } => parents.as_slice(),
+            _ => &[],
+        };
+        let tags = parents.iter().filter_map(|p| match self.types.get(&p.name) {
+            Some(TypeSym::Tag(t)) => Some(TypeSym::Tag(*t)),
+            _ => None,
+        });
+        kinds.into_iter().map(TypeSym::Kind).chain(tags).collect()
+    }
+
+    fn sym_name(&self, s: TypeSym) -> &str {
+        match s {
+            TypeSym::Kind(k) => &self.d.kinds[k.index()].name,
+            TypeSym::Tag(t) => &self.d.tags[t.index()].name,
+            TypeSym::Enum(e) => &self.d.enums[e.index()].name,
         }
     }
 }

@@ -34,6 +34,7 @@ codes! {
     UNKNOWN_VARIANT = "R0024", "unknown-variant", "a value that is no variant of the attribute's enum";
     UNKNOWN_UNIT = "R0025", "unknown-unit", "a number with a unit suffix that no `unit` declares";
     CYCLE = "R0026", "inheritance-cycle", "a tag or kind that is its own ancestor";
+    AMBIGUOUS_INHERITANCE = "R0027", "ambiguous-inheritance", "a kind that inherits two different `visible` overrides from equally near parents";
     TYPE_MISMATCH = "R0030", "type-mismatch", "a value of the wrong type (number for a bool, range where one number is needed, …)";
     DIMENSION_MISMATCH = "R0031", "dimension-mismatch", "a number whose unit measures the wrong dimension";
     OUT_OF_RANGE = "R0032", "out-of-range", "a value outside the attribute's `in MIN..MAX` bounds";

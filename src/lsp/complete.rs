@@ -97,7 +97,7 @@ pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
         }
         "has" | "elements" => names(ix, &[Sort::Concept, Sort::Modifier]),
         "look" => names(ix, &[Sort::Kind]),
-        "visible" => names(ix, &[Sort::Kind, Sort::Concept, Sort::Modifier]),
+        "visible" => names(ix, &[Sort::Kind, Sort::Tag, Sort::Concept, Sort::Modifier]),
         "expect" => ix
             .all(&[Sort::Option])
             .filter_map(|(_, o)| {

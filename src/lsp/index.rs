@@ -435,7 +435,7 @@ impl Index {
             }
             ItemKind::Visible { target, params } => {
                 if let Some(t) = target {
-                    self.refer_global(t, &[Sort::Kind, Sort::Concept, Sort::Modifier]);
+                    self.refer_global(t, &[Sort::Kind, Sort::Tag, Sort::Concept, Sort::Modifier]);
                 }
                 for (_, n) in params {
                     self.num(n);

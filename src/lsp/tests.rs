@@ -45,13 +45,15 @@ fn names_resolve_through_scopes_files_and_inheritance() {
     // Every occurrence of the question: its declaration and two `expect`s.
     let (_, q) = a.index.at(0, DOMAIN.find("question q").unwrap() as u32 + 9).unwrap();
     assert_eq!(a.index.occurrences_of(q).len(), 3);
-    // `visible NAME { … }` names a kind or a concept.
-    let text = format!("{DOMAIN}visible walker {{ pixels = 30 }}\n");
+    // `visible NAME { … }` names a kind, a tag or a concept.
+    let text = format!("{DOMAIN}visible walker {{ pixels = 30 }}\nvisible Collidable {{ pixels = 25 }}\n");
     let a = analyse(&text);
     assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
     let (_, w) = a.index.at(0, text.find("visible walker").unwrap() as u32 + 9).expect("the concept is referred to");
     assert_eq!((a.index.symbols[w].sort, a.index.symbols[w].name.as_str()), (Sort::Concept, "walker"));
     assert_eq!(a.index.occurrences_of(w).len(), 2);
+    let (_, t) = a.index.at(0, text.find("visible Collidable").unwrap() as u32 + 9).expect("the tag is referred to");
+    assert_eq!((a.index.symbols[t].sort, a.index.symbols[t].name.as_str()), (Sort::Tag, "Collidable"));
 }
 
 #[test]
@@ -120,7 +122,10 @@ fn completion_follows_the_context() {
     let l = labels(&format!("{DOMAIN}allow |\n"));
     assert!(l.contains(&"R0101".into()) && l.contains(&"R0107".into()), "{l:?}");
     let l = labels(&format!("{DOMAIN}visible |\n"));
-    assert!(l.contains(&"walker".into()) && l.contains(&"AdultPedestrian".into()), "{l:?}");
+    assert!(
+        l.contains(&"walker".into()) && l.contains(&"AdultPedestrian".into()) && l.contains(&"Hazard".into()),
+        "{l:?}"
+    );
     let l = labels(&format!("{DOMAIN}kind K {{ size: | }}\n"));
     assert!(l.contains(&"length".into()) && l.contains(&"bool".into()) && l.contains(&"Signal".into()), "{l:?}");
 }

@@ -184,6 +184,37 @@ pub fn project(camera: &Camera, width: u32, height: u32, p: [f64; 3]) -> Option<
 mod tests {
     use super::rain_streaks;
 
+    /// The sampler's view of the scene (which keeps entities from hiding one another) projects
+    /// as the renderer does.
+    #[test]
+    fn the_samplers_view_projects_as_the_renderer_does() {
+        let cameras = [
+            crate::ir::Camera {
+                at: [-1.6, 0.0, 1.45],
+                look_at: [30.0, 0.0, 0.6],
+                fov_deg: 80.0,
+                width: 640,
+                height: 360,
+            },
+            crate::ir::Camera {
+                at: [-1.0, 0.0, 2.2],
+                look_at: [3.0, 0.0, 0.5],
+                fov_deg: 75.0,
+                width: 640,
+                height: 480,
+            },
+        ];
+        for c in cameras {
+            let view = crate::sample::view::View::new(&c);
+            for p in [[10.0, 2.0, 0.5], [2.7, -0.8, 0.95], [40.0, -3.0, 4.0], [1.5, 1.2, 0.0]] {
+                let (a, da) = super::project(&c, c.width, c.height, p).unwrap();
+                let (b, db) = view.project(p).unwrap();
+                assert!((a[0] - b[0]).abs() < 0.05 && (a[1] - b[1]).abs() < 0.05, "{p:?}: {a:?} vs {b:?}");
+                assert!((da - db).abs() < 1e-3 * db, "{p:?}: depth {da} vs {db}");
+            }
+        }
+    }
+
     #[test]
     fn rain_streaks_follow_precipitation_and_width() {
         assert_eq!(rain_streaks(0.0, 640, 360), (0, 0));

@@ -229,6 +229,31 @@ mod tests {
         assert_eq!(under[0].pixels, 0, "{under:?}");
     }
 
+    /// Glass hides nothing: an entity seen through another entity's glass pane keeps its pixels,
+    /// and the pane claims only the pixels where no entity lies behind it.
+    #[test]
+    fn an_entity_behind_glass_is_seen() {
+        let r = renderer();
+        let mut behind = red_box(30.0);
+        behind.name = "behind".into();
+        let pane = |material: &str| {
+            entity(
+                "pane",
+                [15.0, 0.0, 0.0],
+                vec![part(crate::ir::Primitive::Box, [0.05, 4.0, 3.0], [0.0, 0.0, 1.5], 0xb8d8e8, material)],
+            )
+        };
+        let (_, alone) = r.render_seen(&scene(vec![behind.clone()], clear())).unwrap();
+        let (_, through) = r.render_seen(&scene(vec![behind.clone(), pane("glass")], clear())).unwrap();
+        // Equal on CPU drivers; multisampled edges may differ by a pixel or two.
+        assert!(through[0].pixels.abs_diff(alone[0].pixels) <= alone[0].pixels / 50, "{through:?} vs {alone:?}");
+        assert!(through[1].pixels > 1000, "the pane is seen around the box: {through:?}");
+        assert!(through[0].contrast > 0.05, "{through:?}");
+        // The same pane opaque hides it.
+        let (_, wall) = r.render_seen(&scene(vec![behind, pane("matte")], clear())).unwrap();
+        assert_eq!(wall[0].pixels, 0, "{wall:?}");
+    }
+
     #[test]
     fn fog_lowers_the_contrast_measure_with_distance() {
         let r = renderer();

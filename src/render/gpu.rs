@@ -14,8 +14,24 @@ use super::mesh::{Mesh, Vertex};
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The entity-id target: r = 1 + entity index (exact in f16 up to 2048), a = claim. A float
-/// format so that blended passes can keep (a = 0) or replace (a = 1) the id behind them.
+/// format so that blended passes can keep or take the id behind them ([`ID_UNDER`]).
 const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// How blended (translucent) fragments write the id target: `src · (1 − dst.a) + dst`. Where an
+/// entity already claims the pixel (a = 1) it keeps it — an entity seen through glass or smoke
+/// is seen — and elsewhere (a = 0: sky, scenery) a claiming fragment takes it and a fragment
+/// that does not claim (scenery glass, a = 0) leaves it as it is.
+const ID_UNDER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
 /// Bytes per pixel of `ID_FORMAT`.
 const ID_BYTES: u32 = 8;
 /// Multisampling for clean edges on GPUs; falls back to 1 where the adapter cannot. CPU drivers
@@ -247,7 +263,7 @@ impl Gpu {
                             }),
                             Some(wgpu::ColorTargetState {
                                 format: ID_FORMAT,
-                                blend: blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                                blend: blend.then_some(ID_UNDER),
                                 write_mask: if id { wgpu::ColorWrites::ALL } else { wgpu::ColorWrites::empty() },
                             }),
                         ],

@@ -167,21 +167,12 @@ impl Xf {
         let (s, c) = deg.to_radians().sin_cos();
         Xf { r: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], t }
     }
-    /// A part's rotation (docs/language.md, "Shape parts"): R = Rz(yaw) · Ry(pitch) · Rx(roll),
-    /// so a point is rolled about x, then pitched about y, then yawed about z, all about the
-    /// part's own centre. Positive pitch tilts the part's top towards +x (forward).
+    /// A part's rotation (docs/language.md, "Shape parts"; [`crate::ir::rotation`]):
+    /// R = Rz(yaw) · Ry(pitch) · Rx(roll), so a point is rolled about x, then pitched about y,
+    /// then yawed about z, all about the part's own centre. Positive pitch tilts the part's top
+    /// towards +x (forward).
     fn yaw_pitch_roll(yaw: f64, pitch: f64, roll: f64, t: [f64; 3]) -> Xf {
-        let (sz, cz) = yaw.to_radians().sin_cos();
-        let (sy, cy) = pitch.to_radians().sin_cos();
-        let (sx, cx) = roll.to_radians().sin_cos();
-        Xf {
-            r: [
-                [cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
-                [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
-                [-sy, cy * sx, cy * cx],
-            ],
-            t,
-        }
+        Xf { r: crate::ir::rotation(yaw, pitch, roll), t }
     }
     fn rot(&self, v: [f64; 3]) -> [f64; 3] {
         let r = &self.r;

@@ -163,9 +163,9 @@ struct VsOut {
 };
 
 // Colour, and the id target for the visibility figures: r = 1 + the entity's index (0 for
-// stage, extras, shadows), a = whether the fragment claims the pixel. Opaque parts always
-// claim; in blended passes a = 0 leaves what lies behind (a translucent stage window does not
-// hide the entity behind it), a = 1 replaces it.
+// stage, extras, shadows), a = whether the fragment claims the pixel. Opaque fragments replace
+// the id; in blended passes (gpu.rs, ID_UNDER) a claiming fragment takes only a pixel no entity
+// holds yet (an entity behind glass or smoke stays seen), and a = 0 leaves the pixel as it is.
 struct FsOut {
     @location(0) color: vec4<f32>,
     @location(1) id: vec4<f32>,
@@ -187,8 +187,10 @@ fn vs_main(v: VsIn) -> VsOut {
 fn fs_main(in: VsOut) -> FsOut {
     var o: FsOut;
     o.color = shade(in);
+    // A fragment that does not claim writes zeros: under the translucent pass's additive id
+    // blend (ID_UNDER) it then leaves the pixel's id as it is.
     let claims = in.entity > 0.0 && in.material != SHADOW;
-    o.id = vec4<f32>(in.entity, 0.0, 0.0, select(0.0, 1.0, claims));
+    o.id = select(vec4<f32>(0.0), vec4<f32>(in.entity, 0.0, 0.0, 1.0), claims);
     return o;
 }
 

@@ -7,12 +7,14 @@
 //! 3. each entity's position in its region: x from a `distance` attribute and y from a `lateral`
 //!    attribute when the kind has one whose range meets the region's extent (drawn inside the
 //!    intersection), otherwise uniformly in the region; z uniformly in the region. Entities in
-//!    one region do not overlap (see [`place`]). Entities are placed targets first (otherwise in
-//!    anchor order); an entity added with a relation to another entity (`near stove`) is drawn
-//!    where its region meets the relation's placement around where the target stands, and the
-//!    target is drawn where that meeting is possible. `on_top` puts the entity at its target's
-//!    ground position, on the target's highest face. When region and relation cannot both hold,
-//!    the relation decides: it holds in every scene;
+//!    one region do not overlap (see [`place`]), and where their bounds leave room the entities
+//!    of a set do not stand behind one another in the camera's view (see [`view`]; a layout
+//!    that still hides one is drawn again, up to [`LAYOUTS`] times). Entities are placed
+//!    targets first (otherwise in anchor order); an entity added with a relation to another
+//!    entity (`near stove`) is drawn where its region meets the relation's placement around
+//!    where the target stands, and the target is drawn where that meeting is possible. `on_top`
+//!    puts the entity at its target's ground position, on the target's highest face. When
+//!    region and relation cannot both hold, the relation decides: it holds in every scene;
 //! 4. environmental extras (see below).
 //!
 //! Sets that are not valid (`lattice::validate`: constraints, modifier targets, the empty set)
@@ -35,6 +37,7 @@
 
 mod place;
 mod rng;
+pub(crate) mod view;
 
 use std::collections::BTreeMap;
 
@@ -49,9 +52,13 @@ use crate::lattice::Validity;
 use crate::scene::{Scene, SceneEntity, SceneValue};
 use place::{Axis, Footprint, Must, Placed};
 pub use rng::domain_hash;
+use view::{Sight, View};
 
 /// Most extras in one scene.
 pub const MAX_EXTRAS: u64 = 3;
+/// Layouts tried for a scene whose entities hide one another (see [`view`]).
+const LAYOUTS: usize = 6;
+pub use view::MAX_HIDDEN;
 /// The tag that marks scenery kinds.
 pub const EXTRA_TAG: &str = "Extra";
 
@@ -143,18 +150,49 @@ impl<'d> Sampler<'d> {
         }
         let shapes: Vec<Vec<ShapePart>> = (0..concrete.entities.len()).map(|i| entity_shape(d, &concrete, i)).collect();
         let n = concrete.entities.len();
-        let mut placed = Vec::with_capacity(n);
-        let mut positions: Vec<[f64; 3]> = vec![[0.0; 3]; n];
-        let layout = Layout { bounds: anchor::ground_bounds(d, &anchor), anchor: &anchor, shapes: &shapes };
-        for i in anchor::placement_order(&anchor) {
-            positions[i] = layout.position(d, &mut rng, &mut placed, &positions, i, &mut concrete.entities[i]);
+        let view = View::new(&d.camera);
+        let on_top = anchor.entities.iter().map(|e| anchor::placement_of(d, e).is_some_and(|p| p.on_top)).collect();
+        let bounds = anchor::ground_bounds(d, &anchor);
+        let poses = (0..n)
+            .map(|j| {
+                let z = d.regions[anchor.entities[j].region.index()].z;
+                (yaw_of(d, &concrete.entities[j]), (z.0 + z.1) / 2.0)
+            })
+            .collect();
+        let probes = (0..n).map(|_| std::cell::OnceCell::new()).collect();
+        let layout = Layout { bounds, anchor: &anchor, shapes: &shapes, view: &view, on_top, probes, poses };
+        let order = anchor::placement_order(&anchor);
+        // Lay the entities out; when one ends up hidden behind another, lay them all out again
+        // (fresh positions, the same attributes), keeping the layout that hides least.
+        let mut best: Option<(f64, Arrangement)> = None;
+        for attempt in 0..LAYOUTS {
+            let mut a = Arrangement {
+                placed: Vec::with_capacity(n),
+                positions: vec![[0.0; 3]; n],
+                sights: vec![None; n],
+                entities: concrete.entities.clone(),
+            };
+            for &i in &order {
+                layout.position(d, &mut rng, &mut a, i, attempt > 0);
+            }
+            let worst = layout.worst_hidden(&a);
+            if best.as_ref().is_none_or(|(w, _)| worst < *w) {
+                best = Some((worst, a));
+            }
+            if worst <= view::MAX_HIDDEN {
+                break;
+            }
         }
+        let (_, a) = best.expect("LAYOUTS is at least 1");
+        let Arrangement { mut placed, positions, sights, entities: laid_out } = a;
+        concrete.entities = laid_out;
         let mut entities = Vec::with_capacity(n);
         for (i, shape) in shapes.into_iter().enumerate() {
             let e = &concrete.entities[i];
             entities.push(scene_entity(d, e, Some(&d.concepts[e.concept.index()].name), positions[i], shape));
         }
-        let extras = self.extras(&mut rng, &mut concrete, &mut placed);
+        let guarded: Vec<Sight> = sights.into_iter().flatten().collect();
+        let extras = self.extras(&mut rng, &mut concrete, &mut placed, &view, &guarded);
         Ok(Scene {
             domain: d.name.clone(),
             domain_hash: self.hash.clone(),
@@ -171,7 +209,14 @@ impl<'d> Sampler<'d> {
 
     /// Draw the scenery extras. They are evaluated on the concrete graph (for their own shape
     /// conditions) but removed again, so they never take part in anything the concepts decide.
-    fn extras(&self, rng: &mut ChaCha8Rng, g: &mut AnchorGraph, placed: &mut Vec<Placed>) -> Vec<SceneEntity> {
+    fn extras(
+        &self,
+        rng: &mut ChaCha8Rng,
+        g: &mut AnchorGraph,
+        placed: &mut Vec<Placed>,
+        view: &View,
+        guarded: &[Sight],
+    ) -> Vec<SceneEntity> {
         if self.extras.is_empty() {
             return Vec::new();
         }
@@ -200,7 +245,7 @@ impl<'d> Sampler<'d> {
             g.entities.push(e);
             let shape = resolve_parts(d, g, Some(g.entities.len() - 1), &k.shape);
             let mut e = g.entities.pop().expect("pushed above");
-            let position = position(d, rng, placed, &ranged, &mut e, &shape);
+            let position = position(d, rng, placed, (&ranged, &mut e, &shape), view, guarded);
             out.push(scene_entity(d, &e, None, position, shape));
         }
         out
@@ -276,25 +321,37 @@ struct Layout<'a> {
     anchor: &'a AnchorGraph,
     bounds: Vec<GroundBounds>,
     shapes: &'a [Vec<ShapePart>],
+    view: &'a View,
+    /// Whether each entity stands on its target (`on_top`).
+    on_top: Vec<bool>,
+    /// Each entity seen from a few points of where it can stand (the corners, edge midpoints
+    /// and centre of its ground bounds), made when first needed: an entity placed earlier must
+    /// leave one of them in view for each entity placed after it.
+    probes: Vec<std::cell::OnceCell<Vec<Sight>>>,
+    /// The resolved yaw and region height of each entity, for its probes.
+    poses: Vec<(f64, f64)>,
+}
+
+/// One layout of a scene's entities, being built.
+struct Arrangement {
+    placed: Vec<Placed>,
+    positions: Vec<[f64; 3]>,
+    /// What the camera sees of each entity placed so far.
+    sights: Vec<Option<Sight>>,
+    /// The concrete entities, their `distance`/`lateral` set to where they stand.
+    entities: Vec<AnchorEntity>,
 }
 
 impl Layout<'_> {
-    /// Position entity `i` (its target, if any, is already in `positions`); like [`position`],
-    /// plus its relation: drawn where its region meets the relation around its target, and
-    /// only where each entity related to it will still find room.
-    fn position(
-        &self,
-        d: &Domain,
-        rng: &mut ChaCha8Rng,
-        placed: &mut Vec<Placed>,
-        positions: &[[f64; 3]],
-        i: usize,
-        e: &mut AnchorEntity,
-    ) -> [f64; 3] {
+    /// Position entity `i` (its target, if any, is already placed); like [`position`], plus its
+    /// relation: drawn where its region meets the relation around its target, and only where
+    /// each entity related to it will still find room. With `fresh`, the first draw ignores the
+    /// `distance`/`lateral` drawn with the attributes (a second layout must not repeat the first).
+    fn position(&self, d: &Domain, rng: &mut ChaCha8Rng, a: &mut Arrangement, i: usize, fresh: bool) {
         let ranged = &self.anchor.entities[i];
         let region: &Region = &d.regions[ranged.region.index()];
         let placement = anchor::placement_of(d, ranged);
-        let target = ranged.target.map(|t| positions[t]);
+        let target = ranged.target.map(|t| a.positions[t]);
         let origin = target.unwrap_or([0.0; 3]);
         let (bx, by) = self.bounds[i];
         let (zx, zy) = match (placement, target) {
@@ -311,10 +368,16 @@ impl Layout<'_> {
         // Where the relation does not narrow an axis, it is drawn exactly as without one.
         let ax = if ax0.extent() == xr { ax0 } else { Axis::of(xr) };
         let ay = if ay0.extent() == yr { ay0 } else { Axis::of(yr) };
-        let x0 = first_draw(rng, ax, xslot, e);
-        let y0 = first_draw(rng, ay, yslot, e);
+        let e = &a.entities[i];
+        let (x0, y0) = if fresh {
+            (ax.draw(rng), ay.draw(rng))
+        } else {
+            let x0 = first_draw(rng, ax, xslot, e);
+            (x0, first_draw(rng, ay, yslot, e))
+        };
         let mut z = rng::uniform(rng, region.z.0.min(region.z.1), region.z.0.max(region.z.1));
-        let fp = Footprint::of(&self.shapes[i], yaw_of(d, e));
+        let yaw = yaw_of(d, e);
+        let fp = Footprint::of(&self.shapes[i], yaw);
         let dependents: Vec<(usize, &Placement)> = (0..self.anchor.entities.len())
             .filter(|&j| self.anchor.entities[j].target == Some(i))
             .filter_map(|j| anchor::placement_of(d, &self.anchor.entities[j]).map(|p| (j, p)))
@@ -324,23 +387,91 @@ impl Layout<'_> {
                 && dependents.iter().all(|&(j, p)| room(p, self.bounds[j], (x, y)).is_some())
         };
         let on_top = placement.is_some_and(|p| p.on_top) && target.is_some();
+        if on_top && let Some(t) = ranged.target {
+            z = origin[2] + top_of(&self.shapes[t]);
+        }
+        let others: Vec<&Sight> =
+            (0..a.sights.len()).filter(|&j| !self.stand_together(i, j)).filter_map(|j| a.sights[j].as_ref()).collect();
+        let later: Vec<usize> =
+            (0..a.sights.len()).filter(|&j| a.sights[j].is_none() && !self.stand_together(i, j)).collect();
+        let hidden = |x: f64, y: f64| {
+            let me = self.view.sight(&self.shapes[i], yaw, [x, y, z]);
+            let own = view::hidden_share(&me, others.iter().copied());
+            let placed = others.iter().map(|o| view::hidden_share(o, std::iter::once(&me))).fold(own, f64::max);
+            if placed > view::MAX_HIDDEN {
+                return placed;
+            }
+            // How well the best spot left for each later entity does: the first probe hidden by
+            // at most half of what is allowed (room to spare: the later entity still has to
+            // find it), else the least hidden one, doubled (0 when it has no probe).
+            let mutual = |p: &Sight| {
+                view::hidden_share(p, std::iter::once(&me)).max(view::hidden_share(&me, std::iter::once(p)))
+            };
+            let best_spot = |j: usize| {
+                let mut least = f64::INFINITY;
+                for p in self.probes(j) {
+                    least = least.min(mutual(p));
+                    if least <= view::MAX_HIDDEN / 2.0 {
+                        break;
+                    }
+                }
+                if least.is_finite() { (2.0 * least).min(1.0) } else { 0.0 }
+            };
+            later.iter().map(|&j| best_spot(j)).fold(placed, f64::max)
+        };
         let must = Must {
             test: &test,
             overlaps_ok: if on_top { ranged.target } else { None },
             rescue: placement.and_then(|p| room(p, (xr, yr), (origin[0], origin[1]))),
+            hidden: &hidden,
         };
-        let (x, y) = place::place(rng, placed, (ranged.region.index(), region), (ax, ay), (x0, y0), fp, &must);
-        placed.push(Placed { id: i, region: ranged.region.index(), x, y, fp });
+        let (x, y) = place::place(rng, &a.placed, (ranged.region.index(), region), (ax, ay), (x0, y0), fp, &must);
+        a.placed.push(Placed { id: i, region: ranged.region.index(), x, y, fp });
+        a.sights[i] = Some(self.view.sight(&self.shapes[i], yaw, [x, y, z]));
         for (slot, v) in [(xslot, x), (yslot, y)] {
             if let Some(s) = slot {
-                e.attrs[s] = Value::Number(v);
+                a.entities[i].attrs[s] = Value::Number(v);
             }
         }
-        if on_top && let Some(t) = ranged.target {
-            z = origin[2] + top_of(&self.shapes[t]);
-        }
-        [x, y, z]
+        a.positions[i] = [x, y, z];
     }
+
+    /// Entity `j` seen from the probe points of its ground bounds.
+    fn probes(&self, j: usize) -> &[Sight] {
+        self.probes[j].get_or_init(|| {
+            let ((x0, x1), (y0, y1)) = self.bounds[j];
+            let (yaw, z) = self.poses[j];
+            grid_spots((x0, x1), (y0, y1))
+                .into_iter()
+                .map(|(x, y)| self.view.sight(&self.shapes[j], yaw, [x, y, z]))
+                .collect()
+        })
+    }
+
+    /// Whether entity `i` or `j` stands on the other (or they are one): such a pair covers itself
+    /// by design and is not judged for occlusion.
+    fn stand_together(&self, i: usize, j: usize) -> bool {
+        let on = |a: usize, b: usize| self.on_top[a] && self.anchor.entities[a].target == Some(b);
+        i == j || on(i, j) || on(j, i)
+    }
+
+    /// The largest share of an entity's projected area that the others of the layout cover.
+    fn worst_hidden(&self, a: &Arrangement) -> f64 {
+        (0..a.sights.len())
+            .filter_map(|i| {
+                let me = a.sights[i].as_ref()?;
+                let others =
+                    (0..a.sights.len()).filter(|&j| !self.stand_together(i, j)).filter_map(|j| a.sights[j].as_ref());
+                Some(view::hidden_share(me, others))
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The centre, edge midpoints and corners of a ground box, centre first.
+fn grid_spots((x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> Vec<(f64, f64)> {
+    let (xm, ym) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    vec![(xm, ym), (xm, y0), (xm, y1), (x0, ym), (x1, ym), (x0, y0), (x0, y1), (x1, y0), (x1, y1)]
 }
 
 /// The intersection of `own` and `zone`, or `zone` when they do not meet (the relation decides).
@@ -380,15 +511,16 @@ fn first_draw(rng: &mut ChaCha8Rng, a: Axis, slot: Option<usize>, e: &AnchorEnti
     }
 }
 
-/// Position an extra in its region; the `distance`/`lateral` attributes are updated to the
-/// coordinates actually used, so the scene never contradicts itself.
+/// Position an extra in its region, where it hides none of the `guarded` entities (those the
+/// concepts placed) by more than [`view::MAX_HIDDEN`] if it can; the `distance`/`lateral`
+/// attributes are updated to the coordinates actually used, so the scene never contradicts itself.
 fn position(
     d: &Domain,
     rng: &mut ChaCha8Rng,
     placed: &mut Vec<Placed>,
-    ranged: &AnchorEntity,
-    e: &mut AnchorEntity,
-    shape: &[ShapePart],
+    (ranged, e, shape): (&AnchorEntity, &mut AnchorEntity, &[ShapePart]),
+    view: &View,
+    guarded: &[Sight],
 ) -> [f64; 3] {
     let region: &Region = &d.regions[e.region.index()];
     let (ax, xslot) = axis(d, ranged, "distance", region.x);
@@ -396,8 +528,14 @@ fn position(
     let x0 = first_draw(rng, ax, xslot, e);
     let y0 = first_draw(rng, ay, yslot, e);
     let z = rng::uniform(rng, region.z.0.min(region.z.1), region.z.0.max(region.z.1));
-    let fp = Footprint::of(shape, yaw_of(d, e));
-    let (x, y) = place::place(rng, placed, (e.region.index(), region), (ax, ay), (x0, y0), fp, &Must::none());
+    let yaw = yaw_of(d, e);
+    let fp = Footprint::of(shape, yaw);
+    let hidden = |x: f64, y: f64| {
+        let me = view.sight(shape, yaw, [x, y, z]);
+        guarded.iter().map(|o| view::hidden_share(o, std::iter::once(&me))).fold(0.0, f64::max)
+    };
+    let must = Must { test: &|_, _| true, overlaps_ok: None, rescue: None, hidden: &hidden };
+    let (x, y) = place::place(rng, placed, (e.region.index(), region), (ax, ay), (x0, y0), fp, &must);
     placed.push(Placed { id: usize::MAX, region: e.region.index(), x, y, fp });
     for (slot, v) in [(xslot, x), (yslot, y)] {
         if let Some(i) = slot {

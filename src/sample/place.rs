@@ -11,14 +11,24 @@
 //! (its relation to its target, and room for the entities related to it). A draw that passes it
 //! but overlaps is kept over one that fails it, and when no draw passes, the `rescue` position
 //! (the nearest point the relation allows) stands.
+//!
+//! Occlusion is treated like an overlap, one rank below it: a position where the entity would be
+//! hidden behind, or would hide, another entity of the scene by more than
+//! [`MAX_HIDDEN`](super::view::MAX_HIDDEN) of its projected area (`must.hidden`, estimated by
+//! [`view`](super::view)) is re-drawn too, and after the re-draws one draw in each ninth of
+//! where the entity may stand is tried (middle, edges, corners). When no position is both clear
+//! and seen, the clear one that hides least stands.
 
 use rand_chacha::ChaCha8Rng;
 
 use super::rng::uniform;
+use super::view::MAX_HIDDEN;
 use crate::ir::{Region, ShapePart};
 
 /// Re-draws before spreading sideways.
 pub(crate) const REDRAWS: usize = 24;
+/// Clear draws that are hidden before the re-draws stop.
+const HIDDEN_REDRAWS: usize = 8;
 /// Clearance kept between footprints (metres).
 const GAP: f64 = 0.2;
 /// Half-size of the footprint of an entity with no shape (metres).
@@ -95,7 +105,7 @@ impl Axis {
             Axis::Range(lo, hi) => (lo, hi),
         }
     }
-    fn draw(self, rng: &mut ChaCha8Rng) -> f64 {
+    pub fn draw(self, rng: &mut ChaCha8Rng) -> f64 {
         match self {
             Axis::Fixed(v) => v,
             Axis::Range(lo, hi) => uniform(rng, lo, hi),
@@ -104,18 +114,22 @@ impl Axis {
 }
 
 /// What a position must satisfy beyond not overlapping: the entity's relation, room for the
-/// entities related to it, an entity it may overlap (the one it stands on), and where to go when
-/// no draw satisfies it.
+/// entities related to it, an entity it may overlap (the one it stands on), where to go when
+/// no draw satisfies it, and how much of it or of another entity it would hide there.
 pub(crate) struct Must<'a> {
     pub test: &'a dyn Fn(f64, f64) -> bool,
     pub overlaps_ok: Option<usize>,
     pub rescue: Option<(f64, f64)>,
+    /// The largest share of an entity's projected area hidden with this one at (x, y): its own,
+    /// or that of an entity it would stand in front of (0..1).
+    pub hidden: &'a dyn Fn(f64, f64) -> f64,
 }
 
 impl Must<'_> {
     /// No requirement: any position will do.
+    #[cfg(test)]
     pub fn none() -> Must<'static> {
-        Must { test: &|_, _| true, overlaps_ok: None, rescue: None }
+        Must { test: &|_, _| true, overlaps_ok: None, rescue: None, hidden: &|_, _| 0.0 }
     }
 }
 
@@ -133,20 +147,57 @@ pub(crate) fn place(
     let mut cand = Placed { id: usize::MAX, region: region.0, x: first.0, y: first.1, fp };
     let clear = |c: &Placed| !placed.iter().any(|p| Some(p.id) != must.overlaps_ok && p.overlaps(c));
     let ok = |c: &Placed| (must.test)(c.x, c.y);
-    // The last draw that the relation accepts, kept if none is also clear of the others.
-    let mut kept = ok(&cand).then_some((cand.x, cand.y));
-    if kept.is_some() && clear(&cand) {
+    // The last draw that the relation accepts, kept if none is also clear of the others; and the
+    // clear one that hides least, kept if none is also seen.
+    let mut kept: Option<(f64, f64)> = None;
+    let mut least_hidden: Option<((f64, f64), f64)> = None;
+    let tried_hidden = std::cell::Cell::new(0);
+    let mut good = |c: &Placed| {
+        if !ok(c) {
+            return false;
+        }
+        kept = Some((c.x, c.y));
+        if !clear(c) {
+            return false;
+        }
+        let hidden = (must.hidden)(c.x, c.y);
+        if least_hidden.is_none_or(|(_, h)| hidden < h) {
+            least_hidden = Some(((c.x, c.y), hidden));
+        }
+        tried_hidden.set(tried_hidden.get() + 1);
+        hidden <= MAX_HIDDEN
+    };
+    if good(&cand) {
         return (cand.x, cand.y);
     }
     let fixed = matches!((ax, ay), (Axis::Fixed(_), Axis::Fixed(_)));
     for _ in 0..if fixed { 0 } else { REDRAWS } {
         cand.x = ax.draw(rng);
         cand.y = ay.draw(rng);
-        if ok(&cand) {
-            if clear(&cand) {
+        if good(&cand) {
+            return (cand.x, cand.y);
+        }
+        // Clear but hidden this often: the layout, not this draw, is the trouble (the caller
+        // lays the scene out again).
+        if tried_hidden.get() >= HIDDEN_REDRAWS {
+            break;
+        }
+    }
+    // Hidden wherever it was drawn: one draw in each ninth of where it may stand, the middle
+    // first, then the edges and the corners (where a crowded view is usually still free).
+    if tried_hidden.get() > 0 {
+        let thirds = |a: Axis| {
+            let (lo, hi) = a.extent();
+            let w = (hi - lo) / 3.0;
+            [(lo + w, hi - w), (lo, lo + w), (hi - w, hi)]
+        };
+        let (xs, ys) = (thirds(ax), thirds(ay));
+        for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 0), (2, 0), (1, 1), (1, 2), (2, 1), (2, 2)] {
+            cand.x = Axis::of(xs[i]).draw(rng);
+            cand.y = Axis::of(ys[j]).draw(rng);
+            if good(&cand) {
                 return (cand.x, cand.y);
             }
-            kept = Some((cand.x, cand.y));
         }
     }
     // Spread sideways: the lateral positions that just clear each blocker, nearest first.
@@ -160,11 +211,11 @@ pub(crate) fn place(
     options.sort_by(|a, b| (a - cand.y).abs().total_cmp(&(b - cand.y).abs()).then(a.total_cmp(b)));
     for y in options {
         let c = Placed { y, ..cand };
-        if ok(&c) && clear(&c) {
+        if good(&c) {
             return (c.x, c.y);
         }
     }
-    kept.or(must.rescue).unwrap_or((cand.x, cand.y))
+    least_hidden.map(|(at, _)| at).or(kept).or(must.rescue).unwrap_or((cand.x, cand.y))
 }
 
 #[cfg(test)]
