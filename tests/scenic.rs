@@ -6,9 +6,12 @@
 //! read from `$REVELIO_CARLA_MAPS`, else from the copies of CARLA's (MIT-licensed) OpenDRIVE
 //! files kept in `tests/scenic/maps`, so a clean checkout needs nothing else.
 
+mod common;
+
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
+use std::sync::OnceLock;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -34,30 +37,14 @@ fn maps_dir() -> PathBuf {
     std::path::absolute(&dir).unwrap()
 }
 
-/// The venv's Python with Scenic installed, creating the venv on first use.
+/// The venv's Python with Scenic installed, made on first use (once per test binary: both tests
+/// ask for it at once).
 fn scenic_python() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| repo().join("target"));
-    let target = if target.is_absolute() { target } else { repo().join(target) };
-    let venv = target.join("scenic-venv");
-    let python = venv.join("bin").join("python");
-    let has_scenic = |p: &Path| {
-        Command::new(p).args(["-c", "import scenic"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
-    };
-    if python.is_file() && has_scenic(&python) {
-        return python;
-    }
-    let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).status();
-    assert!(
-        made.as_ref().is_ok_and(|s| s.success()),
-        "cannot create a Python venv at `{}` ({made:?}): install Python 3 with the venv module to run the Scenic peer test",
-        venv.display()
-    );
-    let pip = Command::new(venv.join("bin").join("pip")).args(["install", "--quiet", SCENIC]).status();
-    assert!(
-        pip.as_ref().is_ok_and(|s| s.success()),
-        "`pip install {SCENIC}` failed ({pip:?}): the test needs PyPI access"
-    );
-    python
+    static PYTHON: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let python = PYTHON.get_or_init(|| common::python_venv("scenic-venv", &[SCENIC], "import scenic"));
+    python.clone().unwrap_or_else(|e| {
+        panic!("{e}\nthe Scenic peer test needs Python 3 with the venv module and PyPI access to install {SCENIC}")
+    })
 }
 
 fn valid(d: &Domain, set: ConceptSet) -> bool {

@@ -6,9 +6,12 @@
 //! prints a note and passes: the shapes are also pinned by the unit tests of each provider.
 //! Bedrock is left out (its SDK, boto3, has no request types to check against).
 
+mod common;
+
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
+use std::sync::OnceLock;
 
 use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
@@ -24,34 +27,15 @@ fn repo() -> PathBuf {
 
 /// A Python with the pinned SDKs, made on first use; `None` (with a note) when that cannot be.
 fn sdk_python() -> Option<PathBuf> {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| repo().join("target"));
-    let target = if target.is_absolute() { target } else { repo().join(target) };
-    let venv = target.join("sdk-venv");
-    let python = venv.join("bin").join("python");
-    let ready = |p: &Path| {
-        Command::new(p)
-            .args(["-c", "import openai, anthropic, google.genai"])
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if python.is_file() && ready(&python) {
-        return Some(python);
+    static PYTHON: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let python = PYTHON.get_or_init(|| common::python_venv("sdk-venv", SDKS, "import openai, anthropic, google.genai"));
+    match python {
+        Ok(python) => Some(python.clone()),
+        Err(e) => {
+            eprintln!("note: {e}: the SDK shape check is skipped");
+            None
+        }
     }
-    let made = Command::new("python3").args(["-m", "venv"]).arg(&venv).stderr(Stdio::null()).status();
-    if !made.is_ok_and(|s| s.success()) {
-        eprintln!("note: no Python 3 with `venv`: the SDK shape check is skipped");
-        return None;
-    }
-    let pip = Command::new(venv.join("bin").join("pip"))
-        .args(["install", "--quiet", "--disable-pip-version-check"])
-        .args(SDKS)
-        .status();
-    if !pip.is_ok_and(|s| s.success()) || !ready(&python) {
-        eprintln!("note: cannot install {SDKS:?} from PyPI: the SDK shape check is skipped");
-        return None;
-    }
-    Some(python)
 }
 
 fn png() -> Vec<u8> {

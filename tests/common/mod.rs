@@ -33,3 +33,72 @@ pub fn walk(dir: &Path) -> Vec<PathBuf> {
     }
     out
 }
+
+/// The folder `cargo test` builds into: `$CARGO_TARGET_DIR` (relative to the checkout when
+/// relative), else `target/`.
+pub fn target_dir() -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"));
+    if target.is_absolute() { target } else { root().join(target) }
+}
+
+/// The Python of a virtual environment `target/NAME` holding `packages` (pinned pip specs), made
+/// from PyPI when it is missing; `probe` is Python code that runs only where they are installed.
+///
+/// Two tests (or two test processes) may ask at once, and an earlier run may have been killed
+/// halfway: an exclusive lock on `target/NAME.lock` (the OS drops it when its process dies) lets
+/// one caller make the venv while the others wait, and a stamp written only after a complete
+/// install names its packages. A venv without that stamp, with other packages, or whose
+/// `probe` fails is made anew (`venv --clear`). Callers keep the answer in a `OnceLock`, so a
+/// test binary makes or checks its venv once.
+pub fn python_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
+    use std::process::{Command, Stdio};
+    let target = target_dir();
+    std::fs::create_dir_all(&target).map_err(|e| format!("cannot create `{}`: {e}", target.display()))?;
+    let lock_path = target.join(format!("{name}.lock"));
+    let lock = std::fs::File::options()
+        .create(true)
+        .write(true)
+        .truncate(false)
+        .open(&lock_path)
+        .map_err(|e| format!("cannot open `{}`: {e}", lock_path.display()))?;
+    lock.lock().map_err(|e| format!("cannot lock `{}`: {e}", lock_path.display()))?;
+
+    let venv = target.join(name);
+    let python = venv.join("bin").join("python");
+    let stamp = venv.join(".revelio-installed");
+    let wanted = packages.join("\n");
+    let works = |python: &Path| {
+        Command::new(python).args(["-c", probe]).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+    };
+    if std::fs::read_to_string(&stamp).is_ok_and(|s| s == wanted) && works(&python) {
+        return Ok(python);
+    }
+    let made = Command::new("python3").args(["-m", "venv", "--clear"]).arg(&venv).output();
+    match made {
+        Ok(out) if out.status.success() => {}
+        Ok(out) => {
+            return Err(format!(
+                "cannot create a Python venv at `{}` ({}): {}",
+                venv.display(),
+                out.status,
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+        Err(e) => return Err(format!("cannot run `python3 -m venv`: {e}")),
+    }
+    let pip = Command::new(&python)
+        .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
+        .args(packages)
+        .status();
+    if !pip.as_ref().is_ok_and(|s| s.success()) {
+        return Err(format!("`pip install {}` failed ({pip:?}): PyPI cannot be reached?", packages.join(" ")));
+    }
+    if !works(&python) {
+        return Err(format!("`{probe}` fails in `{}` after installing {}", venv.display(), packages.join(" ")));
+    }
+    std::fs::write(&stamp, &wanted).map_err(|e| format!("cannot write `{}`: {e}", stamp.display()))?;
+    Ok(python)
+}
