@@ -13,10 +13,11 @@ use revelio::search::{Algo, Params};
 use revelio::vlm::Model;
 use revelio::vlm::sim::{Profile, SimModel};
 
+/// A shipped domain, compiled from disk (so its `use "…"` files load too).
 fn domain(name: &str) -> Domain {
-    let path = format!("{}/domains/{name}.rev", env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(&path).unwrap();
-    revelio::check::compile_source(&path, &text).unwrap_or_else(|d| panic!("{name}.rev does not compile: {d:?}"))
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("domains").join(format!("{name}.rev"));
+    let c = revelio::cli::check::compile_path(&path, false);
+    c.domain.unwrap_or_else(|| panic!("{name}.rev does not compile: {:?}", c.diagnostics))
 }
 
 fn profile(file: &str, d: &Domain) -> Profile {
@@ -26,12 +27,13 @@ fn profile(file: &str, d: &Domain) -> Profile {
 
 #[test]
 fn every_shipped_profile_loads_against_its_domain() {
-    let (driving, indoor) = (domain("driving"), domain("indoor"));
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sim");
     let mut n = 0;
     for e in std::fs::read_dir(dir).unwrap() {
         let name = e.unwrap().file_name().into_string().unwrap();
-        let d = if name.starts_with("indoor") { &indoor } else { &driving };
+        // A profile is named after its domain: `driving_paper.toml` → `domains/driving.rev`.
+        let stem = name.trim_end_matches(".toml");
+        let d = &domain(stem.split('_').next().unwrap());
         let p = profile(&name, d);
         assert!(!p.modes.is_empty(), "{name} plants no failure mode");
         // Every planted mode must be reachable: some valid set contains it.
@@ -344,4 +346,55 @@ concept crate_buried {
     assert_eq!(r.summary.spend.calls, 5, "no model call for an invisible scene");
     assert!(r.summary.failure_modes.iter().all(|m| m.concepts != ["crate_buried"]));
     assert!(r.summary.failure_modes.iter().any(|m| m.concepts == ["obstruction_far"]));
+}
+
+/// Issue 18: the third domain, written only in `.rev`, searched as a new user would — its own
+/// sim profile, the builtin renderer, the run report. Beam's first level asks every valid
+/// single concept; every scene shown to the model meets the domain's `visible` thresholds and
+/// is journaled with its figures; the search finds the profile's planted `residential +
+/// dog_loose` (sim answers depend on the run seed, set and index, never on the image, so the
+/// search is deterministic unless a scene turns invisible).
+#[test]
+fn the_delivery_domain_is_searched_with_the_builtin_renderer() {
+    let d = domain("delivery");
+    assert!(d.visibility.kinds.is_empty() && d.visibility.concepts.is_empty(), "one threshold for every entity");
+    let seen = d.visibility.default;
+    assert_eq!((seen.pixels, seen.contrast), (40, 0.03), "the domain's own `visible` item, not the default");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let args = ["--algo", "beam", "--budget", "150", "--shrink", "0", "--out", out_s];
+    let (code, table, err) = revelio(
+        &[&["search", "domains/delivery.rev", "--model", "sim:examples/sim/delivery.toml"][..], &args].concat(),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(table.contains("beam on `delivery` with sim:delivery@"), "{table}");
+    assert!(table.contains("residential + dog_loose"), "{table}");
+
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["metrics"]["inferences"], 150);
+    let sets = summary["sets"].as_array().unwrap();
+    let singles = sets.iter().filter(|s| s["concepts"].as_array().unwrap().len() == 1).count();
+    assert_eq!(singles, Lattice::enumerate(&d, 1).sets.len(), "beam's first level: every valid single concept");
+    let names = |v: &serde_json::Value| -> Vec<String> {
+        v["concepts"].as_array().unwrap().iter().map(|c| c.as_str().unwrap().to_string()).collect()
+    };
+    assert!(summary["failure_modes"].as_array().unwrap().iter().any(|m| names(m) == ["residential", "dog_loose"]));
+
+    let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
+    let records: Vec<revelio::journal::Record> = journal.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(records.len(), 150);
+    let sampler = revelio::sample::Sampler::new(&d);
+    for r in &records {
+        assert!(out.join("images").join(format!("{}.png", r.image)).is_file(), "{r:?}");
+        // One figure per entity a concept placed in the scene shown.
+        let set = d.parse_set(&r.set).unwrap();
+        let placed = sampler.sample(set, r.seed).unwrap().entities.iter().filter(|e| e.concept.is_some()).count();
+        assert_eq!(r.visibility.len(), placed, "{r:?}");
+        if r.outcome != Outcome::Invisible {
+            assert!(r.visibility.iter().all(|v| seen.holds(v.pixels, v.contrast)), "{r:?}");
+        }
+    }
+    let report = std::fs::read_to_string(out.join("report/index.html")).unwrap();
+    assert!(report.contains("delivery") && report.contains("dog_loose"), "the report names the domain and its finding");
 }
