@@ -249,7 +249,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let lattice = Lattice::enumerate(&domain, base.max_size);
     let (space, _) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     let tmp = std::env::temp_dir().join(format!("revelio-bench-{}", std::process::id()));
-    let planted: Vec<_> = profile.modes.iter().filter(|m| m.error >= args.threshold).map(|m| m.concepts).collect();
+    let planted = profile.planted(args.threshold, |s| space.contains(s));
     let truth = profile.clone();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);

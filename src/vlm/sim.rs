@@ -145,6 +145,29 @@ impl Profile {
         })
     }
 
+    /// The distinct failure modes the profile plants: its modes with error ≥ `threshold` none of
+    /// whose smaller valid subsets (by `valid`) already fails. A mode that holds a failing subset
+    /// is a superset of that failure mode, not another one: in `driving_gemini.toml`,
+    /// `{cone, far, weather_wet, on_lane}` (0.95) holds `{cone, far, weather_wet}` (0.7).
+    pub fn planted(&self, threshold: f64, valid: impl Fn(ConceptSet) -> bool) -> Vec<ConceptSet> {
+        self.modes
+            .iter()
+            .filter(|m| m.error >= threshold)
+            .map(|m| m.concepts)
+            .filter(|&m| {
+                let mut sub = m.0.wrapping_sub(1) & m.0;
+                while sub != 0 {
+                    let s = ConceptSet(sub);
+                    if valid(s) && self.error_for(s) >= threshold {
+                        return false;
+                    }
+                    sub = sub.wrapping_sub(1) & m.0;
+                }
+                true
+            })
+            .collect()
+    }
+
     /// The chance of a wrong answer for a set: the most specific matching mode's error (most
     /// concepts; ties go to the highest error), diluted by the set's other concepts, else the
     /// base error.
