@@ -16,8 +16,9 @@
 //! leaves the core in place, so the shrink reaches it in fewer tests; the final 1-minimality
 //! check tests every one-smaller subset whatever the order.
 //!
-//! The phase stops when the budget cannot pay the first m observations of a new subset; a shrink
-//! cut short that way yields a core marked not minimal. All decisions are pure functions of the
+//! A shrink that the budget cuts short (it cannot pay the first m observations of a new subset)
+//! yields a core marked not minimal; the roots after it are shrunk only as far as the evidence
+//! already gathered settles them ([`run`]). All decisions are pure functions of the
 //! observations, so a resumed run shrinks the same way.
 
 use crate::ir::{ConceptId, ConceptSet};
@@ -84,6 +85,13 @@ pub async fn shrink<E: Evaluate>(
     Ok(Shrunk::Core(Core { stats, minimal, root }))
 }
 
+/// Whether `core` and every one-smaller valid subset of it are settled by the driver's rule.
+fn settled<E: Evaluate>(driver: &Driver<'_, E>, space: &Space, core: ConceptSet) -> bool {
+    let rule = driver.rule();
+    let done = |s: ConceptSet| driver.stats(s).is_some_and(|st| rule.settled(st));
+    done(core) && core.iter().map(|c| core.without(c)).filter(|s| !s.is_empty() && space.contains(*s)).all(done)
+}
+
 /// The concepts of `set` in the order the shrink tries to drop them: lowest mean failure rate
 /// among the evaluated sets holding the concept first, then concept index.
 pub fn drop_order(history: &[SetStats], set: ConceptSet) -> Vec<ConceptId> {
@@ -122,8 +130,11 @@ pub struct Found {
 }
 
 /// The shrink phase: shrink `roots` (strongest first, see [`roots`]) in turn, skipping every root
-/// that already contains a core (its family is explained), until the budget cannot start
-/// another test.
+/// that already contains a core (its family is explained). Once the budget cannot start another
+/// test, the remaining roots are still shrunk on the evidence already gathered: a core is kept
+/// only when the shrink needed no new observation and the core and every one-smaller valid
+/// subset are settled by the rule (`--algo interact` confirms its cores during the search and
+/// leaves this phase little or no budget: they are reported this way).
 pub async fn run<E: Evaluate>(
     driver: &mut Driver<'_, E>,
     space: &Space,
@@ -134,19 +145,17 @@ pub async fn run<E: Evaluate>(
         if found.cores.iter().any(|c| c.stats.set.is_subset_of(root)) {
             continue;
         }
-        if !driver.can_start() {
-            break;
-        }
+        let paid = driver.can_start();
+        let before = driver.spent();
         match shrink(driver, space, root).await? {
+            Shrunk::Core(core) if paid => found.cores.push(core),
             Shrunk::Core(core) => {
-                let cut = !core.minimal;
-                found.cores.push(core);
-                if cut {
-                    break;
+                if core.minimal && driver.spent() == before && settled(driver, space, core.stats.set) {
+                    found.cores.push(core);
                 }
             }
             Shrunk::Refuted(s) => found.refuted.push(s),
-            Shrunk::Unaffordable => break,
+            Shrunk::Unaffordable => {}
         }
     }
     // A core tested again later (as a subset of another root) has more observations now.
