@@ -452,7 +452,8 @@ async fn search_and_shrink(
     if let Some(p) = &eval.progress {
         p.set_label("shrink");
     }
-    let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink, history.clone());
+    let spent: u64 = history.iter().map(|s| u64::from(s.observations())).sum();
+    let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink_budget(spent), history.clone());
     let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
     let shrink = (driver.spent(), driver.history.len() - history.len());
     Ok((history, found, Some(shrink)))
