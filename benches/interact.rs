@@ -1,7 +1,9 @@
-//! One `--algo interact` iteration on the driving lattice at 200 evaluated sets: four warm-started
-//! Gibbs sweeps of the pairwise horseshoe regression (n×n Cholesky factors with faer), one
-//! Thompson draw, and the argmax of the draw over every unexplored valid set. The target
-//! is under 10 ms. Figures are in docs/search.md.
+//! One `--algo interact` iteration on the driving lattice at 200 evaluated sets, for both kinds of
+//! surrogate: the pattern surrogate (the default: the evidence of every pattern of at most three
+//! concepts, the dilution posterior, one draw and the score of every unexplored valid set) and
+//! the pairwise horseshoe regression (four warm-started Gibbs sweeps with n×n Cholesky factors
+//! from faer, one Thompson draw, the argmax of the draw over every unexplored valid set). The
+//! issue's target is under 10 ms. Figures are in docs/search.md.
 //!
 //! `cargo bench --bench interact`
 
@@ -15,7 +17,7 @@ use revelio::lattice::Lattice;
 use revelio::outcome::Outcome;
 use revelio::run::eval::DomainWorld;
 use revelio::run::runner::search_space;
-use revelio::search::interact::Searcher;
+use revelio::search::interact::{PatternSearcher, Searcher, Surrogate};
 use revelio::search::{Algo, Params, SetStats};
 
 const EVALUATED: usize = 200;
@@ -46,7 +48,19 @@ fn bench(c: &mut Criterion) {
     }
 
     let params = Params { algo: Algo::Interact, ..Params::default() };
-    let mut searcher = Searcher::new(&params, &space);
+    let mut g = c.benchmark_group("interact");
+    g.sample_size(20);
+
+    let mut patterns = PatternSearcher::new(&params, &space);
+    for s in &history {
+        patterns.explored(s.set);
+    }
+    g.bench_function("iteration driving n=200 patterns (fit + draw + score every set)", |b| {
+        b.iter(|| patterns.propose(black_box(&history)))
+    });
+
+    let horseshoe = Surrogate::Horseshoe.parts().expect("a regression surrogate");
+    let mut searcher = Searcher::new(&params, &space, horseshoe);
     for s in &history {
         searcher.explored(s.set);
     }
@@ -54,9 +68,7 @@ fn bench(c: &mut Criterion) {
     for _ in 0..20 {
         searcher.propose(&history);
     }
-    let mut g = c.benchmark_group("interact");
-    g.sample_size(20);
-    g.bench_function("iteration driving n=200 (4 sweeps + draw + argmax)", |b| {
+    g.bench_function("iteration driving n=200 horseshoe (4 sweeps + draw + argmax)", |b| {
         b.iter(|| searcher.propose(black_box(&history)))
     });
     g.finish();

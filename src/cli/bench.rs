@@ -93,8 +93,8 @@ pub struct SearchBenchArgs {
     /// Algorithms to run, comma-separated [default: all]
     #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
     pub algos: Vec<Algo>,
-    /// Interact: the surrogate (horseshoe, ridge, linear)
-    #[arg(long, default_value = "horseshoe")]
+    /// Interact: the surrogate (patterns, horseshoe, ridge, linear)
+    #[arg(long, default_value = "patterns")]
     pub surrogate: Surrogate,
     /// Interact: supersets of a confirmed core (exclude, fallback, keep)
     #[arg(long, default_value = "fallback")]

@@ -1,35 +1,38 @@
-//! `--algo interact`: Thompson sampling over the valid lattice with an interaction-aware
-//! surrogate ([`super::surrogate`]), shrinking each failure it finds to its core and then looking
-//! for the next family.
+//! `--algo interact`: a search for every distinct failure mode, each reported once as its core.
 //!
-//! A round: a few Gibbs sweeps of the surrogate on every evaluated set (warm-started from the
-//! previous round), `batch` Thompson draws, and for each the unexplored valid set with the highest
-//! drawn failure rate among the *open* sets — those that hold no confirmed core. When a picked
-//! open set fails, it is shrunk at once by [`super::shrink::shrink`] under the shrink phase's
-//! sequential rule ([`Params::shrink_rule`]): re-tested (a failure that does not hold up is
-//! refuted and only feeds the surrogate), then reduced one concept at a time to a set whose every
-//! one-smaller valid subset passes. That set is a confirmed core: its supersets leave the open
-//! sets (exclusion), and the surrogate gets an indicator feature for it (conditioning), so its
-//! effect is not smeared over the pairs it contains. The shrink spends the search's budget: the
-//! run as a whole stays within `--budget`.
+//! Two surrogates ([`Surrogate`]):
 //!
-//! When a draw finds no open set with a drawn failure rate of at least τ — it believes every
-//! family has been found — every other such draw picks the best unexplored superset of a
-//! confirmed core instead: the known families' extent (which contexts still fail, which cancel
-//! them) is worth measuring and fails often, while the other draws keep exploring the open sets,
-//! where a mode whose parts carry no signal (a triple of silent pairs) can only be found by
-//! trying it.
+//! - **`patterns`** (the default): group testing ([`super::patterns`]). A round picks `batch`
+//!   unexplored open sets (holding no confirmed core), each the set with the best chance per
+//!   expected observation of revealing a new core under a dilution drawn from its posterior. A
+//!   pick is *screened* with [`SCREEN`] observation; a wrong answer escalates it to m. A set that
+//!   fails its m observations is explained at once: its likeliest sub-patterns (at most
+//!   [`JUMPS`]) are tested and shrunk under the confirmation rule ([`Params::confirm_rule`]), and
+//!   if none holds up the set itself is shrunk one concept at a time ([`super::shrink::shrink`]).
+//!   A core found this way is confirmed: its supersets leave the open sets (exclusion) and it
+//!   closes every pattern that holds it (conditioning), so the next picks go looking for the next
+//!   family.
+//! - **`horseshoe`**, **`ridge`**, **`linear`**: Thompson sampling with a Bayesian regression on
+//!   concept indicators and their pairwise products ([`super::surrogate`]), as in BOCS. A round:
+//!   a few Gibbs sweeps on every evaluated set (warm-started), `batch` draws, and for each the
+//!   unexplored open set with the highest drawn failure rate. A picked set that fails is shrunk
+//!   under the shrink phase's rule; its core leaves the open sets and becomes an indicator feature
+//!   of the surrogate. When a draw finds no open set with a drawn failure rate of at least τ,
+//!   every other such draw measures the known families' extent (the best unexplored superset of a
+//!   confirmed core) while the others keep exploring.
 //!
-//! Every decision is a pure function of the seed and the observed failure rates, so a resumed run
-//! replays exactly.
-use rand::SeedableRng;
+//! Confirmation and shrinking spend the search's budget: the run as a whole stays within
+//! [`Params::search_budget`]. Every decision is a pure function of the seed and the observed
+//! answers, so a resumed run replays exactly.
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::ir::ConceptSet;
 
+use super::patterns::{Fit, Patterns};
 use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
-use super::{Driver, Evaluate, Params, SetStats, Space};
+use super::{Driver, Evaluate, Params, Rule, SetStats, Space};
 
 /// Salt for the interact random stream.
 const STREAM: u64 = 0x696e_7465_7261_6374;
@@ -41,8 +44,10 @@ const SWEEPS: usize = 4;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Surrogate {
-    /// Pairwise regression, horseshoe prior (BOCS).
+    /// Group testing: evidence per pattern of at most three concepts ([`super::patterns`]).
     #[default]
+    Patterns,
+    /// Pairwise regression, horseshoe prior (BOCS).
     Horseshoe,
     /// Pairwise regression, one learned Gaussian variance per group.
     Ridge,
@@ -51,22 +56,25 @@ pub enum Surrogate {
 }
 
 impl Surrogate {
-    pub const ALL: [Surrogate; 3] = [Surrogate::Horseshoe, Surrogate::Ridge, Surrogate::Linear];
+    pub const ALL: [Surrogate; 4] = [Surrogate::Patterns, Surrogate::Horseshoe, Surrogate::Ridge, Surrogate::Linear];
 
     pub fn name(self) -> &'static str {
         match self {
+            Surrogate::Patterns => "patterns",
             Surrogate::Horseshoe => "horseshoe",
             Surrogate::Ridge => "ridge",
             Surrogate::Linear => "linear",
         }
     }
 
-    fn parts(self) -> (Order, Prior) {
-        match self {
+    /// The regression surrogate's features and prior; `None` for the pattern surrogate.
+    pub fn parts(self) -> Option<(Order, Prior)> {
+        Some(match self {
+            Surrogate::Patterns => return None,
             Surrogate::Horseshoe => (Order::Pairwise, Prior::Horseshoe),
             Surrogate::Ridge => (Order::Pairwise, Prior::Ridge),
             Surrogate::Linear => (Order::Linear, Prior::Horseshoe),
-        }
+        })
     }
 }
 
@@ -86,7 +94,8 @@ impl std::str::FromStr for Surrogate {
 pub enum Supersets {
     /// Never picked while an open set is left.
     Exclude,
-    /// Picked only when a draw sees no open set failing (the default).
+    /// Picked only when a draw sees no open set failing (the regression surrogate) or no open set
+    /// is left (the pattern surrogate); the default.
     #[default]
     Fallback,
     /// Treated like any other set (the core is only a feature of the surrogate).
@@ -148,12 +157,17 @@ impl<'s> Board<'s> {
     /// The unexplored set with the highest score among the open (`covered == false`) or the
     /// covered sets; ties go to the earliest in lattice order.
     fn argmax(&self, covered: bool, score: impl Fn(ConceptSet) -> f64) -> Option<(ConceptSet, f64)> {
+        self.argmax_at(covered, |_, s| score(s))
+    }
+
+    /// [`Board::argmax`] with the set's position in the space handed to the score too.
+    fn argmax_at(&self, covered: bool, score: impl Fn(usize, ConceptSet) -> f64) -> Option<(ConceptSet, f64)> {
         let mut best: Option<(usize, f64)> = None;
         for (i, set) in self.space.sets.iter().enumerate() {
             if self.explored[i] || self.covered[i] != covered {
                 continue;
             }
-            let v = score(*set);
+            let v = score(i, *set);
             if best.is_none_or(|(_, b)| v > b) {
                 best = Some((i, v));
             }
@@ -174,8 +188,7 @@ pub struct Searcher<'s> {
 }
 
 impl<'s> Searcher<'s> {
-    pub fn new(params: &Params, space: &'s Space) -> Searcher<'s> {
-        let (order, prior) = params.surrogate.parts();
+    pub fn new(params: &Params, space: &'s Space, (order, prior): (Order, Prior)) -> Searcher<'s> {
         Searcher {
             params: params.clone(),
             basis: Basis::new(&space.sets, space.dim, order),
@@ -249,7 +262,19 @@ fn data(history: &[SetStats]) -> Data {
 }
 
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
-    let mut searcher = Searcher::new(params, space);
+    match params.surrogate.parts() {
+        Some(parts) => run_regression(params, space, driver, parts).await,
+        None => run_patterns(params, space, driver).await,
+    }
+}
+
+async fn run_regression<E: Evaluate>(
+    params: &Params,
+    space: &Space,
+    driver: &mut Driver<'_, E>,
+    parts: (Order, Prior),
+) -> Result<(), String> {
+    let mut searcher = Searcher::new(params, space, parts);
     let mut marked = 0;
     let mark = |searcher: &mut Searcher<'_>, history: &[SetStats], marked: &mut usize| {
         for s in &history[*marked..] {
@@ -281,5 +306,204 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
             }
         }
     }
+    Ok(())
+}
+
+/// Observations of a screen: a set whose first answer is right is set aside.
+pub const SCREEN: u32 = 1;
+
+/// Sub-patterns of a failing set tested directly (most probable core first) before the set itself
+/// is shrunk one concept at a time.
+pub const JUMPS: usize = 3;
+
+/// The pattern surrogate's search state.
+pub struct PatternSearcher<'s> {
+    params: Params,
+    space: &'s Space,
+    patterns: Patterns,
+    board: Board<'s>,
+    /// Patterns that are not (and hold no) confirmed core.
+    open: Vec<bool>,
+    cores: Vec<ConceptSet>,
+    rng: ChaCha8Rng,
+}
+
+impl<'s> PatternSearcher<'s> {
+    pub fn new(params: &Params, space: &'s Space) -> PatternSearcher<'s> {
+        let patterns = Patterns::new(space);
+        PatternSearcher {
+            params: params.clone(),
+            space,
+            open: vec![true; patterns.len()],
+            patterns,
+            board: Board::new(space),
+            cores: Vec::new(),
+            rng: ChaCha8Rng::seed_from_u64(params.seed ^ STREAM),
+        }
+    }
+
+    pub fn explored(&mut self, set: ConceptSet) {
+        self.board.explore(set);
+    }
+
+    pub fn is_covered(&self, set: ConceptSet) -> bool {
+        self.board.is_covered(set)
+    }
+
+    /// A confirmed core: it and its supersets are no longer open patterns, and (unless supersets
+    /// are kept) its supersets leave the sets to pick.
+    pub fn confirm(&mut self, core: ConceptSet) {
+        if self.cores.contains(&core) {
+            return;
+        }
+        self.cores.push(core);
+        for j in 0..self.patterns.len() {
+            if core.is_subset_of(self.patterns.pattern(j as u32)) {
+                self.open[j] = false;
+            }
+        }
+        if self.params.supersets != Supersets::Keep {
+            self.board.cover(core);
+        }
+    }
+
+    pub fn fit(&self, history: &[SetStats]) -> Fit {
+        self.patterns.fit(self.space, history, &self.cores, self.params.threshold)
+    }
+
+    /// `batch` picks, each the unexplored open set with the best discovery chance per expected
+    /// observation under a dilution drawn from its posterior.
+    pub fn propose(&mut self, history: &[SetStats]) -> Vec<ConceptSet> {
+        let fit = self.fit(history);
+        let mut picks: Vec<ConceptSet> = Vec::with_capacity(self.params.batch);
+        for _ in 0..self.params.batch {
+            let di = fit.draw_dilution(self.rng.random::<f64>());
+            let scorer = fit.scorer(
+                &self.patterns,
+                &self.open,
+                di,
+                SCREEN.min(self.params.samples),
+                self.params.samples,
+                self.params.threshold,
+            );
+            let open =
+                self.board
+                    .argmax_at(false, |i, s| {
+                        if picks.contains(&s) { f64::NEG_INFINITY } else { scorer.score(&self.patterns, i) }
+                    })
+                    .filter(|(_, v)| *v > f64::NEG_INFINITY);
+            // No open set left (a small lattice): under `fallback`, measure the known families'
+            // extent, the superset likeliest to fail first.
+            let pick = match open {
+                None if self.params.supersets == Supersets::Fallback => {
+                    let rate = |s: ConceptSet| {
+                        self.cores
+                            .iter()
+                            .filter(|c| c.is_subset_of(s))
+                            .map(|c| fit.core_rate(di, s.len() - c.len()))
+                            .fold(0.0, f64::max)
+                    };
+                    self.board
+                        .argmax(true, |s| if picks.contains(&s) { f64::NEG_INFINITY } else { rate(s) })
+                        .filter(|(_, v)| *v > f64::NEG_INFINITY)
+                }
+                open => open,
+            };
+            match pick {
+                Some((set, _)) => picks.push(set),
+                None => break,
+            }
+        }
+        picks
+    }
+
+    /// The sub-patterns of a failing set, most probably a core first (ties: pattern order), that
+    /// are still open.
+    pub fn candidates(&self, fit: &Fit, set: ConceptSet) -> Vec<ConceptSet> {
+        let Some(i) = self.space.position(set) else { return Vec::new() };
+        let mut subs: Vec<(f64, u32)> = self
+            .patterns
+            .subs(i)
+            .iter()
+            .filter(|&&j| self.open[j as usize])
+            .map(|&j| (fit.q_mean(&self.patterns, j), j))
+            .collect();
+        subs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        subs.into_iter().map(|(_, j)| self.patterns.pattern(j)).collect()
+    }
+}
+
+/// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
+async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+    let tau = params.threshold;
+    let screen = Rule::fixed(SCREEN.min(params.samples), tau);
+    let escalate = Rule::fixed(params.samples, tau);
+    let confirm = params.confirm_rule();
+    let search_rule = driver.rule();
+    let mut searcher = PatternSearcher::new(params, space);
+    let mut marked = 0;
+    let mark = |searcher: &mut PatternSearcher<'_>, history: &[SetStats], marked: &mut usize| {
+        for s in &history[*marked..] {
+            searcher.explored(s.set);
+        }
+        *marked = history.len();
+    };
+    loop {
+        driver.set_rule(screen);
+        if !driver.can_start() {
+            break;
+        }
+        let picks = searcher.propose(&driver.history);
+        if picks.is_empty() {
+            break;
+        }
+        let stats = driver.evaluate(&picks).await?;
+        // A wrong answer in the screen: the set gets its m observations.
+        let hot: Vec<ConceptSet> = stats.iter().filter(|s| s.wrong > 0).map(|s| s.set).collect();
+        driver.set_rule(escalate);
+        driver.top_up(&hot).await?;
+        mark(&mut searcher, &driver.history, &mut marked);
+        for set in hot {
+            let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
+            if !failing || searcher.is_covered(set) {
+                continue;
+            }
+            driver.set_rule(confirm);
+            if !driver.can_start() {
+                break;
+            }
+            let fit = searcher.fit(&driver.history);
+            let mut core = None;
+            let mut tried = 0;
+            for p in searcher.candidates(&fit, set) {
+                if tried == JUMPS {
+                    break;
+                }
+                if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && confirm.settled(s)) {
+                    continue;
+                }
+                tried += 1;
+                match shrink::shrink(driver, space, p).await? {
+                    Shrunk::Core(c) => {
+                        core = Some(c.stats.set);
+                        break;
+                    }
+                    Shrunk::Refuted(_) => {}
+                    Shrunk::Unaffordable => break,
+                }
+            }
+            if core.is_none()
+                && driver.can_start()
+                && let Shrunk::Core(c) = shrink::shrink(driver, space, set).await?
+            {
+                core = Some(c.stats.set);
+            }
+            mark(&mut searcher, &driver.history, &mut marked);
+            if let Some(c) = core {
+                searcher.confirm(c);
+            }
+        }
+    }
+    driver.set_rule(search_rule);
     Ok(())
 }

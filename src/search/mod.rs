@@ -26,6 +26,7 @@ pub mod gpts;
 pub mod interact;
 pub mod interval;
 pub mod metrics;
+pub mod patterns;
 pub mod random;
 pub mod sequential;
 pub mod shrink;

@@ -1,0 +1,175 @@
+use super::*;
+use crate::ir::ConceptId;
+use crate::ir::testkit::lattice;
+use crate::outcome::Outcome;
+
+fn set(ids: &[u32]) -> ConceptSet {
+    ConceptSet::from_ids(ids.iter().map(|&i| ConceptId(i)))
+}
+
+fn stats(s: ConceptSet, wrong: u32, correct: u32) -> SetStats {
+    let mut st = SetStats::new(s);
+    (0..wrong).for_each(|_| st.add(Outcome::Wrong));
+    (0..correct).for_each(|_| st.add(Outcome::Correct));
+    st
+}
+
+fn space(n: usize, max: usize) -> Space {
+    Space::new(lattice(n, max), n)
+}
+
+#[test]
+fn every_set_lists_exactly_its_valid_subsets_of_at_most_three() {
+    let sp = space(7, 5);
+    let pats = Patterns::new(&sp);
+    assert_eq!(pats.max, MAX_PATTERN);
+    for (i, s) in sp.sets.iter().enumerate() {
+        let mut got: Vec<ConceptSet> = pats.subs(i).iter().map(|&j| pats.pattern(j)).collect();
+        got.sort();
+        let mut want: Vec<ConceptSet> =
+            sp.sets.iter().copied().filter(|p| p.len() <= MAX_PATTERN && p.is_subset_of(*s)).collect();
+        want.sort();
+        assert_eq!(got, want, "{s:?}");
+        let (from, to) = (pats.offsets[i] as usize, pats.offsets[i + 1] as usize);
+        for (&j, &k) in pats.subs[from..to].iter().zip(&pats.extra[from..to]) {
+            assert_eq!(usize::from(k), s.len() - pats.pattern(j).len());
+        }
+    }
+}
+
+#[test]
+fn a_large_lattice_models_smaller_patterns() {
+    assert_eq!(sub_count(5, 3), 5 + 10 + 10);
+    assert_eq!(sub_count(2, 3), 2 + 1);
+    assert_eq!(sub_count(8, 2), 8 + 28);
+}
+
+/// The evidence of one tested set is the closed-form binomial log-likelihood ratio, per dilution
+/// hypothesis, against the base rate (no tested subset) or against its tested subsets' rate.
+#[test]
+fn evidence_is_the_binomial_likelihood_ratio() {
+    let sp = space(6, 4);
+    let pats = Patterns::new(&sp);
+    let (a, b) = (set(&[2]), set(&[2, 3]));
+    let history = vec![stats(a, 1, 9), stats(b, 4, 1)];
+    let fit = pats.fit(&sp, &history, &[], 0.6);
+    // Base rate: both sets fail less than half the time? {2, 3} fails 4/5: left out.
+    let base = (1.0 + 1.0) / (10.0 + 20.0);
+    assert!((fit.base - base).abs() < 1e-12);
+    let smoothed_a = (1.0 + base * PRIOR_WEIGHT) / (10.0 + PRIOR_WEIGHT);
+    let lr = |w: f64, n: f64, alt: f64, bg: f64| w * (alt / bg).ln() + (n - w) * ((1.0 - alt) / (1.0 - bg)).ln();
+    for (di, d) in DILUTIONS.iter().enumerate() {
+        let r = |k: i32| base + (CORE_RATE - base) * (1.0 - d).powi(k);
+        // Pattern {2, 3}: tested once, as itself (k = 0), against {2}'s smoothed rate.
+        let j = pats.position(b).unwrap() as usize;
+        assert!((fit.llr[j][di] - lr(4.0, 5.0, r(0), smoothed_a)).abs() < 1e-9);
+        // Pattern {2}: tested alone (k = 0, against the base) and inside {2, 3} (k = 1).
+        let j = pats.position(a).unwrap() as usize;
+        let want = lr(1.0, 10.0, r(0), base) + lr(4.0, 5.0, r(1).max(smoothed_a + 1e-6), smoothed_a);
+        assert!((fit.llr[j][di] - want).abs() < 1e-9, "d = {d}");
+        // Pattern {3}: only inside {2, 3}.
+        let j = pats.position(set(&[3])).unwrap() as usize;
+        assert!((fit.llr[j][di] - lr(4.0, 5.0, r(1).max(smoothed_a + 1e-6), smoothed_a)).abs() < 1e-9);
+    }
+    // The posterior over d sums to one.
+    assert!((fit.pd.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+}
+
+/// A failing pair whose parts pass explains its supersets: the pair becomes the likeliest core,
+/// its parts are none, its supersets' other sub-patterns stay behind it.
+#[test]
+fn a_failing_pair_with_passing_parts_is_the_likeliest_core() {
+    let sp = space(6, 4);
+    let pats = Patterns::new(&sp);
+    let pair = set(&[2, 3]);
+    let history = vec![
+        stats(set(&[2]), 0, 5),
+        stats(set(&[3]), 0, 5),
+        stats(set(&[2, 3, 4]), 5, 0),
+        stats(pair, 6, 0),
+        stats(set(&[4]), 0, 5),
+        stats(set(&[0, 5]), 0, 5),
+    ];
+    let fit = pats.fit(&sp, &history, &[], 0.6);
+    let q = |s: ConceptSet| fit.q_mean(&pats, pats.position(s).unwrap());
+    assert!(q(pair) > 0.9, "{}", q(pair));
+    // A pattern whose own answers pass is no core, whatever its supersets did.
+    for cleared in [set(&[2]), set(&[3]), set(&[4]), set(&[0, 5])] {
+        assert_eq!(q(cleared), 0.0, "{cleared:?}");
+    }
+    // The triple's other sub-patterns stay behind the pair that explains it; the triple itself
+    // fails too (it is likely a core as far as its own answers go) but ranks after the pair.
+    for other in [set(&[2, 4]), set(&[3, 4])] {
+        assert!(q(other) < q(pair) - 0.25, "{other:?}: {} vs {}", q(other), q(pair));
+    }
+    assert!(q(set(&[2, 3, 4])) < q(pair));
+}
+
+/// Weak heredity: a pattern whose part fails more often than the base rate starts likelier.
+#[test]
+fn a_part_that_fails_lifts_the_patterns_that_hold_it() {
+    let sp = space(6, 4);
+    let pats = Patterns::new(&sp);
+    let history = vec![stats(set(&[2]), 3, 7), stats(set(&[4]), 0, 10)];
+    let fit = pats.fit(&sp, &history, &[], 0.6);
+    let q = |s: ConceptSet| fit.q_mean(&pats, pats.position(s).unwrap());
+    assert!(q(set(&[2, 3])) > 2.0 * q(set(&[4, 5])), "{} vs {}", q(set(&[2, 3])), q(set(&[4, 5])));
+    assert!(fit.lift[pats.position(set(&[2, 3])).unwrap() as usize] > 0.0);
+    assert_eq!(fit.lift[pats.position(set(&[3, 5])).unwrap() as usize], 0.0);
+}
+
+/// The dilution posterior: supersets of a core that fail as often as the core favour d = 0;
+/// supersets that pass favour the strongest dilution.
+#[test]
+fn supersets_of_a_core_tell_the_dilution() {
+    let sp = space(8, 5);
+    let pats = Patterns::new(&sp);
+    let core = set(&[2, 3]);
+    let mut history = vec![stats(core, 9, 1), stats(set(&[2]), 0, 10), stats(set(&[3]), 0, 10)];
+    let supersets = [set(&[2, 3, 4, 5, 6]), set(&[2, 3, 4, 5, 7]), set(&[2, 3, 5, 6, 7]), set(&[2, 3, 4, 6, 7])];
+    let mut kept = history.clone();
+    kept.extend(supersets.iter().map(|&s| stats(s, 9, 1)));
+    history.extend(supersets.iter().map(|&s| stats(s, 1, 9)));
+    let undiluted = pats.fit(&sp, &kept, &[core], 0.6);
+    let diluted = pats.fit(&sp, &history, &[core], 0.6);
+    assert!(undiluted.pd[0] > 0.9, "{:?}", undiluted.pd);
+    assert!(diluted.pd[D - 1] > 0.9, "{:?}", diluted.pd);
+    // A draw follows the posterior.
+    assert_eq!(undiluted.draw_dilution(0.5), 0);
+    assert_eq!(diluted.draw_dilution(0.5), D - 1);
+}
+
+/// The score prefers a set whose sub-patterns are untested over one whose sub-patterns were all
+/// cleared, and expects a set holding a concept that fails a third of the time to cost more (its
+/// screen would escalate for nothing).
+#[test]
+fn the_score_prefers_untested_and_clean_sets() {
+    let sp = space(8, 3);
+    let pats = Patterns::new(&sp);
+    let cleared = set(&[2, 3, 4]);
+    let noisy = set(&[5]);
+    let history = vec![stats(cleared, 0, 20), stats(noisy, 3, 7)];
+    let fit = pats.fit(&sp, &history, &[], 0.6);
+    let open = vec![true; pats.len()];
+    let scorer = fit.scorer(&pats, &open, 0, 2, 5, 0.6);
+    let score = |s: ConceptSet| scorer.score(&pats, sp.position(s).unwrap());
+    let cost = |s: ConceptSet| {
+        let i = sp.position(s).unwrap();
+        scorer.value(&pats, i) / scorer.score(&pats, i)
+    };
+    // {2, 3, 6} shares {2, 3} and singles with the cleared set: fewer untested patterns.
+    assert!(score(set(&[2, 6, 7])) > score(set(&[2, 3, 6])));
+    assert!(cost(set(&[5, 6, 7])) > cost(set(&[2, 6, 7])), "the noisy concept costs escalations");
+    // Closed patterns (a confirmed core and its supersets) add nothing.
+    let closed: Vec<bool> = (0..pats.len() as u32).map(|j| !set(&[6, 7]).is_subset_of(pats.pattern(j))).collect();
+    let without = fit.scorer(&pats, &closed, 0, 2, 5, 0.6);
+    let i = sp.position(set(&[2, 6, 7])).unwrap();
+    assert!(without.value(&pats, i) < scorer.value(&pats, i));
+}
+
+#[test]
+fn binomial_tail() {
+    assert!((at_least(5, 3, 0.5) - 0.5).abs() < 1e-12);
+    assert!((at_least(5, 0, 0.3) - 1.0).abs() < 1e-12);
+    assert!((at_least(2, 1, 0.1) - 0.19).abs() < 1e-12);
+}
