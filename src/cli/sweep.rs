@@ -115,11 +115,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, sweep: &Sweep, points: &[Po
         args.budget,
         args.profile.display()
     )?;
-    writeln!(w, "{:>12}  {:<6}  {:>13}  {:>13}  {:>11}", sweep.param.name(), "algo", "PFM %", "MFR %", "Div")?;
+    writeln!(w, "{:>12}  {:<8}  {:>13}  {:>13}  {:>11}", sweep.param.name(), "algo", "PFM %", "MFR %", "Div")?;
     for p in points {
         writeln!(
             w,
-            "{:>12}  {:<6}  {:>13}  {:>13}  {:>11}",
+            "{:>12}  {:<8}  {:>13}  {:>13}  {:>11}",
             p.value.to_string(),
             p.algo,
             format!("{:.1} ± {:.1}", p.pfm.0, p.pfm.1),
