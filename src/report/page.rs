@@ -17,6 +17,7 @@ use crate::oracle::{self, option_letter};
 use crate::outcome::{Answer, Outcome};
 use crate::run::runner::{CONSISTENT_FR, SetRow};
 use crate::search::Algo;
+use crate::search::interact::Surrogate;
 
 /// Replies longer than this many characters show a preview and the full text on demand.
 const PREVIEW_CHARS: usize = 180;
@@ -380,8 +381,15 @@ fn algorithm_text(run: &Run) -> String {
             p.kernel.formula(),
             p.batch
         ),
+        Algo::Interact if p.surrogate == Surrogate::Patterns => format!(
+            "interact (group testing over patterns of up to three concepts, {} per round: a set screened with one \
+             observation, a failure explained at once by its likeliest sub-patterns and shrinking; supersets of a \
+             core: {})",
+            p.batch,
+            super::snake(p.supersets)
+        ),
         Algo::Interact => format!(
-            "interact ({} interaction-aware surrogate, {} per round; confirmed cores shrunk at once; supersets of a core: {})",
+            "interact ({} regression surrogate, {} per round; confirmed cores shrunk at once; supersets of a core: {})",
             super::snake(p.surrogate),
             p.batch,
             super::snake(p.supersets)
