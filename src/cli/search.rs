@@ -24,6 +24,8 @@ pub struct SearchArgs {
     /// The model: `sim:PROFILE.toml`, `openai:MODEL`, `anthropic:MODEL`, `gemini:MODEL`, `bedrock:MODEL_ID`
     #[arg(long)]
     pub model: String,
+    /// The search: the paper's random, beam or gpts, or interact (every distinct failure mode
+    /// once as its core; it spends the shrink budget as it goes)
     #[arg(long, default_value = "gpts", value_parser = algo_parser())]
     pub algo: Algo,
     /// Inference budget (sets evaluated = budget / samples); raise it on an existing run folder
