@@ -9,6 +9,8 @@
 //! nothing, and the scenery is not looked at (its layout is the domain's, see `stage` items).
 //! What is actually seen is measured after rendering (the visibility guard).
 
+use nalgebra::{Matrix3, Vector3};
+
 use crate::ir::{Camera, Primitive, ShapePart};
 
 /// The largest share of an entity's projected area that other entities of its scene may cover
@@ -24,10 +26,10 @@ const NEAR: f64 = 0.05;
 /// pixels, square pixels.
 #[derive(Debug, Clone)]
 pub(crate) struct View {
-    eye: [f64; 3],
-    forward: [f64; 3],
-    right: [f64; 3],
-    up: [f64; 3],
+    eye: Vector3<f64>,
+    forward: Vector3<f64>,
+    right: Vector3<f64>,
+    up: Vector3<f64>,
     focal: f64,
     width: f64,
     height: f64,
@@ -60,40 +62,29 @@ impl Sight {
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    if n < 1e-12 { a } else { a.map(|x| x / n) }
-}
-fn mat(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    [dot(r[0], v), dot(r[1], v), dot(r[2], v)]
+/// A row-major rotation ([`crate::ir::rotation`]) as a matrix.
+fn matrix(r: [[f64; 3]; 3]) -> Matrix3<f64> {
+    Matrix3::from_row_slice(r.as_flattened())
 }
 
 impl View {
     pub fn new(c: &Camera) -> View {
-        let mut forward = sub(c.look_at, c.at);
-        if dot(forward, forward) < 1e-12 {
-            forward = [1.0, 0.0, 0.0];
+        let eye = Vector3::from(c.at);
+        let mut forward = Vector3::from(c.look_at) - eye;
+        if forward.norm_squared() < 1e-12 {
+            forward = Vector3::x();
         }
-        let forward = unit(forward);
-        let mut up = [0.0, 0.0, 1.0];
-        if dot(cross(forward, up), cross(forward, up)) < 1e-8 {
-            up = [1.0, 0.0, 0.0];
+        let forward = forward.normalize();
+        let mut up = Vector3::z();
+        if forward.cross(&up).norm_squared() < 1e-8 {
+            up = Vector3::x();
         }
-        let right = unit(cross(forward, up));
-        let up = cross(right, forward);
+        let right = forward.cross(&up).normalize();
+        let up = right.cross(&forward);
         let hfov = c.fov_deg.clamp(1.0, 170.0).to_radians();
         let width = f64::from(c.width.max(1));
         View {
-            eye: c.at,
+            eye,
             forward,
             right,
             up,
@@ -104,30 +95,28 @@ impl View {
     }
 
     /// Pixel position (x right, y down) and depth along the view axis; `None` behind the camera.
-    pub fn project(&self, p: [f64; 3]) -> Option<([f64; 2], f64)> {
-        let d = sub(p, self.eye);
-        let z = dot(d, self.forward);
+    pub fn project(&self, p: impl Into<Vector3<f64>>) -> Option<([f64; 2], f64)> {
+        let d = p.into() - self.eye;
+        let z = d.dot(&self.forward);
         if z <= NEAR {
             return None;
         }
-        let (x, y) = (dot(d, self.right), dot(d, self.up));
+        let (x, y) = (d.dot(&self.right), d.dot(&self.up));
         Some(([self.width / 2.0 + self.focal * x / z, self.height / 2.0 - self.focal * y / z], z))
     }
 
     /// The patches of an entity with these parts, turned by `yaw_deg` and standing at `at`.
     pub fn sight(&self, parts: &[ShapePart], yaw_deg: f64, at: [f64; 3]) -> Sight {
-        let turn = crate::ir::rotation(yaw_deg, 0.0, 0.0);
+        let turn = matrix(crate::ir::rotation(yaw_deg, 0.0, 0.0));
         let mut patches = Vec::with_capacity(parts.len());
         for p in parts {
-            let r = p.rotation();
-            let centre = mat(&turn, p.at);
-            let centre = [centre[0] + at[0], centre[1] + at[1], centre[2] + at[2]];
+            let r = turn * matrix(p.rotation());
+            let centre = turn * Vector3::from(p.at) + Vector3::from(at);
             let Some((_, depth)) = self.project(centre) else { continue };
             let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
             for i in 0..8 {
                 let corner = [0, 1, 2].map(|k| if i >> k & 1 == 1 { p.size[k] / 2.0 } else { -p.size[k] / 2.0 });
-                let c = mat(&turn, mat(&r, corner));
-                if let Some((xy, _)) = self.project([centre[0] + c[0], centre[1] + c[1], centre[2] + c[2]]) {
+                if let Some((xy, _)) = self.project(centre + r * Vector3::from(corner)) {
                     (x0, y0, x1, y1) = (x0.min(xy[0]), y0.min(xy[1]), x1.max(xy[0]), y1.max(xy[1]));
                 }
             }
