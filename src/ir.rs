@@ -444,7 +444,19 @@ pub struct ShapePart {
     pub when: Option<Expr>,
 }
 
+/// Materials the builtin renderer knows (the checker rejects others).
+pub const MATERIALS: &[&str] = &["matte", "metal", "glass", "emissive", "water", "flame", "smoke"];
+
+/// Materials the builtin renderer draws see-through: what stands behind a part of one of them
+/// stays seen (its colour's alpha below 1 does the same).
+pub const TRANSLUCENT_MATERIALS: &[&str] = &["glass", "water", "flame", "smoke"];
+
 impl ShapePart {
+    /// Whether what stands behind the part stays seen through it.
+    pub fn is_translucent(&self) -> bool {
+        self.color[3] < 1.0 || TRANSLUCENT_MATERIALS.contains(&self.material.as_str())
+    }
+
     /// The part's rotation as a row-major matrix, R = Rz(yaw)·Ry(pitch)·Rx(roll): a point is
     /// rolled about x, then pitched about y, then yawed about z, about the part's own centre.
     /// The renderer and the sampler's view of the scene both turn parts with it.

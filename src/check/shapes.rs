@@ -8,9 +8,6 @@ use crate::diag::codes;
 use crate::ir::*;
 use crate::syntax::ast::{self, Item, ItemKind};
 
-/// Materials the builtin renderer knows.
-pub const MATERIALS: &[&str] = &["matte", "metal", "glass", "emissive", "water", "flame", "smoke"];
-
 impl Checker<'_> {
     /// Give each kind its look: its own `shape { … }` or one `look KIND { … }`, not both.
     pub(crate) fn lower_looks(&mut self, items: &[(u32, &Item)]) {

@@ -504,6 +504,16 @@ fn normalize(v: [f64; 3]) -> [f64; 3] {
 mod tests {
     use super::*;
 
+    /// The renderer blends exactly the materials the IR calls translucent (the sampler's view of
+    /// the scene lets entities be seen through them).
+    #[test]
+    fn blended_materials_are_the_irs_translucent_ones() {
+        for m in crate::ir::MATERIALS {
+            let blended = Material::from_hint(m).default_alpha().is_some_and(|a| a < 1.0);
+            assert_eq!(blended, crate::ir::TRANSLUCENT_MATERIALS.contains(m), "{m}");
+        }
+    }
+
     fn close(a: [f64; 3], b: [f64; 3]) -> bool {
         (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12)
     }

@@ -124,8 +124,7 @@ impl View {
             if x0 >= x1 || y0 >= y1 {
                 continue;
             }
-            let translucent = p.color[3] < 1.0 || matches!(p.material.as_str(), "glass" | "smoke" | "flame" | "water");
-            let hides = !translucent && p.prim != Primitive::Plane;
+            let hides = !p.is_translucent() && p.prim != Primitive::Plane;
             patches.push(Patch { x0, y0, x1, y1, depth, hides });
         }
         let bounds =
