@@ -2,6 +2,8 @@
 //! in its image, checked from the pixels. Needs a graphics adapter (Mesa llvmpipe is enough);
 //! without one the tests fail with the packages to install.
 
+mod common;
+
 use std::path::Path;
 
 use image::RgbaImage;
@@ -10,10 +12,8 @@ use revelio::ir::{Domain, Effect};
 use revelio::render::{BuiltinRenderer, project};
 use revelio::scene::{Scene, SceneEntity};
 
-/// A shipped domain, compiled from disk (so its `use "…"` files load too).
 fn domain(path: &str) -> Domain {
-    let c = revelio::cli::check::compile_path(&Path::new(env!("CARGO_MANIFEST_DIR")).join(path), false);
-    c.domain.unwrap_or_else(|| panic!("`{path}` does not compile: {:?}", c.diagnostics))
+    common::compile_shipped(path)
 }
 
 fn renderer() -> BuiltinRenderer {

@@ -1,5 +1,7 @@
 //! The search runtime on the real domains: sim profiles, all three algorithms through the
 //! journaled runner, and the `revelio search` / `validate` commands end to end.
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;
@@ -13,11 +15,9 @@ use revelio::search::{Algo, Params};
 use revelio::vlm::Model;
 use revelio::vlm::sim::{Profile, SimModel};
 
-/// A shipped domain, compiled from disk (so its `use "…"` files load too).
+/// A shipped domain by name (`driving` → `domains/driving.rev`).
 fn domain(name: &str) -> Domain {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("domains").join(format!("{name}.rev"));
-    let c = revelio::cli::check::compile_path(&path, false);
-    c.domain.unwrap_or_else(|| panic!("{name}.rev does not compile: {:?}", c.diagnostics))
+    common::compile_shipped(&format!("domains/{name}.rev"))
 }
 
 fn profile(file: &str, d: &Domain) -> Profile {

@@ -8,6 +8,13 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// A `.rev` file of the checkout (`domains/driving.rev`), compiled from disk as the CLI does, so
+/// the files it `use`s load too.
+pub fn compile_shipped(path: &str) -> revelio::ir::Domain {
+    let c = revelio::cli::check::compile_path(&root().join(path), false);
+    c.domain.unwrap_or_else(|| panic!("`{path}` does not compile: {:?}", c.diagnostics))
+}
+
 /// Every `.rev` file under `dir`, in a stable order.
 pub fn rev_files(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
