@@ -2,6 +2,8 @@
 //! sets, the lattice, and the lattice lints — on `domains/*.rev` and on the deliberately broken
 //! files of `tests/corpus/lints/`.
 
+mod common;
+
 use std::path::Path;
 
 use revelio::check::compile_source;
@@ -11,9 +13,7 @@ use revelio::lint as lints;
 use revelio::oracle::{self, OracleError};
 
 fn domain(name: &str) -> Domain {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("domains").join(name);
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    compile_source(name, &text).unwrap_or_else(|d| panic!("{name} does not compile: {d:#?}"))
+    common::compile_shipped(&format!("domains/{name}"))
 }
 
 /// (rule, option name, letter, question) of a set's verdict.
@@ -102,14 +102,20 @@ fn unallowed_lints(d: &Domain) -> Vec<String> {
         .collect()
 }
 
+/// Every shipped domain (`domains/*.rev`; a new one is judged too) has no lattice lint its
+/// `allow` items do not silence.
 #[test]
-fn driving_is_lint_clean() {
-    assert_eq!(unallowed_lints(&domain("driving.rev")), Vec::<String>::new());
-}
-
-#[test]
-fn indoor_is_lint_clean() {
-    assert_eq!(unallowed_lints(&domain("indoor.rev")), Vec::<String>::new());
+fn every_shipped_domain_is_lint_clean() {
+    let mut names: Vec<String> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("domains"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with(".rev"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 3, "{names:?}");
+    for name in names {
+        assert_eq!(unallowed_lints(&domain(&name)), Vec::<String>::new(), "{name}");
+    }
 }
 
 /// Each corpus file says what it must report in `// expect: CODE WORDS` header lines: one
