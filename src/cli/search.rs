@@ -359,11 +359,12 @@ pub fn print_summary(
         };
         writeln!(
             w,
-            "shrink: {} cores from {} inferences of {} (up to {} observations per set){refuted}",
+            "shrink: {} cores from {} inferences of {} (up to {} observations per set, {} to test a core's lift){refuted}",
             s.cores.len(),
             sh.inferences,
             sh.budget,
-            sh.max_samples
+            sh.max_samples,
+            crate::search::shrink::LIFT_MAX_FACTOR * sh.max_samples
         )?;
     }
     writeln!(w, "spend: {}", s.spend.line())?;

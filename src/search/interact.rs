@@ -11,7 +11,9 @@
 //!   if none holds up the set itself is shrunk one concept at a time ([`super::shrink::shrink`]).
 //!   A core found this way is confirmed: its supersets leave the open sets (exclusion) and it
 //!   closes every pattern that holds it (conditioning), so the next picks go looking for the next
-//!   family.
+//!   family. A failing set that does not lift over a passing subset near τ
+//!   ([`Shrunk::NotDistinct`]) is no core, and that subset's family is set aside the same way
+//!   ([`PatternSearcher::explain`]) without being reported.
 //! - **`horseshoe`**, **`ridge`**, **`linear`**: Thompson sampling with a Bayesian regression on
 //!   concept indicators and their pairwise products ([`super::surrogate`]), as in BOCS. A round:
 //!   a few Gibbs sweeps on every evaluated set (warm-started), `batch` draws, and for each the
@@ -367,6 +369,21 @@ impl<'s> PatternSearcher<'s> {
         }
     }
 
+    /// A passing set near τ that its failing supersets do not significantly exceed
+    /// ([`Shrunk::NotDistinct`]): its supersets fail at its borderline rate, not through a new
+    /// core. They leave the sets to pick (unless supersets are kept) and its patterns close, so
+    /// the search stops re-finding the same borderline family; nothing is reported.
+    pub fn explain(&mut self, by: ConceptSet) {
+        for j in 0..self.patterns.len() {
+            if by.is_subset_of(self.patterns.pattern(j as u32)) {
+                self.open[j] = false;
+            }
+        }
+        if self.params.supersets != Supersets::Keep {
+            self.board.cover(by);
+        }
+    }
+
     pub fn fit(&self, history: &[SetStats]) -> Fit {
         self.patterns.fit(self.space, history, &self.cores, self.params.threshold)
     }
@@ -474,6 +491,8 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
             }
             let fit = searcher.fit(&driver.history);
             let mut core = None;
+            // Passing subsets near τ that a failing set did not significantly exceed.
+            let mut flat = Vec::new();
             let mut tried = 0;
             for p in searcher.candidates(&fit, set) {
                 if tried == JUMPS {
@@ -489,16 +508,19 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
                         break;
                     }
                     Shrunk::Refuted(_) => {}
+                    Shrunk::NotDistinct { by, .. } => flat.push(by),
                     Shrunk::Unaffordable => break,
                 }
             }
-            if core.is_none()
-                && driver.can_start()
-                && let Shrunk::Core(c) = shrink::shrink(driver, space, set).await?
-            {
-                core = Some(c.stats.set);
+            if core.is_none() && driver.can_start() {
+                match shrink::shrink(driver, space, set).await? {
+                    Shrunk::Core(c) => core = Some(c.stats.set),
+                    Shrunk::NotDistinct { by, .. } => flat.push(by),
+                    Shrunk::Refuted(_) | Shrunk::Unaffordable => {}
+                }
             }
             mark(&mut searcher, &driver.history, &mut marked);
+            flat.into_iter().for_each(|by| searcher.explain(by));
             if let Some(c) = core {
                 searcher.confirm(c);
             }

@@ -429,6 +429,21 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         }
     }
 
+    /// `k` more observations of the evaluated `set` whatever the rule says (at most what the
+    /// budget has left); false when it was not evaluated or nothing could be paid.
+    pub async fn observe_more(&mut self, set: ConceptSet, k: u32) -> Result<bool, String> {
+        let Some(s) = self.stats(set) else { return Ok(false) };
+        let k = u64::from(k).min(self.remaining()) as u32;
+        if k == 0 {
+            return Ok(false);
+        }
+        let n = s.observations();
+        let asks = [Ask { set, obs: n..n + k }];
+        let stats = self.eval.evaluate(&asks).await?;
+        self.record(&asks, stats);
+        Ok(true)
+    }
+
     /// Evaluate `set` or top it up under the rule; `None` when it is new and the budget cannot
     /// pay its first m observations.
     pub async fn test(&mut self, set: ConceptSet) -> Result<Option<SetStats>, String> {
