@@ -369,8 +369,14 @@ pub fn print_summary(
     }
     writeln!(w, "spend: {}", s.spend.line())?;
     let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
-    let rest: Vec<&crate::run::runner::SetRow> =
-        s.failure_modes.iter().filter(|r| r.core.is_none() && !refuted.contains(&&r.concepts)).collect();
+    let flat: Vec<&crate::run::runner::NotDistinctRow> = s.shrink.iter().flat_map(|sh| &sh.not_distinct).collect();
+    // Refuted and not-distinct failure modes are listed with their reason, not as loose ends.
+    let rest: Vec<&crate::run::runner::SetRow> = s
+        .failure_modes
+        .iter()
+        .filter(|r| r.core.is_none() && !refuted.contains(&&r.concepts))
+        .filter(|r| !flat.iter().any(|f| f.set.concepts == r.concepts))
+        .collect();
     if s.cores.is_empty() && s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
     }
@@ -413,6 +419,30 @@ pub fn print_summary(
         }
         if rest.len() > top {
             writeln!(w, "      … {} more in summary.json", rest.len() - top)?;
+        }
+    }
+    if !flat.is_empty() {
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>4}  {:<14}  {:>4}  failing sets no more likely to fail than a part that passes (not distinct)",
+            "#", "FR [95% CI]", "n"
+        )?;
+        for (i, row) in flat.iter().take(top).enumerate() {
+            writeln!(
+                w,
+                "{:>4}  {:<14}  {:>4}  {}  ≈  {} {} (n {})",
+                i + 1,
+                fr_ci_text(row.set.fr, row.set.ci95),
+                row.set.answered,
+                row.set.concepts.join(" + "),
+                row.by.concepts.join(" + "),
+                row.by.fr.map_or_else(|| "-".to_string(), |f| format!("{:.0}%", 100.0 * f)),
+                row.by.answered
+            )?;
+        }
+        if flat.len() > top {
+            writeln!(w, "      … {} more in summary.json (`shrink.not_distinct`)", flat.len() - top)?;
         }
     }
     if !refuted.is_empty() {
@@ -517,6 +547,10 @@ mod tests {
             max_samples: 20,
             new_sets: 9,
             refuted: vec![row(&["cone", "weather_foggy"], 4, 20)],
+            not_distinct: vec![crate::run::runner::NotDistinctRow {
+                set: row(&["bus_stop", "cone"], 24, 40),
+                by: row(&["bus_stop"], 22, 40),
+            }],
         };
         let mut out = Vec::new();
         let s = summary(modes, cores, Some(shrink));

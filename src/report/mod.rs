@@ -109,6 +109,9 @@ pub struct ShrinkRow {
     /// Failure modes of the search that did not fail when re-tested.
     #[serde(default)]
     pub refuted: Vec<SetRow>,
+    /// Failing sets that fail no more than a passing one-smaller part (the lift test).
+    #[serde(default)]
+    pub not_distinct: Vec<runner::NotDistinctRow>,
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<Option<T>, String> {

@@ -122,6 +122,8 @@ pub struct IndexPage<'a> {
     pub others: Vec<ModeRow>,
     /// Failure modes of the search that passed when the shrink phase re-tested them.
     pub refuted: Vec<ModeRow>,
+    /// Failing sets that do not fail more than a passing part, each with that part's row.
+    pub not_distinct: Vec<(ModeRow, ModeRow)>,
     pub concepts: Vec<ConceptRow>,
     pub heatmap: &'a str,
     /// Evaluated pairs, highest rate first: the heatmap's numbers.
@@ -542,20 +544,22 @@ pub fn render(
             failure_modes: c.failure_modes,
         })
         .collect();
-    let refuted = run
+    let row = |i: usize, r: &crate::run::runner::SetRow| ModeRow {
+        rank: i + 1,
+        concepts: r.concepts.clone(),
+        fr: pct(r.fr),
+        ci: interval(super::row_ci(r)),
+        answered: r.answered,
+        validated: validated_text(run.validated(&r.concepts)),
+    };
+    let refuted = run.extras.shrink.iter().flat_map(|sh| &sh.refuted).enumerate().map(|(i, r)| row(i, r)).collect();
+    let not_distinct = run
         .extras
         .shrink
         .iter()
-        .flat_map(|sh| &sh.refuted)
+        .flat_map(|sh| &sh.not_distinct)
         .enumerate()
-        .map(|(i, r)| ModeRow {
-            rank: i + 1,
-            concepts: r.concepts.clone(),
-            fr: pct(r.fr),
-            ci: interval(super::row_ci(r)),
-            answered: r.answered,
-            validated: validated_text(run.validated(&r.concepts)),
-        })
+        .map(|(i, r)| (row(i, &r.set), row(i, &r.by)))
         .collect();
     let (outcome_phases, outcome_rows) = outcome_table(f);
     let cores_note = if f.shrunk {
@@ -593,6 +597,7 @@ pub fn render(
         cores,
         others,
         refuted,
+        not_distinct,
         concepts,
         heatmap,
         pairs: pair_rows(&f.pairs),
@@ -662,7 +667,15 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     write_cores(out, p)?;
     if !p.others.is_empty() {
         writeln!(out, "<section id=\"others\">\n<h2>Other failure modes ({})</h2>", p.others.len())?;
-        out.push_str("<p class=\"note\">Failure modes that contain none of the cores above.</p>\n<div class=\"card\">");
+        let again = if p.refuted.is_empty() && p.not_distinct.is_empty() {
+            ""
+        } else {
+            " Those refuted on re-test or not distinct are listed again below, with the reason."
+        };
+        write!(
+            out,
+            "<p class=\"note\">Failure modes that contain none of the cores above.{again}</p>\n<div class=\"card\">"
+        )?;
         write_modes(out, &p.others)?;
         out.push_str("</div>\n</section>\n\n");
     }
@@ -671,6 +684,30 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
         out.push_str("<p class=\"note\">Failure modes of the search that passed when the shrink phase tested them again: their search observations overstated their failure rate.</p>\n<div class=\"card\">");
         write_modes(out, &p.refuted)?;
         out.push_str("</div>\n</section>\n\n");
+    }
+    if !p.not_distinct.is_empty() {
+        writeln!(out, "<section id=\"not-distinct\">\n<h2>Not distinct ({})</h2>", p.not_distinct.len())?;
+        out.push_str("<p class=\"note\">Sets that fail, but not significantly more often than a part of them one concept smaller that passes (one-sided two-proportion test at 99%, each topped up to twice the sequential test's limit while undecided): the part's failure rate sits near the threshold, and the extra concept adds nothing. They are no failure mode of their own.</p>\n<div class=\"card\">");
+        out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th>passing part</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th></tr></thead>\n<tbody>\n");
+        for (set, by) in &p.not_distinct {
+            write!(out, "<tr><td class=\"num\">{}</td><td>{}</td>", set.rank, Concepts(&set.concepts))?;
+            write!(
+                out,
+                "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>",
+                Esc(&set.fr),
+                Esc(&set.ci),
+                set.answered
+            )?;
+            writeln!(
+                out,
+                "<td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+                Concepts(&by.concepts),
+                Esc(&by.fr),
+                Esc(&by.ci),
+                by.answered
+            )?;
+        }
+        out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
     }
     write_concepts(out, p)?;
     write_pairs(out, p)?;
@@ -726,6 +763,9 @@ fn write_nav(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     }
     if !p.refuted.is_empty() {
         out.push_str("<a href=\"#refuted\">Refuted</a>");
+    }
+    if !p.not_distinct.is_empty() {
+        out.push_str("<a href=\"#not-distinct\">Not distinct</a>");
     }
     out.push_str("<a href=\"#concepts\">Concepts</a><a href=\"#pairs\">Pairs</a><a href=\"#discovery\">Discovery</a><a href=\"#outcomes\">Outcomes</a><a href=\"#visibility\">Visibility</a>");
     if p.probe.is_some() {
@@ -886,15 +926,24 @@ fn write_observation(out: &mut String, c: &CoreView, o: &ObsView) -> fmt::Result
     Ok(())
 }
 
+/// Concept names as `<code>a</code> + <code>b</code>`.
+struct Concepts<'a>(&'a [String]);
+
+impl fmt::Display for Concepts<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, name) in self.0.iter().enumerate() {
+            let sep = if i > 0 { " + " } else { "" };
+            write!(f, "{sep}<code>{}</code>", Esc(name))?;
+        }
+        Ok(())
+    }
+}
+
 /// A table of failure modes (the larger ones of a core, the others, the refuted).
 fn write_modes(out: &mut String, rows: &[ModeRow]) -> fmt::Result {
     out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th class=\"num\">validated</th></tr></thead>\n<tbody>\n");
     for m in rows {
-        write!(out, "<tr><td class=\"num\">{}</td><td>", m.rank)?;
-        for (i, name) in m.concepts.iter().enumerate() {
-            let sep = if i > 0 { " + " } else { "" };
-            write!(out, "{sep}<code>{}</code>", Esc(name))?;
-        }
+        write!(out, "<tr><td class=\"num\">{}</td><td>{}", m.rank, Concepts(&m.concepts))?;
         writeln!(
             out,
             "</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",

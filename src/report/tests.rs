@@ -205,6 +205,9 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
     }]);
     s["shrink"] = serde_json::json!({"budget": 100, "inferences": 42, "max_samples": 20, "new_sets": 3, "refuted": [
         {"concepts": ["cone"], "fr": 0.2, "ci95": [0.05, 0.5], "wrong": 2, "answered": 10, "observations": 10}
+    ], "not_distinct": [
+        {"concepts": ["debris_far", "cone"], "fr": 0.62, "ci95": [0.47, 0.75], "wrong": 25, "answered": 40, "observations": 40,
+         "by": {"concepts": ["debris_far"], "fr": 0.55, "ci95": [0.4, 0.69], "wrong": 22, "answered": 40, "observations": 40}}
     ]});
     for m in s["failure_modes"].as_array_mut().unwrap() {
         m["ci95"] = serde_json::json!([0.11, 0.22]);
@@ -227,6 +230,14 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
     assert!(html.contains("shrunk in 42 inferences"));
     let refuted = html.split("id=\"refuted\"").nth(1).expect("a 'refuted' section");
     assert!(refuted.contains("<code>cone</code>"));
+    let flat = html.split("id=\"not-distinct\"").nth(1).expect("a 'not distinct' section");
+    let flat = flat.split("</section>").next().unwrap();
+    assert!(flat.contains("<code>debris_far</code> + <code>cone</code>"), "the set");
+    assert!(
+        flat.contains("62%") && flat.contains("55%") && flat.contains("[40–69%]"),
+        "the set's and its part's rates"
+    );
+    assert!(html.contains("href=\"#not-distinct\""), "in the navigation");
     // {debris_far} contains no core: it is listed under the other failure modes.
     let others = html.split("id=\"others\"").nth(1).expect("an 'other failure modes' section");
     assert!(others.contains("<code>debris_far</code>"));

@@ -323,13 +323,27 @@ pub struct ShrinkSummary {
     /// Inferences it was given (`--shrink`) and spent.
     pub budget: u64,
     pub inferences: u64,
-    /// Most observations per set in its sequential test.
+    /// Most observations per set in its sequential test (interact: its confirmation rule's, the
+    /// rule it shrinks with as it searches); the lift test goes to twice that.
     pub max_samples: u32,
     /// Subsets it evaluated that the search had not.
     pub new_sets: usize,
     /// Failure modes of the search that did not fail when re-tested (with all their
     /// observations).
     pub refuted: Vec<SetRow>,
+    /// Failing sets the shrink reached that fail no more than a one-smaller subset that passes
+    /// (the lift test): no distinct failure mode, the subset's rate near τ.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_distinct: Vec<NotDistinctRow>,
+}
+
+/// A failing set that does not fail significantly more than its passing subset `by`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NotDistinctRow {
+    #[serde(flatten)]
+    pub set: SetRow,
+    /// The one-smaller subset, with all its observations.
+    pub by: SetRow,
 }
 
 /// `summary.json`: a pure function of the configuration and the observations.
@@ -422,9 +436,19 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
         budget: params.shrink,
         inferences,
-        max_samples: params.shrink_rule().max_samples,
+        // Interact shrinks as it searches, under its confirmation rule.
+        max_samples: if params.algo == crate::search::Algo::Interact {
+            params.confirm_rule().max_samples
+        } else {
+            params.shrink_rule().max_samples
+        },
         new_sets,
         refuted: found.refuted.iter().map(|s| SetRow::new(&setup.domain, s)).collect(),
+        not_distinct: found
+            .not_distinct
+            .iter()
+            .map(|(s, by)| NotDistinctRow { set: SetRow::new(&setup.domain, s), by: SetRow::new(&setup.domain, by) })
+            .collect(),
     });
     journal.write_json("summary.json", &summary)?;
     Ok(RunReport {

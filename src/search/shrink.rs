@@ -22,7 +22,7 @@
 //! τ + 0.02 over a subset at τ − 0.02 is the subset's borderline rate measured twice, not a
 //! failure mode that needs the added concept: "pedestrian + police officer fails, neither alone"
 //! would be a false finding when the pedestrian alone fails 58 % of the time. Such a set is
-//! [`Shrunk::NotDistinct`]: it stays a failure mode of the search that no core explains.
+//! [`Shrunk::NotDistinct`], recorded with that subset in [`Found::not_distinct`].
 //!
 //! A shrink that the budget cuts short (it cannot pay the first m observations of a new subset)
 //! yields a core marked not minimal; the roots after it are shrunk only as far as the evidence
@@ -203,6 +203,9 @@ pub struct Found {
     pub cores: Vec<Core>,
     /// Roots that did not fail when re-tested, in the order they were tried.
     pub refuted: Vec<SetStats>,
+    /// Failing sets the shrink reached that fail no more than a passing one-smaller subset
+    /// ([`Shrunk::NotDistinct`]): each with that subset, in the order they were found.
+    pub not_distinct: Vec<(SetStats, SetStats)>,
 }
 
 /// The shrink phase: shrink `roots` (strongest first, see [`roots`]) in turn, skipping every root
@@ -231,13 +234,28 @@ pub async fn run<E: Evaluate>(
                 }
             }
             Shrunk::Refuted(s) => found.refuted.push(s),
-            Shrunk::Unaffordable | Shrunk::NotDistinct { .. } => {}
+            Shrunk::NotDistinct { stats, by } => {
+                let by = driver.stats(by).cloned().unwrap_or_else(|| SetStats::new(by));
+                if !found.not_distinct.iter().any(|(s, _)| s.set == stats.set) {
+                    found.not_distinct.push((stats, by));
+                }
+            }
+            Shrunk::Unaffordable => {}
         }
     }
     // A core tested again later (as a subset of another root) has more observations now.
     for c in &mut found.cores {
         if let Some(s) = driver.stats(c.stats.set) {
             c.stats = s.clone();
+        }
+    }
+    // A set found not distinct and later held by a core is that core's superset, not a loose end.
+    found.not_distinct.retain(|(s, _)| !found.cores.iter().any(|c| c.stats.set.is_subset_of(s.set)));
+    for (s, by) in &mut found.not_distinct {
+        for s in [s, by] {
+            if let Some(now) = driver.stats(s.set) {
+                *s = now.clone();
+            }
         }
     }
     found.cores.sort_by(|a, b| {

@@ -422,6 +422,16 @@ fn a_set_that_fails_only_as_much_as_its_borderline_part_is_no_core() {
                 }
                 shrink::Shrunk::NotDistinct { stats, by } => {
                     assert!(stats.set.is_subset_of(root) && by.is_subset_of(root), "seed {seed}");
+                    // The shrink phase records it, with its part, and reports no core.
+                    let mut e2 = sim(BORDERLINE, seed);
+                    let mut d2 = Driver::new(&mut e2, search.rule(), 5);
+                    block_on(d2.test(root)).unwrap();
+                    let history = d2.history.clone();
+                    let mut d2 = Driver::with_history(&mut e2, search.shrink_rule(), 400, history);
+                    let found = block_on(shrink::run(&mut d2, &space, &[root])).unwrap();
+                    assert!(found.cores.is_empty(), "seed {seed}: {:?}", found.cores);
+                    let recorded: Vec<_> = found.not_distinct.iter().map(|(s, b)| (s.set, b.set)).collect();
+                    assert_eq!(recorded, vec![(stats.set, by)], "seed {seed}");
                     assert!(
                         stats.observations() <= shrink::LIFT_MAX_FACTOR * 20 && d.spent() <= 400,
                         "seed {seed}: within the lift test's 2·M and the budget"
