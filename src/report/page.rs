@@ -399,10 +399,14 @@ fn algorithm_text(run: &Run) -> String {
     }
 }
 
+/// The recorded parameters that steer the run's algorithm (a GPTS run does not list interact's
+/// surrogate).
 fn params_text(run: &Run) -> String {
+    let algo = run.config.params.algo;
     let parts: Vec<String> = run
         .params
         .iter()
+        .filter(|(k, _)| crate::search::Params::applies(k, algo))
         .map(|(k, v)| match v {
             serde_json::Value::String(s) => format!("{k} {s}"),
             other => format!("{k} {other}"),

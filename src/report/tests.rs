@@ -163,6 +163,10 @@ fn page_shows_every_core_with_its_images_and_escapes_replies() {
     // then {debris_far}.
     let cores: Vec<&str> = html.split("data-concepts=\"").skip(1).map(|p| p.split('"').next().unwrap()).collect();
     assert_eq!(cores, ["intersection_ego + obstruction_near", "debris_far"]);
+    // A GPTS run lists GPTS's parameters, not interact's.
+    let params = html.split("parameters: ").nth(1).expect("a parameters line").split('<').next().unwrap();
+    assert!(params.contains("beam_budget 500") && params.contains("seed 0"), "{params}");
+    assert!(!params.contains("surrogate") && !params.contains("supersets"), "{params}");
     // No reply reaches the page unescaped.
     assert!(!html.contains("<script") && !html.contains("<img src=x"), "an unescaped reply");
     assert!(

@@ -168,6 +168,20 @@ impl Default for Params {
 
 impl Params {
     /// Check values a user can get wrong; the message names the flag.
+    /// Whether the parameter named `key` (as `config.json` names it) steers `algo`: the beam's
+    /// width, depth and λ only beam and GPTS (its warm-up), the beam budget and kernel only GPTS,
+    /// the batch GPTS and interact, the surrogate and supersets policy only interact; the rest
+    /// every algorithm.
+    pub fn applies(key: &str, algo: Algo) -> bool {
+        match key {
+            "beam_width" | "max_depth" | "lambda" => matches!(algo, Algo::Beam | Algo::Gpts),
+            "beam_budget" | "kernel" => algo == Algo::Gpts,
+            "batch" => matches!(algo, Algo::Gpts | Algo::Interact),
+            "surrogate" | "supersets" => algo == Algo::Interact,
+            _ => true,
+        }
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         let bad = |flag: &str, why: &str| Err(format!("invalid `--{flag}`: {why}"));
         if self.samples == 0 {
