@@ -689,30 +689,7 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
         write_modes(out, &p.refuted)?;
         out.push_str("</div>\n</section>\n\n");
     }
-    if !p.not_distinct.is_empty() {
-        writeln!(out, "<section id=\"not-distinct\">\n<h2>Not distinct ({})</h2>", p.not_distinct.len())?;
-        out.push_str("<p class=\"note\">Sets that fail, but not significantly more often than a part of them one concept smaller that passes (one-sided two-proportion test at 99%, each topped up to twice the sequential test's limit while undecided): the part's failure rate sits near the threshold, and the extra concept adds nothing. They are no failure mode of their own.</p>\n<div class=\"card\">");
-        out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th>passing part</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th></tr></thead>\n<tbody>\n");
-        for (set, by) in &p.not_distinct {
-            write!(out, "<tr><td class=\"num\">{}</td><td>{}</td>", set.rank, Concepts(&set.concepts))?;
-            write!(
-                out,
-                "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>",
-                Esc(&set.fr),
-                Esc(&set.ci),
-                set.answered
-            )?;
-            writeln!(
-                out,
-                "<td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
-                Concepts(&by.concepts),
-                Esc(&by.fr),
-                Esc(&by.ci),
-                by.answered
-            )?;
-        }
-        out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
-    }
+    write_not_distinct(out, p)?;
     write_concepts(out, p)?;
     write_pairs(out, p)?;
     write_discovery_and_outcomes(out, p)?;
@@ -927,6 +904,36 @@ fn write_observation(out: &mut String, c: &CoreView, o: &ObsView) -> fmt::Result
         )?;
     }
     out.push_str("</div>\n</div>\n");
+    Ok(())
+}
+
+/// Failing sets that do not lift over a passing part, each beside that part.
+fn write_not_distinct(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
+    if p.not_distinct.is_empty() {
+        return Ok(());
+    }
+    writeln!(out, "<section id=\"not-distinct\">\n<h2>Not distinct ({})</h2>", p.not_distinct.len())?;
+    out.push_str("<p class=\"note\">Sets that fail, but not significantly more often than a part of them one concept smaller that passes (one-sided two-proportion test at 99%, each topped up to twice the sequential test's limit while undecided): the part's failure rate sits near the threshold, and the extra concept adds nothing. They are no failure mode of their own.</p>\n<div class=\"card\">");
+    out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th>passing part</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th></tr></thead>\n<tbody>\n");
+    for (set, by) in &p.not_distinct {
+        write!(out, "<tr><td class=\"num\">{}</td><td>{}</td>", set.rank, Concepts(&set.concepts))?;
+        write!(
+            out,
+            "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>",
+            Esc(&set.fr),
+            Esc(&set.ci),
+            set.answered
+        )?;
+        writeln!(
+            out,
+            "<td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            Concepts(&by.concepts),
+            Esc(&by.fr),
+            Esc(&by.ci),
+            by.answered
+        )?;
+    }
+    out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
     Ok(())
 }
 
