@@ -567,7 +567,7 @@ pub fn render(
         .collect();
     let (outcome_phases, outcome_rows) = outcome_table(f);
     let cores_note = if f.shrunk {
-        "Each core is a smallest set that still fails by the sequential test (found by shrinking the strongest failure families); every failure mode is listed under the first core it contains."
+        "Each core is a smallest set that still fails by the sequential test and fails significantly more often than each of its parts one concept smaller (found by shrinking the strongest failure families); every failure mode is listed under the first core it contains."
     } else {
         "This run has no shrink phase: the cores shown are its minimal failure modes — failure modes none of whose evaluated subsets failed. A smaller failing subset may exist that the search never evaluated."
     }

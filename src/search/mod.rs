@@ -167,7 +167,6 @@ impl Default for Params {
 }
 
 impl Params {
-    /// Check values a user can get wrong; the message names the flag.
     /// Whether the parameter named `key` (as `config.json` names it) steers `algo`: the beam's
     /// width, depth and λ only beam and GPTS (its warm-up), the beam budget and kernel only GPTS,
     /// the batch GPTS and interact, the surrogate and supersets policy only interact; the rest
@@ -182,6 +181,7 @@ impl Params {
         }
     }
 
+    /// Check values a user can get wrong; the message names the flag.
     pub fn validate(&self) -> Result<(), String> {
         let bad = |flag: &str, why: &str| Err(format!("invalid `--{flag}`: {why}"));
         if self.samples == 0 {
