@@ -105,6 +105,23 @@ impl ConceptSet {
             Some(ConceptId(i))
         })
     }
+    /// The non-empty subsets one concept smaller, in concept order (none for a single concept).
+    pub fn one_smaller(self) -> impl Iterator<Item = ConceptSet> {
+        self.iter().map(move |c| self.without(c)).filter(|s| !s.is_empty())
+    }
+    /// Every non-empty proper subset, largest bit pattern first.
+    pub fn proper_subsets(self) -> impl Iterator<Item = ConceptSet> {
+        let bits = self.0;
+        let mut sub = bits.wrapping_sub(1) & bits;
+        std::iter::from_fn(move || {
+            if sub == 0 {
+                return None;
+            }
+            let s = ConceptSet(sub);
+            sub = sub.wrapping_sub(1) & bits;
+            Some(s)
+        })
+    }
     /// Jaccard similarity |a∩b| / |a∪b| (1.0 for two empty sets).
     pub fn jaccard(self, o: Self) -> f64 {
         let u = self.union(o).len();
@@ -830,5 +847,15 @@ mod tests {
         assert!((s.jaccard(t) - 0.25).abs() < 1e-12);
         assert!(ConceptSet::single(ConceptId(5)).is_subset_of(s));
         assert_eq!(s.without(ConceptId(0)).len(), 2);
+        let ids = |xs: &[u32]| ConceptSet::from_ids(xs.iter().map(|&i| ConceptId(i)));
+        let smaller: Vec<ConceptSet> = s.one_smaller().collect();
+        assert_eq!(smaller, vec![ids(&[5, 127]), ids(&[0, 127]), ids(&[0, 5])]);
+        assert_eq!(ConceptSet::single(ConceptId(3)).one_smaller().count(), 0, "no empty set");
+        let mut proper: Vec<ConceptSet> = s.proper_subsets().collect();
+        proper.sort();
+        let mut want = vec![ids(&[0]), ids(&[5]), ids(&[127]), ids(&[0, 5]), ids(&[0, 127]), ids(&[5, 127])];
+        want.sort();
+        assert_eq!(proper, want, "every non-empty proper subset, once");
+        assert_eq!(ConceptSet::EMPTY.proper_subsets().count(), 0);
     }
 }

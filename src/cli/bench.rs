@@ -19,7 +19,6 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::ir::ConceptSet;
 use crate::ir::Domain;
 use crate::lattice::Lattice;
 use crate::run::observe::{DomainWorld, World};
@@ -342,7 +341,7 @@ pub(crate) fn bench_one(
     let cores: Vec<_> = if r.summary.shrink.is_some() {
         r.found.cores.iter().map(|c| c.stats.set).collect()
     } else {
-        reported_cores(&r.history, space, args.threshold)
+        crate::search::shrink::minimal_failures(&r.history, space, args.threshold)
     };
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
     let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
@@ -371,24 +370,6 @@ pub fn true_modes(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f6
 /// The share of `sets` that truly fail (`None` for no sets).
 pub fn precision(truth: &Profile, sets: &[crate::ir::ConceptSet], threshold: f64) -> Option<f64> {
     (!sets.is_empty()).then(|| true_modes(truth, sets, threshold) as f64 / sets.len() as f64)
-}
-
-/// The cores a run without a shrink phase reports: evaluated failure modes whose every valid
-/// one-smaller subset was evaluated and passes.
-pub fn reported_cores(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
-    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
-    history
-        .iter()
-        .filter(|s| s.is_failure_mode(threshold))
-        .filter(|s| {
-            s.set
-                .iter()
-                .map(|c| s.set.without(c))
-                .filter(|sub| !sub.is_empty() && space.contains(*sub))
-                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
-        })
-        .map(|s| s.set)
-        .collect()
 }
 
 /// Fraction of planted modes contained in some evaluated set with observed FR ≥ τ (`None` when
@@ -486,8 +467,8 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ir::ConceptId;
     use crate::ir::testkit::lattice;
+    use crate::ir::{ConceptId, ConceptSet};
     use crate::outcome::Outcome;
 
     fn set(ids: &[u32]) -> ConceptSet {
@@ -514,7 +495,7 @@ mod tests {
             stats(&[4], 2),
             stats(&[2, 4], 1),
         ];
-        let mut cores = reported_cores(&history, &space, 0.6);
+        let mut cores = crate::search::shrink::minimal_failures(&history, &space, 0.6);
         cores.sort();
         assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
     }

@@ -144,6 +144,14 @@ impl<'s> Board<'s> {
         }
     }
 
+    /// Mark the sets evaluated since the first `*marked` of `history` as explored.
+    fn explore_since(&mut self, history: &[SetStats], marked: &mut usize) {
+        for s in &history[*marked..] {
+            self.explore(s.set);
+        }
+        *marked = history.len();
+    }
+
     fn cover(&mut self, core: ConceptSet) {
         for (i, s) in self.space.sets.iter().enumerate() {
             if core.is_subset_of(*s) {
@@ -278,19 +286,13 @@ async fn run_regression<E: Evaluate>(
 ) -> Result<(), String> {
     let mut searcher = Searcher::new(params, space, parts);
     let mut marked = 0;
-    let mark = |searcher: &mut Searcher<'_>, history: &[SetStats], marked: &mut usize| {
-        for s in &history[*marked..] {
-            searcher.explored(s.set);
-        }
-        *marked = history.len();
-    };
     while driver.can_start() {
         let picks = searcher.propose(&driver.history);
         if picks.is_empty() {
             break;
         }
         let stats = driver.evaluate(&picks).await?;
-        mark(&mut searcher, &driver.history, &mut marked);
+        searcher.board.explore_since(&driver.history, &mut marked);
         for s in stats {
             if !s.is_failure_mode(params.threshold) || searcher.is_covered(s.set) || !driver.can_start() {
                 continue;
@@ -302,7 +304,7 @@ async fn run_regression<E: Evaluate>(
             driver.set_rule(params.shrink_rule());
             let shrunk = shrink::shrink(driver, space, s.set).await;
             driver.set_rule(search_rule);
-            mark(&mut searcher, &driver.history, &mut marked);
+            searcher.board.explore_since(&driver.history, &mut marked);
             if let Shrunk::Core(core) = shrunk? {
                 searcher.confirm(core.stats.set);
             }
@@ -359,28 +361,27 @@ impl<'s> PatternSearcher<'s> {
             return;
         }
         self.cores.push(core);
-        for j in 0..self.patterns.len() {
-            if core.is_subset_of(self.patterns.pattern(j as u32)) {
-                self.open[j] = false;
-            }
-        }
-        if self.params.supersets != Supersets::Keep {
-            self.board.cover(core);
-        }
+        self.set_aside(core);
     }
 
     /// A passing set near τ that its failing supersets do not significantly exceed
     /// ([`Shrunk::NotDistinct`]): its supersets fail at its borderline rate, not through a new
-    /// core. They leave the sets to pick (unless supersets are kept) and its patterns close, so
-    /// the search stops re-finding the same borderline family; nothing is reported.
+    /// core. They are set aside as a core's are, so the search stops re-finding the same
+    /// borderline family; nothing is reported.
     pub fn explain(&mut self, by: ConceptSet) {
+        self.set_aside(by);
+    }
+
+    /// `set` and its supersets are no longer open patterns, and (unless supersets are kept) its
+    /// supersets leave the sets to pick.
+    fn set_aside(&mut self, set: ConceptSet) {
         for j in 0..self.patterns.len() {
-            if by.is_subset_of(self.patterns.pattern(j as u32)) {
+            if set.is_subset_of(self.patterns.pattern(j as u32)) {
                 self.open[j] = false;
             }
         }
         if self.params.supersets != Supersets::Keep {
-            self.board.cover(by);
+            self.board.cover(set);
         }
     }
 
@@ -450,6 +451,12 @@ impl<'s> PatternSearcher<'s> {
     }
 }
 
+/// The family a not-distinct set tells the search to set aside: its passing part's, or, when the
+/// lift test's observations took the set itself below τ, the set's own.
+fn borderline(stats: &SetStats, by: ConceptSet, tau: f64) -> ConceptSet {
+    if stats.is_failure_mode(tau) { by } else { stats.set }
+}
+
 /// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
 async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
     let tau = params.threshold;
@@ -459,12 +466,6 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
     let search_rule = driver.rule();
     let mut searcher = PatternSearcher::new(params, space);
     let mut marked = 0;
-    let mark = |searcher: &mut PatternSearcher<'_>, history: &[SetStats], marked: &mut usize| {
-        for s in &history[*marked..] {
-            searcher.explored(s.set);
-        }
-        *marked = history.len();
-    };
     loop {
         driver.set_rule(screen);
         if !driver.can_start() {
@@ -479,7 +480,7 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
         let hot: Vec<ConceptSet> = stats.iter().filter(|s| s.wrong > 0).map(|s| s.set).collect();
         driver.set_rule(escalate);
         driver.top_up(&hot).await?;
-        mark(&mut searcher, &driver.history, &mut marked);
+        searcher.board.explore_since(&driver.history, &mut marked);
         for set in hot {
             let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
             if !failing || searcher.is_covered(set) {
@@ -508,18 +509,18 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
                         break;
                     }
                     Shrunk::Refuted(_) => {}
-                    Shrunk::NotDistinct { by, .. } => flat.push(by),
+                    Shrunk::NotDistinct { stats, by } => flat.push(borderline(&stats, by, tau)),
                     Shrunk::Unaffordable => break,
                 }
             }
             if core.is_none() && driver.can_start() {
                 match shrink::shrink(driver, space, set).await? {
                     Shrunk::Core(c) => core = Some(c.stats.set),
-                    Shrunk::NotDistinct { by, .. } => flat.push(by),
+                    Shrunk::NotDistinct { stats, by } => flat.push(borderline(&stats, by, tau)),
                     Shrunk::Refuted(_) | Shrunk::Unaffordable => {}
                 }
             }
-            mark(&mut searcher, &driver.history, &mut marked);
+            searcher.board.explore_since(&driver.history, &mut marked);
             flat.into_iter().for_each(|by| searcher.explain(by));
             if let Some(c) = core {
                 searcher.confirm(c);

@@ -199,15 +199,7 @@ impl Patterns {
         let mut seen: Vec<(f64, f64, usize, Vec<u32>)> = Vec::new();
         for s in history.iter().filter(|s| s.answered() > 0) {
             // What the set's tested subsets already explain.
-            let mut bg = base;
-            let bits = s.set.0;
-            let mut sub = bits.wrapping_sub(1) & bits;
-            while sub != 0 {
-                if let Some(&v) = tested.get(&ConceptSet(sub)) {
-                    bg = bg.max(v);
-                }
-                sub = sub.wrapping_sub(1) & bits;
-            }
+            let bg = s.set.proper_subsets().filter_map(|sub| tested.get(&sub)).fold(base, |a, &v| a.max(v));
             let bg = bg.min(1.0 - 1e-9);
             let (w, n) = (f64::from(s.wrong), f64::from(s.answered()));
             let subs = self.subs_of(space, s.set);

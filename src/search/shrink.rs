@@ -55,7 +55,7 @@ pub enum Shrunk {
     Unaffordable,
     /// The shrink reached a 1-minimal failing set (`stats`) that does not fail significantly more
     /// than its one-smaller subset `by`, which passes: no distinct failure mode, only `by`'s
-    /// rate near τ. (`by` is the set itself when more observations took it below τ.)
+    /// rate near τ (or the observations the lift test asked for took the set below τ).
     NotDistinct {
         stats: SetStats,
         by: ConceptSet,
@@ -126,18 +126,19 @@ pub async fn shrink<E: Evaluate>(
         // The lift test, sequential too: while a passing subset is not significantly exceeded,
         // the one of the two with fewer observations gets m more, up to LIFT_MAX_FACTOR·M.
         let (m, max) = (driver.rule().samples, LIFT_MAX_FACTOR * driver.rule().max_samples);
+        // The part whose lift test asked for the latest observations.
+        let mut asked_by = None;
         loop {
             let stats = driver.stats(current).cloned().expect("a kept subset was evaluated");
             if !stats.is_failure_mode(threshold) {
-                // More observations took it below τ: it was never a distinct failure mode.
-                let by = current;
-                return Ok(Shrunk::NotDistinct { stats, by });
+                // Observations the lift test asked for took it below τ: it fails no more than
+                // that part.
+                return Ok(match asked_by {
+                    Some(by) => Shrunk::NotDistinct { stats, by },
+                    None => Shrunk::Refuted(stats),
+                });
             }
-            let flat = current
-                .iter()
-                .map(|c| current.without(c))
-                .filter(|sub| !sub.is_empty())
-                .find_map(|sub| driver.stats(sub).filter(|t| !lifts(&stats, t)).cloned());
+            let flat = current.one_smaller().find_map(|sub| driver.stats(sub).filter(|t| !lifts(&stats, t)).cloned());
             let Some(t) = flat else { return Ok(Shrunk::Core(Core { stats, minimal, root })) };
             if t.is_failure_mode(threshold) {
                 // More observations took the subset above τ: shrink on from it.
@@ -157,6 +158,7 @@ pub async fn shrink<E: Evaluate>(
             if !driver.observe_more(more, m.min(max - has)).await? {
                 return Ok(Shrunk::NotDistinct { stats, by: t.set });
             }
+            asked_by = Some(t.set);
         }
     }
 }
@@ -165,7 +167,24 @@ pub async fn shrink<E: Evaluate>(
 fn settled<E: Evaluate>(driver: &Driver<'_, E>, space: &Space, core: ConceptSet) -> bool {
     let rule = driver.rule();
     let done = |s: ConceptSet| driver.stats(s).is_some_and(|st| rule.settled(st));
-    done(core) && core.iter().map(|c| core.without(c)).filter(|s| !s.is_empty() && space.contains(*s)).all(done)
+    done(core) && core.one_smaller().filter(|s| space.contains(*s)).all(done)
+}
+
+/// The cores a run without a shrink phase reports: its failure modes whose every valid
+/// one-smaller subset was evaluated and passes.
+pub fn minimal_failures(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
+    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
+    history
+        .iter()
+        .filter(|s| s.is_failure_mode(threshold))
+        .filter(|s| {
+            s.set
+                .one_smaller()
+                .filter(|sub| space.contains(*sub))
+                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
+        })
+        .map(|s| s.set)
+        .collect()
 }
 
 /// The concepts of `set` in the order the shrink tries to drop them: lowest mean failure rate
@@ -220,6 +239,8 @@ pub async fn run<E: Evaluate>(
     roots: &[ConceptSet],
 ) -> Result<Found, String> {
     let mut found = Found::default();
+    // Not distinct: (set, part).
+    let mut flat: Vec<(ConceptSet, ConceptSet)> = Vec::new();
     for &root in roots {
         if found.cores.iter().any(|c| c.stats.set.is_subset_of(root)) {
             continue;
@@ -235,9 +256,8 @@ pub async fn run<E: Evaluate>(
             }
             Shrunk::Refuted(s) => found.refuted.push(s),
             Shrunk::NotDistinct { stats, by } => {
-                let by = driver.stats(by).cloned().unwrap_or_else(|| SetStats::new(by));
-                if !found.not_distinct.iter().any(|(s, _)| s.set == stats.set) {
-                    found.not_distinct.push((stats, by));
+                if !flat.iter().any(|(s, _)| *s == stats.set) {
+                    flat.push((stats.set, by));
                 }
             }
             Shrunk::Unaffordable => {}
@@ -249,15 +269,14 @@ pub async fn run<E: Evaluate>(
             c.stats = s.clone();
         }
     }
-    // A set found not distinct and later held by a core is that core's superset, not a loose end.
-    found.not_distinct.retain(|(s, _)| !found.cores.iter().any(|c| c.stats.set.is_subset_of(s.set)));
-    for (s, by) in &mut found.not_distinct {
-        for s in [s, by] {
-            if let Some(now) = driver.stats(s.set) {
-                *s = now.clone();
-            }
-        }
-    }
+    // With every observation gathered; a set found not distinct and later held by a core is that
+    // core's superset, not a loose end.
+    let now = |s: ConceptSet| driver.stats(s).cloned().unwrap_or_else(|| SetStats::new(s));
+    found.not_distinct = flat
+        .into_iter()
+        .filter(|(s, _)| !found.cores.iter().any(|c| c.stats.set.is_subset_of(*s)))
+        .map(|(s, by)| (now(s), now(by)))
+        .collect();
     found.cores.sort_by(|a, b| {
         let (x, y) = (&a.stats, &b.stats);
         y.value()

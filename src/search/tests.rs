@@ -147,22 +147,6 @@ fn three_modes(s: ConceptSet) -> u32 {
     if modes.iter().any(|m| m.is_subset_of(s)) { u32::MAX } else { u32::from(s.len() == 4) }
 }
 
-/// Failing sets whose every valid one-smaller subset was evaluated and passes.
-fn minimal_failures(h: &[SetStats], space: &Space) -> Vec<ConceptSet> {
-    let fr: std::collections::HashMap<ConceptSet, &SetStats> = h.iter().map(|s| (s.set, s)).collect();
-    h.iter()
-        .filter(|s| s.is_failure_mode(0.6))
-        .filter(|s| {
-            s.set
-                .iter()
-                .map(|c| s.set.without(c))
-                .filter(|sub| !sub.is_empty() && space.contains(*sub))
-                .all(|sub| fr.get(&sub).is_some_and(|t| !t.is_failure_mode(0.6)))
-        })
-        .map(|s| s.set)
-        .collect()
-}
-
 #[test]
 fn interact_reports_two_pairs_and_a_triple_exactly() {
     let space = Space::new(lattice(12, 4), 12);
@@ -171,7 +155,7 @@ fn interact_reports_two_pairs_and_a_triple_exactly() {
         let mut e = FnEval { f: three_modes, asked: vec![] };
         let h = block_on(run(&p, &space, &mut e)).unwrap();
         assert_sound(&h, &space, &p);
-        let mut cores = minimal_failures(&h, &space);
+        let mut cores = shrink::minimal_failures(&h, &space, 0.6);
         cores.sort();
         let mut planted = vec![bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
         planted.sort();

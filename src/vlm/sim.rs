@@ -154,17 +154,7 @@ impl Profile {
             .iter()
             .filter(|m| m.error >= threshold)
             .map(|m| m.concepts)
-            .filter(|&m| {
-                let mut sub = m.0.wrapping_sub(1) & m.0;
-                while sub != 0 {
-                    let s = ConceptSet(sub);
-                    if valid(s) && self.error_for(s) >= threshold {
-                        return false;
-                    }
-                    sub = sub.wrapping_sub(1) & m.0;
-                }
-                true
-            })
+            .filter(|&m| !m.proper_subsets().any(|s| valid(s) && self.error_for(s) >= threshold))
             .collect()
     }
 
