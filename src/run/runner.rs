@@ -619,7 +619,7 @@ pub async fn validate(
             "invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"
         )));
     }
-    let rule = Rule { samples, max_samples: max_samples.unwrap_or(samples), threshold: config.params.threshold };
+    let rule = Rule::sequential(samples, max_samples.unwrap_or(samples), config.params.threshold);
     let history = summary
         .sets
         .iter()

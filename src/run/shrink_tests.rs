@@ -90,7 +90,7 @@ fn sequential_validation_tops_up_undecided_sets_only() {
     let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
     let v = block_on(runner::validate(&s, &cfg, &r.summary, 5, 10, Some(30))).unwrap();
     assert_eq!(v.max_samples, Some(30));
-    let rule = crate::search::Rule { samples: 10, max_samples: 30, threshold: cfg.params.threshold };
+    let rule = crate::search::Rule::sequential(10, 30, cfg.params.threshold);
     for x in &v.sets {
         let o = x.validation.observations;
         assert!((10..=30).contains(&o), "{o}");

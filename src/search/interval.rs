@@ -14,15 +14,21 @@ pub const Z95: f64 = 1.959_963_984_540_054;
 /// Wilson score interval (95 %) of `k` successes in `n` trials; `[0, 1]` when `n = 0` (no
 /// answer says nothing).
 pub fn wilson(k: u32, n: u32) -> [f64; 2] {
+    wilson_z(k, n, Z95)
+}
+
+/// The Wilson score interval of `k` successes in `n` trials at normal quantile `z` (two-sided
+/// coverage 2Φ(z) − 1); `[0, 1]` when `n = 0`.
+pub fn wilson_z(k: u32, n: u32, z: f64) -> [f64; 2] {
     if n == 0 {
         return [0.0, 1.0];
     }
     let (k, n) = (f64::from(k.min(n)), f64::from(n));
     let p = k / n;
-    let z2 = Z95 * Z95;
+    let z2 = z * z;
     let denom = 1.0 + z2 / n;
     let center = (p + z2 / (2.0 * n)) / denom;
-    let half = Z95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denom;
+    let half = z * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denom;
     // At k = 0 and k = n the bounds are exactly 0 and 1; rounding must not move them.
     let lo = if k == 0.0 { 0.0 } else { (center - half).max(0.0) };
     let hi = if k == n { 1.0 } else { (center + half).min(1.0) };

@@ -241,13 +241,13 @@ impl Params {
 
     /// The search's sequential rule (fixed m unless `max_samples` is set).
     pub fn rule(&self) -> Rule {
-        Rule { samples: self.samples, max_samples: self.max_samples.unwrap_or(self.samples), threshold: self.threshold }
+        Rule::sequential(self.samples, self.max_samples.unwrap_or(self.samples), self.threshold)
     }
 
     /// The shrink phase's rule: always sequential ([`SHRINK_MAX_FACTOR`]).
     pub fn shrink_rule(&self) -> Rule {
         let max = self.max_samples.filter(|&m| m > self.samples).unwrap_or(SHRINK_MAX_FACTOR * self.samples);
-        Rule { samples: self.samples, max_samples: max, threshold: self.threshold }
+        Rule::sequential(self.samples, max, self.threshold)
     }
 
     /// The rule `--algo interact` confirms a core with: m observations, then the sequential test
@@ -255,7 +255,7 @@ impl Params {
     /// seven, against one in four at 20).
     pub fn confirm_rule(&self) -> Rule {
         let max = self.max_samples.filter(|&m| m > self.samples).unwrap_or(CONFIRM_MAX_FACTOR * self.samples);
-        Rule { samples: self.samples, max_samples: max, threshold: self.threshold }
+        Rule::sequential(self.samples, max, self.threshold)
     }
 
     /// What the search may spend: `--budget`, and for `interact`, which shrinks each failure to

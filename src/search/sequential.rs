@@ -18,7 +18,7 @@
 //! With M = m (the default, `--max-samples` unset) no set gets more than m: the paper's fixed
 //! estimator, bit for bit.
 
-use super::interval::wilson;
+use super::interval::{Z95, wilson_z};
 use super::metrics::SetStats;
 
 /// How many observations a set gets (m, M) and the threshold the interval is tested against.
@@ -30,12 +30,24 @@ pub struct Rule {
     pub max_samples: u32,
     /// Failure threshold τ.
     pub threshold: f64,
+    /// The normal quantile of the interval tested against τ ([`Z95`]: the 95 % interval).
+    pub z: f64,
 }
 
 impl Rule {
     /// The paper's estimator: exactly `samples` observations per set.
     pub fn fixed(samples: u32, threshold: f64) -> Rule {
-        Rule { samples, max_samples: samples, threshold }
+        Rule { samples, max_samples: samples, threshold, z: Z95 }
+    }
+
+    /// The sequential rule: m observations, then up to M while the 95 % interval straddles τ.
+    pub fn sequential(samples: u32, max_samples: u32, threshold: f64) -> Rule {
+        Rule { samples, max_samples, threshold, z: Z95 }
+    }
+
+    /// The same rule with a `z` interval.
+    pub fn with_z(self, z: f64) -> Rule {
+        Rule { z, ..self }
     }
 
     pub fn is_sequential(&self) -> bool {
@@ -44,7 +56,7 @@ impl Rule {
 
     /// Whether `wrong` failures out of `answered` leave τ inside the 95 % interval.
     pub fn straddles(&self, wrong: u32, answered: u32) -> bool {
-        let [lo, hi] = wilson(wrong, answered);
+        let [lo, hi] = wilson_z(wrong, answered, self.z);
         lo < self.threshold && self.threshold <= hi
     }
 
@@ -95,7 +107,7 @@ mod tests {
 
     #[test]
     fn batches_are_the_fewest_observations_that_could_settle() {
-        let r = Rule { samples: 5, max_samples: 20, threshold: 0.6 };
+        let r = Rule::sequential(5, 20, 0.6);
         assert_eq!(r.next(&st(0, 0, 0)), 5, "first the m observations");
         assert_eq!(r.next(&st(0, 5, 0)), 0, "0/5: [0, 0.43] clears 0.6");
         assert_eq!(r.next(&st(5, 0, 0)), 1, "5/5: [0.57, 1]; 6/6 clears");
@@ -108,10 +120,25 @@ mod tests {
         assert_eq!(r.next(&st(11, 7, 0)), 2, "11/18 cannot settle in the 2 left; they still inform the rate");
     }
 
+    #[test]
+    fn a_narrower_interval_settles_sooner() {
+        let full = Rule::sequential(5, 40, 0.6);
+        let triage = full.with_z(1.281_551_565_544_601);
+        // 1/5: [0.04, 0.62] at 95 % straddles 0.6; [0.06, 0.49] at 80 % does not.
+        assert_eq!(full.next(&st(1, 4, 0)), 1);
+        assert_eq!(triage.next(&st(1, 4, 0)), 0);
+        // 5/5 settles at 80 % ([0.75, 1]), not at 95 % ([0.57, 1]).
+        assert_eq!(full.next(&st(5, 0, 0)), 1);
+        assert!(triage.settled(&st(5, 0, 0)));
+        // 3/5 straddles both; the narrower one needs fewer to settle.
+        assert!(triage.next(&st(3, 2, 0)) < full.next(&st(3, 2, 0)));
+        assert_eq!(Rule::fixed(5, 0.6).with_z(1.0).next(&st(3, 2, 0)), 0, "M = m stays the paper's m");
+    }
+
     /// Every batch is the smallest that can settle: one fewer could not, whatever the answers.
     #[test]
     fn no_smaller_batch_can_settle() {
-        let r = Rule { samples: 5, max_samples: 30, threshold: 0.6 };
+        let r = Rule::sequential(5, 30, 0.6);
         for a in 5..30 {
             for w in 0..=a {
                 let s = st(w, a - w, 0);

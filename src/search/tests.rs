@@ -242,11 +242,17 @@ fn sequential_sampling_never_exceeds_m_nor_the_budget_and_is_seeded() {
             let distinct: std::collections::HashSet<_> = h.iter().map(|s| s.set).collect();
             assert_eq!(distinct.len(), h.len(), "{what}: a set was evaluated twice");
             assert_contiguous(&asked);
-            // A set is left unsettled only when the budget ran out (or, for interact, a screen
-            // found nothing wrong).
+            // A set is left unsettled only when the budget ran out; interact also leaves its
+            // screens (one observation) and the escalations that did not lead to a shrink (m),
+            // settles what its triage decides at 80 %, and stops a passing set its lift test asked
+            // more of once it passes.
             let rule = p.rule();
-            let done =
-                |s: &SetStats| rule.settled(s) || (algo == Algo::Interact && s.observations() < 5 && s.wrong == 0);
+            let triage = rule.with_z(interact::TRIAGE_Z);
+            let done = |s: &SetStats| {
+                rule.settled(s)
+                    || (algo == Algo::Interact
+                        && (triage.settled(s) || s.observations() <= 5 || !s.is_failure_mode(p.threshold)))
+            };
             assert!(h.iter().all(done) || u64::from(spent) == p.search_budget(), "{what}");
             if budget >= 300 {
                 assert!(h.iter().any(|s| s.observations() > 5), "{what}: some set was topped up");
@@ -448,4 +454,37 @@ fn a_set_that_fails_only_as_much_as_its_borderline_part_is_no_core() {
     // The others: the re-test refutes {2, 4}, or finds c2 alone failing (its core).
     assert!(flat * 5 >= roots, "the borderline family is recognised as such on some seeds ({flat} of {roots})");
     assert!(distinct >= 15, "the true pair is the core on most seeds ({distinct} of 30)");
+}
+
+/// A triple over a part that carries a third of its signal ({c2, c5} at 0.35), base 0.05.
+const PART_AND_TRIPLE: &str = "name = \"part\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.35\n[[mode]]\nconcepts = [\"c2\", \"c5\", \"c7\"]\nerror = 0.9\n";
+
+#[test]
+fn interact_confirms_what_its_triage_finds_at_the_full_rule() {
+    let space = Space::new(lattice(10, 4), 10);
+    let triple = bits(&[2, 5, 7]);
+    let mut found = 0;
+    for seed in 0..10 {
+        let p = Params { algo: Algo::Interact, budget: 600, seed, ..Params::default() };
+        let mut e = sim(PART_AND_TRIPLE, seed);
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let (confirm, triage) = (p.confirm_rule(), p.confirm_rule().with_z(interact::TRIAGE_Z));
+        let stats = |s: ConceptSet| h.iter().find(|t| t.set == s);
+        // Every 1-minimal failing set the triage settled holds the triple, and is settled by the
+        // confirmation rule too, with each of its one-smaller subsets.
+        for s in h.iter().filter(|s| s.is_failure_mode(0.6) && triage.settled(s)) {
+            let subs: Vec<&SetStats> = s.set.one_smaller().filter(|t| space.contains(*t)).filter_map(stats).collect();
+            if subs.iter().any(|t| t.is_failure_mode(0.6)) {
+                continue;
+            }
+            assert_eq!(s.set, triple, "seed {seed}: {:?} {}/{}", s.set, s.wrong, s.observations());
+            assert!(confirm.settled(s), "seed {seed}: the core at 95 %");
+            assert!(subs.iter().all(|t| confirm.settled(t)), "seed {seed}: its parts at 95 %");
+            found += 1;
+        }
+        // The part alone is decided, and passes.
+        assert!(stats(bits(&[2, 5])).is_none_or(|t| !t.is_failure_mode(0.6)), "seed {seed}");
+    }
+    assert!(found >= 9, "the triple found on {found} of 10 seeds");
 }
