@@ -5,12 +5,13 @@
 //! - **`patterns`** (the default): group testing ([`super::patterns`]). A round picks `batch`
 //!   unexplored open sets (holding no confirmed core), each the set with the best chance per
 //!   expected observation of revealing a new core under a dilution drawn from its posterior. A
-//!   pick is *screened* with [`SCREEN`] observation; a wrong answer escalates it to m. A set that
-//!   fails its m observations is explained at once: its likeliest sub-patterns (at most
-//!   [`JUMPS`]) are tested and shrunk, and if none holds up the set itself is shrunk one concept
-//!   at a time ([`super::shrink::shrink`]) — all under the confirmation rule's sequential test at
-//!   80 % ([`TRIAGE_Z`]), which decides the many sets with a part of a failure mode's signal in
-//!   half the observations. A core this triage finds is shrunk again under the confirmation rule
+//!   pick is *screened* with [`SCREEN`] observation; a wrong answer escalates it to [`ESCALATE`]
+//!   observations and more while they leave it undecided. A set that fails is explained at once:
+//!   its likeliest sub-patterns (at most [`JUMPS`]) are tested and shrunk, and if none holds up
+//!   the set itself is shrunk one concept at a time ([`super::shrink::shrink`]). The escalation
+//!   and this explaining use the confirmation rule's sequential test at 80 % ([`TRIAGE_Z`]),
+//!   which decides the many sets with a part of a failure mode's signal in half the
+//!   observations. A core this triage finds is shrunk again under the confirmation rule
 //!   itself ([`Params::confirm_rule`], 95 %): the core and its one-smaller subsets are topped up
 //!   until they settle, and it is confirmed only if it still holds. A confirmed core's supersets
 //!   leave the open sets (exclusion) and it closes every pattern that holds it (conditioning), so
@@ -327,6 +328,11 @@ pub const SCREEN: u32 = 1;
 /// sets between 0.2 and 0.6 that got more than m observations each.
 pub const TRIAGE_Z: f64 = 1.281_551_565_544_601;
 
+/// Observations a screened set that answered wrong gets first; then more, by the triage's
+/// sequential test, while its interval straddles τ (3/3 fails at 80 %; 1/3 needs more). A fixed
+/// m (5) spent four more observations on every wrong screen, whatever the set held.
+pub const ESCALATE: u32 = 3;
+
 /// Sub-patterns of a failing set tested directly (most probable core first) before the set itself
 /// is shrunk one concept at a time.
 pub const JUMPS: usize = 3;
@@ -472,9 +478,9 @@ fn borderline(stats: &SetStats, by: ConceptSet, tau: f64) -> ConceptSet {
 async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
     let tau = params.threshold;
     let screen = Rule::fixed(SCREEN.min(params.samples), tau);
-    let escalate = Rule::fixed(params.samples, tau);
     let confirm = params.confirm_rule();
     let triage = confirm.with_z(TRIAGE_Z);
+    let escalate = Rule { samples: ESCALATE.min(params.samples), ..triage };
     let search_rule = driver.rule();
     let mut searcher = PatternSearcher::new(params, space);
     let mut marked = 0;

@@ -243,15 +243,18 @@ fn sequential_sampling_never_exceeds_m_nor_the_budget_and_is_seeded() {
             assert_eq!(distinct.len(), h.len(), "{what}: a set was evaluated twice");
             assert_contiguous(&asked);
             // A set is left unsettled only when the budget ran out; interact also leaves its
-            // screens (one observation) and the escalations that did not lead to a shrink (m),
-            // settles what its triage decides at 80 %, and stops a passing set its lift test asked
-            // more of once it passes.
+            // screens (one observation), settles its escalations and what its triage decides at
+            // 80 %, and stops a passing set its lift test asked more of once it passes.
             let rule = p.rule();
             let triage = rule.with_z(interact::TRIAGE_Z);
+            let escalated = Rule { samples: interact::ESCALATE, ..triage };
             let done = |s: &SetStats| {
                 rule.settled(s)
                     || (algo == Algo::Interact
-                        && (triage.settled(s) || s.observations() <= 5 || !s.is_failure_mode(p.threshold)))
+                        && (triage.settled(s)
+                            || escalated.settled(s)
+                            || s.observations() == 1
+                            || !s.is_failure_mode(p.threshold)))
             };
             assert!(h.iter().all(done) || u64::from(spent) == p.search_budget(), "{what}");
             if budget >= 300 {
