@@ -17,6 +17,9 @@
 //!
 //! With M = m (the default, `--max-samples` unset) no set gets more than m: the paper's fixed
 //! estimator, bit for bit.
+//!
+//! Every rule tests the 95 % interval except where [`Rule::with_z`] narrows it: `--algo interact`
+//! triages at 80 % (`interact::TRIAGE_Z`) and confirms what the triage finds at 95 %.
 
 use super::interval::{Z95, wilson_z};
 use super::metrics::SetStats;
@@ -54,7 +57,8 @@ impl Rule {
         self.max_samples > self.samples
     }
 
-    /// Whether `wrong` failures out of `answered` leave τ inside the 95 % interval.
+    /// Whether `wrong` failures out of `answered` leave τ inside the rule's interval (95 % unless
+    /// [`Rule::with_z`] set another).
     pub fn straddles(&self, wrong: u32, answered: u32) -> bool {
         let [lo, hi] = wilson_z(wrong, answered, self.z);
         lo < self.threshold && self.threshold <= hi
