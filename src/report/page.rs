@@ -916,21 +916,14 @@ fn write_not_distinct(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     out.push_str("<p class=\"note\">Sets that fail, but not significantly more often than a part of them one concept smaller that passes (one-sided two-proportion test at 99%, each topped up to twice the sequential test's limit while undecided): the part's failure rate sits near the threshold, and the extra concept adds nothing. They are no failure mode of their own.</p>\n<div class=\"card\">");
     out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th>passing part</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th></tr></thead>\n<tbody>\n");
     for (set, by) in &p.not_distinct {
-        write!(out, "<tr><td class=\"num\">{}</td><td>{}</td>", set.rank, Concepts(&set.concepts))?;
-        write!(
-            out,
-            "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>",
-            Esc(&set.fr),
-            Esc(&set.ci),
-            set.answered
-        )?;
         writeln!(
             out,
-            "<td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            "<tr><td class=\"num\">{}</td><td>{}</td>{}<td>{}</td>{}</tr>",
+            set.rank,
+            Concepts(&set.concepts),
+            RateCells(set),
             Concepts(&by.concepts),
-            Esc(&by.fr),
-            Esc(&by.ci),
-            by.answered
+            RateCells(by)
         )?;
     }
     out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
@@ -950,17 +943,32 @@ impl fmt::Display for Concepts<'_> {
     }
 }
 
+/// A row's FR, 95 % CI and n cells.
+struct RateCells<'a>(&'a ModeRow);
+
+impl fmt::Display for RateCells<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = self.0;
+        write!(
+            f,
+            "<td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>",
+            Esc(&m.fr),
+            Esc(&m.ci),
+            m.answered
+        )
+    }
+}
+
 /// A table of failure modes (the larger ones of a core, the others, the refuted).
 fn write_modes(out: &mut String, rows: &[ModeRow]) -> fmt::Result {
     out.push_str("<table class=\"tbl\">\n<thead><tr><th class=\"num\">#</th><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">95% CI</th><th class=\"num\">n</th><th class=\"num\">validated</th></tr></thead>\n<tbody>\n");
     for m in rows {
-        write!(out, "<tr><td class=\"num\">{}</td><td>{}", m.rank, Concepts(&m.concepts))?;
         writeln!(
             out,
-            "</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
-            Esc(&m.fr),
-            Esc(&m.ci),
-            m.answered,
+            "<tr><td class=\"num\">{}</td><td>{}</td>{}<td class=\"num\">{}</td></tr>",
+            m.rank,
+            Concepts(&m.concepts),
+            RateCells(m),
             Esc(&m.validated)
         )?;
     }

@@ -468,10 +468,18 @@ impl<'s> PatternSearcher<'s> {
     }
 }
 
-/// The family a not-distinct set tells the search to set aside: its passing part's, or, when the
-/// lift test's observations took the set itself below τ, the set's own.
-fn borderline(stats: &SetStats, by: ConceptSet, tau: f64) -> ConceptSet {
-    if stats.is_failure_mode(tau) { by } else { stats.set }
+/// What one shrink tells the search: the core it found, if any. A not-distinct set adds to `flat`
+/// the family to set aside: its passing part's, or, when the lift test's observations took the
+/// set itself below τ, the set's own.
+fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<ConceptSet> {
+    match shrunk {
+        Shrunk::Core(c) => Some(c.stats.set),
+        Shrunk::NotDistinct { stats, by } => {
+            flat.push(if stats.is_failure_mode(tau) { *by } else { stats.set });
+            None
+        }
+        Shrunk::Refuted(_) | Shrunk::Unaffordable => None,
+    }
 }
 
 /// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
@@ -521,32 +529,20 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
                     continue;
                 }
                 tried += 1;
-                match shrink::shrink(driver, space, p).await? {
-                    Shrunk::Core(c) => {
-                        core = Some(c.stats.set);
-                        break;
-                    }
-                    Shrunk::Refuted(_) => {}
-                    Shrunk::NotDistinct { stats, by } => flat.push(borderline(&stats, by, tau)),
-                    Shrunk::Unaffordable => break,
+                let shrunk = shrink::shrink(driver, space, p).await?;
+                core = sort_out(&shrunk, tau, &mut flat);
+                if core.is_some() || shrunk == Shrunk::Unaffordable {
+                    break;
                 }
             }
             if core.is_none() && driver.can_start() {
-                match shrink::shrink(driver, space, set).await? {
-                    Shrunk::Core(c) => core = Some(c.stats.set),
-                    Shrunk::NotDistinct { stats, by } => flat.push(borderline(&stats, by, tau)),
-                    Shrunk::Refuted(_) | Shrunk::Unaffordable => {}
-                }
+                core = sort_out(&shrink::shrink(driver, space, set).await?, tau, &mut flat);
             }
             // The triage found a core: confirm it, and its parts' passing, under the full rule
             // (shrinking on if a part fails after all).
-            if let Some(c) = core.take() {
+            if let Some(c) = core {
                 driver.set_rule(confirm);
-                match shrink::shrink(driver, space, c).await? {
-                    Shrunk::Core(c) => core = Some(c.stats.set),
-                    Shrunk::NotDistinct { stats, by } => flat.push(borderline(&stats, by, tau)),
-                    Shrunk::Refuted(_) | Shrunk::Unaffordable => {}
-                }
+                core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
             }
             searcher.board.explore_since(&driver.history, &mut marked);
             flat.into_iter().for_each(|by| searcher.explain(by));
