@@ -398,3 +398,45 @@ fn the_delivery_domain_is_searched_with_the_builtin_renderer() {
     let report = std::fs::read_to_string(out.join("report/index.html")).unwrap();
     assert!(report.contains("delivery") && report.contains("dog_loose"), "the report names the domain and its finding");
 }
+
+/// `bench search` says, per planted mode, how often each algorithm recovered it, and how much of
+/// such a mode any search could reach at this budget were its parts silent: a strong pair is
+/// within reach, a four-concept needle (most of the driving lattice's 20 008 valid 4-sets are
+/// out of reach of 150 inferences) is not.
+#[test]
+fn bench_reports_each_planted_mode_and_its_reach() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = dir.path().join("two.toml");
+    std::fs::write(
+        &profile,
+        "name = \"two\"\nbase_error = 0.02\n\
+         [[mode]]\nconcepts = [\"debris_far\", \"town_town02\"]\nerror = 0.95\n\
+         [[mode]]\nconcepts = [\"cone\", \"far\", \"weather_wet\", \"town_town01\"]\nerror = 0.9\n",
+    )
+    .unwrap();
+    let args = ["bench", "search", "--profile", profile.to_str().unwrap(), "--seeds", "2", "--budget", "100"];
+    let args: Vec<&str> = args.into_iter().chain(["--shrink", "50", "--algos", "random,interact"]).collect();
+    let (code, out, err) = revelio(&[&args[..], &["--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let results: serde_json::Value = serde_json::from_str(&out).unwrap();
+    for r in results.as_array().unwrap() {
+        let modes = r["planted"].as_array().unwrap();
+        let sizes: Vec<usize> = modes.iter().map(|m| m["concepts"].as_array().unwrap().len()).collect();
+        assert_eq!(sizes, [2, 4], "{out}");
+        assert_eq!(modes[0]["error"].as_f64(), Some(0.95));
+        assert_eq!(modes[0]["reach"].as_f64(), Some(1.0), "356 pairs, 10 in each 5-set: 150 sets hold them all");
+        let needle = modes[1]["reach"].as_f64().unwrap();
+        assert!(needle > 0.0 && needle < 150.0 * 5.0 / 19_000.0, "{needle}");
+        // The per-mode shares average to the run's recovered and exact.
+        for (per, all) in [("recovered", "core_recovered"), ("exact", "exact")] {
+            let mean: f64 = modes.iter().map(|m| m[per].as_f64().unwrap()).sum::<f64>() / 2.0;
+            assert!((mean - r[all]["mean"].as_f64().unwrap()).abs() < 1e-9, "{per}: {out}");
+        }
+    }
+    let (code, out, err) = revelio(&args);
+    assert_eq!(code, 0, "{err}");
+    let table = out.split("planted modes:").nth(1).unwrap_or_else(|| panic!("no planted table:\n{out}"));
+    let header = table.lines().nth(1).unwrap();
+    assert!(header.split_whitespace().eq(["mode", "error", "reach", "random", "interact"]), "{table}");
+    assert!(table.contains("town_town02 + debris_far") && table.contains("  0.95   100%"), "{table}");
+}

@@ -8,7 +8,9 @@
 //! failure modes to cores. Every run reports its cores — the shrink phase's, or without one the
 //! evaluated failure modes whose every valid one-smaller subset was evaluated and passes (what
 //! `--algo interact` confirms as it searches) — with their precision, the share of planted modes
-//! some core holds (recovered) and the share reported exactly as a core (exact).
+//! some core holds (recovered) and the share reported exactly as a core (exact). Then, per planted
+//! mode, each algorithm's share of seeds that recovered it, and the mode's [`reach`]: how often
+//! any search could recover it at this budget were its smaller parts silent.
 //! `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
 //! latencies (see `src/lsp/bench.rs`).
 use std::io::Write;
@@ -186,6 +188,46 @@ pub struct AlgoResult {
     pub exact: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
+    /// Per planted mode, in the profile's order: how often this algorithm recovered it.
+    pub planted: Vec<ModeRecovery>,
+}
+
+/// One planted mode across an algorithm's seeds.
+#[derive(Debug, Serialize)]
+pub struct ModeRecovery {
+    pub concepts: Vec<String>,
+    /// Its error under the profile.
+    pub error: f64,
+    /// The most any search can recover of such a mode, averaged over where it lies, when its
+    /// smaller parts carry no signal ([`reach`]).
+    pub reach: f64,
+    /// Share of seeds in which some core with observed FR ≥ τ holds it.
+    pub recovered: f64,
+    /// Share of seeds in which it is reported exactly as a core.
+    pub exact: f64,
+}
+
+/// The share of the search space's `k`-concept sets that `inferences` observations can touch:
+/// each observation is of one set, and a set of at most `max_size` concepts holds at most
+/// C(max_size, k) of them. A mode of k concepts whose smaller parts fail no more than any other
+/// set gives a search nothing to steer by until a tested set holds it, so no search, however
+/// adaptive, recovers such a mode more often than this, averaged over the k-sets it could be
+/// (capped at 1). On `driving_robust.toml` (a silent four-concept mode) at 1 250 inferences: 31 %.
+pub fn reach(space: &Space, k: usize, max_size: usize, inferences: u64) -> f64 {
+    let n = space.sets.iter().filter(|s| s.len() == k).count();
+    if n == 0 {
+        return 0.0;
+    }
+    let per_set = binomial(max_size, k) as f64;
+    (inferences as f64 * per_set / n as f64).min(1.0)
+}
+
+/// C(n, k).
+fn binomial(n: usize, k: usize) -> u64 {
+    if k > n {
+        return 0;
+    }
+    (0..k).fold(1u64, |c, i| c * (n - i) as u64 / (i + 1) as u64)
 }
 
 /// One run's figures (`None`: undefined for this run).
@@ -202,6 +244,8 @@ pub(crate) struct RunFigures {
     core_recovered: Option<f64>,
     exact: Option<f64>,
     us: f64,
+    /// Per planted mode: (some core holds it, it is a core).
+    per_mode: Vec<(bool, bool)>,
 }
 
 fn search(args: SearchBenchArgs) -> ExitCode {
@@ -298,6 +342,22 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
                 us_per_inference: col(&|r| Some(r.us), count),
+                planted: planted
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let of = |f: fn(&(bool, bool)) -> bool| {
+                            rows.iter().filter(|r| f(&r.per_mode[i])).count() as f64 / rows.len().max(1) as f64
+                        };
+                        ModeRecovery {
+                            concepts: names(&domain, *p),
+                            error: truth.error_for(*p),
+                            reach: reach(&space, p.len(), mode.max_size, mode.budget + mode.shrink),
+                            recovered: of(|m| m.0),
+                            exact: of(|m| m.1),
+                        }
+                    })
+                    .collect(),
             });
         }
     }
@@ -307,6 +367,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         serde_json::to_writer_pretty(&mut w, &results).map_err(std::io::Error::from).and_then(|_| writeln!(w))
     } else {
         print(&mut w, &args, &results, planted.len())
+            .and_then(|()| print_planted(&mut w, &results, args.samples, base.budget + base.shrink))
     };
     match written {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
@@ -344,6 +405,8 @@ pub(crate) fn bench_one(
         crate::search::shrink::minimal_failures(&r.history, space, args.threshold)
     };
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
+    let per_mode: Vec<(bool, bool)> =
+        planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
     let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
     Ok(RunFigures {
         pfm: m.pfm,
@@ -356,9 +419,10 @@ pub(crate) fn bench_one(
         cores: cores.len() as f64,
         core_precision: precision(truth, &cores, args.threshold),
         // Every core failed when it was confirmed (the shrink keeps failing subsets only).
-        core_recovered: share(planted.iter().filter(|p| cores.iter().any(|c| p.is_subset_of(*c))).count()),
-        exact: share(planted.iter().filter(|p| cores.contains(p)).count()),
+        core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
+        exact: share(per_mode.iter().filter(|m| m.1).count()),
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
+        per_mode,
     })
 }
 
@@ -429,11 +493,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         "exact %"
     )?;
     for r in results {
-        let name = if r.max_samples > args.samples {
-            format!("{} ≤{}", r.algo.name(), r.max_samples)
-        } else {
-            r.algo.name().into()
-        };
+        let name = label(r, args.samples);
         writeln!(
             w,
             "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
@@ -460,6 +520,42 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             .filter_map(|a| pfm(*a).map(|p| format!("{} {:.1}×", a.name(), p / random)))
             .collect();
         writeln!(w, "PFM vs random (fixed m): {}", ratios.join(", "))?;
+    }
+    Ok(())
+}
+
+/// An algorithm's row or column name: `gpts`, or `gpts ≤20` for its sequential run.
+fn label(r: &AlgoResult, samples: u32) -> String {
+    if r.max_samples > samples { format!("{} ≤{}", r.algo.name(), r.max_samples) } else { r.algo.name().into() }
+}
+
+/// A set's concept names.
+fn names(domain: &Domain, set: crate::ir::ConceptSet) -> Vec<String> {
+    domain.set_names(set).into_iter().map(String::from).collect()
+}
+
+/// Per planted mode: its error, its reach, and per algorithm the share of seeds that recovered
+/// it (some core holds it) / reported it exactly.
+fn print_planted(w: &mut impl Write, results: &[AlgoResult], samples: u32, inferences: u64) -> std::io::Result<()> {
+    let Some(first) = results.first().filter(|r| !r.planted.is_empty()) else { return Ok(()) };
+    writeln!(
+        w,
+        "\nplanted modes: share of seeds recovered / exact; reach: the most any search recovers of a mode whose \
+         parts carry no signal ({inferences} inferences)"
+    )?;
+    let width = first.planted.iter().map(|p| p.concepts.join(" + ").chars().count()).max().unwrap_or(0).max(4);
+    write!(w, "{:<width$} {:>5} {:>6}", "mode", "error", "reach")?;
+    for r in results {
+        write!(w, " {:>16}", label(r, samples))?;
+    }
+    writeln!(w)?;
+    for (i, p) in first.planted.iter().enumerate() {
+        write!(w, "{:<width$} {:>5.2} {:>5.0}%", p.concepts.join(" + "), p.error, 100.0 * p.reach)?;
+        for r in results {
+            let m = &r.planted[i];
+            write!(w, " {:>16}", format!("{:.0}% / {:.0}%", 100.0 * m.recovered, 100.0 * m.exact))?;
+        }
+        writeln!(w)?;
     }
     Ok(())
 }
@@ -498,5 +594,17 @@ mod tests {
         let mut cores = crate::search::shrink::minimal_failures(&history, &space, 0.6);
         cores.sort();
         assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
+    }
+
+    #[test]
+    fn reach_is_the_share_of_k_sets_the_inferences_can_hold() {
+        // Five concepts, 0 and 1 exclusive, sets of up to three: 9 valid pairs, 7 valid triples.
+        let space = Space::new(lattice(5, 3), 5);
+        // Each observed set holds at most C(3, 2) = 3 pairs: two observations touch 6 of 9.
+        assert!((reach(&space, 2, 3, 2) - 6.0 / 9.0).abs() < 1e-12);
+        assert!((reach(&space, 3, 3, 3) - 3.0 / 7.0).abs() < 1e-12);
+        assert_eq!(reach(&space, 2, 3, 100), 1.0, "capped at every pair");
+        assert_eq!(reach(&space, 4, 3, 100), 0.0, "no set of four in the space");
+        assert_eq!((binomial(5, 4), binomial(5, 0), binomial(3, 4)), (5, 1, 0));
     }
 }
