@@ -306,6 +306,11 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         let _ = std::fs::remove_dir_all(&tmp);
         return code;
     }
+    // Per planted mode, its error and reach: the same for every algorithm and sampling mode.
+    let truths: Vec<(f64, f64)> = planted
+        .iter()
+        .map(|p| (truth.error_for(*p), reach(&space, p.len(), base.max_size, base.budget + base.shrink)))
+        .collect();
     let mut results = Vec::new();
     let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
     for algo in algos {
@@ -351,8 +356,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                         };
                         ModeRecovery {
                             concepts: names(&domain, *p),
-                            error: truth.error_for(*p),
-                            reach: reach(&space, p.len(), mode.max_size, mode.budget + mode.shrink),
+                            error: truths[i].0,
+                            reach: truths[i].1,
                             recovered: of(|m| m.0),
                             exact: of(|m| m.1),
                         }
