@@ -159,8 +159,6 @@ pub struct Evaluator {
     /// progress line's failure-mode count.
     tally: HashMap<(Phase, ConceptSet), SetStats>,
     failing: HashSet<(Phase, ConceptSet)>,
-    /// The typed error behind the message the search algorithm saw.
-    failure: Option<RunError>,
     /// Observations served from the journal instead of the model.
     pub replayed: u64,
     /// Tokens and money of every observation evaluated (replayed ones as journaled).
@@ -210,15 +208,9 @@ impl Evaluator {
             stop: c.stop,
             tally: HashMap::new(),
             failing: HashSet::new(),
-            failure: None,
             replayed: 0,
             spend: Spend::default(),
         })
-    }
-
-    /// The typed error of the last failed [`Evaluate::evaluate`] call.
-    pub fn take_failure(&mut self) -> Option<RunError> {
-        self.failure.take()
     }
 
     /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
@@ -317,23 +309,19 @@ impl Evaluator {
 }
 
 impl Evaluate for Evaluator {
-    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+    type Error = RunError;
+
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, RunError> {
         let requests: Vec<(ConceptSet, Range<u32>)> = asks.iter().map(|a| (a.set, a.obs.clone())).collect();
-        match self.observe_sets(self.phase, &requests).await {
-            Ok(outcomes) => Ok(asks
-                .iter()
-                .zip(outcomes)
-                .map(|(a, os)| {
-                    let mut s = SetStats::new(a.set);
-                    os.into_iter().for_each(|o| s.add(o));
-                    s
-                })
-                .collect()),
-            Err(e) => {
-                let message = e.to_string();
-                self.failure = Some(e);
-                Err(message)
-            }
-        }
+        let outcomes = self.observe_sets(self.phase, &requests).await?;
+        Ok(asks
+            .iter()
+            .zip(outcomes)
+            .map(|(a, os)| {
+                let mut s = SetStats::new(a.set);
+                os.into_iter().for_each(|o| s.add(o));
+                s
+            })
+            .collect())
     }
 }

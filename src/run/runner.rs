@@ -30,7 +30,7 @@ use super::stop::Stop;
 use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
 use crate::search::shrink::{self, Found};
-use crate::search::{Driver, Params, Rule, SetStats, Space};
+use crate::search::{Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 
 /// The run folder format this revelio writes and reads. Format 1 (no `format` field) seeded its
 /// scenes from the domain file's path as typed; its scenes cannot be reproduced, so such folders
@@ -430,7 +430,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     }
     let (history, found, shrink) = match result {
         Ok(r) => r,
-        Err(message) => return Err(eval.take_failure().unwrap_or(RunError::Search(message))),
+        Err(e) => return Err(run_error(e)),
     };
     let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
     summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
@@ -461,13 +461,21 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     })
 }
 
+/// A search that ended early as a run error: the evaluator's own, or the search's reason.
+fn run_error(e: SearchError<RunError>) -> RunError {
+    match e {
+        SearchError::Eval(e) => e,
+        SearchError::Search(message) => RunError::Search(message),
+    }
+}
+
 /// The search, then the shrink phase: the search's history, the shrink's findings, and (when it
 /// ran) the shrink's inferences and the subsets it evaluated beyond the search.
 async fn search_and_shrink(
     params: &Params,
     space: &Space,
     eval: &mut Evaluator,
-) -> Result<(Vec<SetStats>, Found, Option<(u64, usize)>), String> {
+) -> Searched<(Vec<SetStats>, Found, Option<(u64, usize)>), Evaluator> {
     let history = crate::search::run(params, space, eval).await?;
     if params.shrink == 0 {
         return Ok((history, Found::default(), None));
@@ -646,7 +654,7 @@ pub async fn validate(
     }
     let validated = match result {
         Ok(v) => v,
-        Err(message) => return Err(eval.take_failure().unwrap_or(RunError::Search(message))),
+        Err(e) => return Err(run_error(e)),
     };
     let frs: Vec<f64> = validated.iter().filter_map(SetStats::fr).collect();
     let (mean_fr, sd_fr) = mean_sd(&frs);

@@ -7,9 +7,9 @@
 //! level; ties go to the earlier candidate.
 use crate::ir::ConceptSet;
 
-use super::{Driver, Evaluate, Params, SetStats, Space};
+use super::{Driver, Evaluate, Params, Searched, SetStats, Space};
 
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let mut frontier = vec![ConceptSet::EMPTY];
     for _level in 0..params.max_depth {
         let mut candidates: Vec<ConceptSet> = Vec::new();

@@ -17,7 +17,7 @@ use crate::ir::ConceptSet;
 
 use super::gp::{Gp, GpError, Kernel};
 use super::gp_rbf::RbfGp;
-use super::{Driver, Evaluate, Params, Space};
+use super::{Driver, Evaluate, Params, SearchError, Searched, Space};
 
 /// A fitted surrogate of the chosen kernel.
 enum Fitted {
@@ -51,7 +51,7 @@ impl Fitted {
 /// Salt for the GPTS random stream, so it differs from Random's stream for the same seed.
 const STREAM: u64 = 0x6770_7473_0000_0001;
 
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let total = driver.budget();
     driver.set_budget(params.beam_budget.min(total));
     super::beam::run(params, space, driver).await?;
@@ -80,7 +80,7 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Drive
             let x: Vec<ConceptSet> = driver.history.iter().map(|s| s.set).collect();
             let y: Vec<f64> = driver.history.iter().map(|s| s.value()).collect();
             let model = Fitted::fit(params.kernel, &x, &y, space.dim)
-                .map_err(|e| format!("cannot fit the gaussian process: {e}"))?;
+                .map_err(|e| SearchError::Search(format!("cannot fit the gaussian process: {e}")))?;
             // More draws than unexplored sets or than the budget pays for only repeat argmaxes:
             // each costs a pass over the lattice, so a huge `--batch` would spin.
             let affordable = driver.remaining() / u64::from(params.samples.max(1));

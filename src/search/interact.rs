@@ -38,7 +38,7 @@ use crate::ir::ConceptSet;
 use super::patterns::{Fit, Patterns};
 use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
-use super::{Driver, Evaluate, Params, Rule, SetStats, Space};
+use super::{Driver, Evaluate, Params, Rule, Searched, SetStats, Space};
 
 /// Salt for the interact random stream.
 const STREAM: u64 = 0x696e_7465_7261_6374;
@@ -275,7 +275,7 @@ fn data(history: &[SetStats]) -> Data {
     data
 }
 
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     match params.surrogate.parts() {
         Some(parts) => run_regression(params, space, driver, parts).await,
         None => run_patterns(params, space, driver).await,
@@ -287,7 +287,7 @@ async fn run_regression<E: Evaluate>(
     space: &Space,
     driver: &mut Driver<'_, E>,
     parts: (Order, Prior),
-) -> Result<(), String> {
+) -> Searched<(), E> {
     let mut searcher = Searcher::new(params, space, parts);
     let mut marked = 0;
     while driver.can_start() {
@@ -483,7 +483,7 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 }
 
 /// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
-async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let tau = params.threshold;
     let screen = Rule::fixed(SCREEN.min(params.samples), tau);
     let confirm = params.confirm_rule();

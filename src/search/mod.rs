@@ -307,10 +307,35 @@ impl Ask {
 
 /// Makes observations of concept sets, concurrently.
 pub trait Evaluate {
+    /// Why observations could not be made (a run's evaluator: a stopped run, a failing model);
+    /// the search hands it back to its caller as it is, in [`SearchError::Eval`].
+    type Error;
+
     /// Make the asked observations; returns, per ask and in order, the stats of those
     /// observations alone (the caller adds them to what it had).
-    fn evaluate(&mut self, asks: &[Ask]) -> impl Future<Output = Result<Vec<SetStats>, String>>;
+    fn evaluate(&mut self, asks: &[Ask]) -> impl Future<Output = Result<Vec<SetStats>, Self::Error>>;
 }
+
+/// Why a search ended before its budget did: its evaluator failed (the evaluator's own error,
+/// typed, so the caller reports the real cause), or the search itself could not go on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SearchError<E> {
+    Eval(E),
+    /// A surrogate that could not be fitted, with the reason.
+    Search(String),
+}
+
+impl<E: std::fmt::Display> std::fmt::Display for SearchError<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SearchError::Eval(e) => e.fmt(f),
+            SearchError::Search(m) => f.write_str(m),
+        }
+    }
+}
+
+/// The result of a search step driven by evaluator `E`.
+pub type Searched<T, E> = Result<T, SearchError<<E as Evaluate>::Error>>;
 
 /// Budget, history and the sequential rule, shared by the algorithms and the shrink phase.
 pub struct Driver<'e, E> {
@@ -387,7 +412,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
     /// top-up rounds until all its sets are settled, then the next chunk. So top-ups are never
     /// starved by sets evaluated later, and with M = m the whole request is one chunk cut at
     /// `remaining / m` sets — the paper's estimator, unchanged.
-    pub async fn evaluate(&mut self, sets: &[ConceptSet]) -> Result<Vec<SetStats>, String> {
+    pub async fn evaluate(&mut self, sets: &[ConceptSet]) -> Searched<Vec<SetStats>, E> {
         let mut fresh = Vec::new();
         let mut batch = HashSet::new();
         let mut earlier = Vec::new();
@@ -407,7 +432,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
             let chunk = ((self.remaining() / max) as usize).max(1).min(affordable).min(fresh.len() - next);
             let sets = &fresh[next..next + chunk];
             let asks: Vec<Ask> = sets.iter().map(|&set| Ask { set, obs: 0..self.rule.samples }).collect();
-            let stats = self.eval.evaluate(&asks).await?;
+            let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
             self.record(&asks, stats);
             self.top_up(sets).await?;
             next += chunk;
@@ -419,7 +444,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
     /// Give evaluated sets the observations the rule asks for ([`Rule::next`]), round after
     /// round, until every one is settled or the budget is spent (the last batch may be cut
     /// short). Sets not evaluated yet are ignored.
-    pub async fn top_up(&mut self, sets: &[ConceptSet]) -> Result<(), String> {
+    pub async fn top_up(&mut self, sets: &[ConceptSet]) -> Searched<(), E> {
         loop {
             let mut left = self.remaining();
             let mut asks: Vec<Ask> = Vec::new();
@@ -438,14 +463,14 @@ impl<'e, E: Evaluate> Driver<'e, E> {
             if asks.is_empty() {
                 return Ok(());
             }
-            let stats = self.eval.evaluate(&asks).await?;
+            let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
             self.record(&asks, stats);
         }
     }
 
     /// `k` more observations of the evaluated `set` whatever the rule says (at most what the
     /// budget has left); false when it was not evaluated or nothing could be paid.
-    pub async fn observe_more(&mut self, set: ConceptSet, k: u32) -> Result<bool, String> {
+    pub async fn observe_more(&mut self, set: ConceptSet, k: u32) -> Searched<bool, E> {
         let Some(s) = self.stats(set) else { return Ok(false) };
         let k = u64::from(k).min(self.remaining()) as u32;
         if k == 0 {
@@ -453,14 +478,14 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         }
         let n = s.observations();
         let asks = [Ask { set, obs: n..n + k }];
-        let stats = self.eval.evaluate(&asks).await?;
+        let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
         self.record(&asks, stats);
         Ok(true)
     }
 
     /// Evaluate `set` or top it up under the rule; `None` when it is new and the budget cannot
     /// pay its first m observations.
-    pub async fn test(&mut self, set: ConceptSet) -> Result<Option<SetStats>, String> {
+    pub async fn test(&mut self, set: ConceptSet) -> Searched<Option<SetStats>, E> {
         Ok(self.evaluate(&[set]).await?.into_iter().next())
     }
 
@@ -481,7 +506,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
 }
 
 /// Run the chosen algorithm; returns every evaluated set in evaluation order.
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> Result<Vec<SetStats>, String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> Searched<Vec<SetStats>, E> {
     let mut driver = Driver::new(eval, params.rule(), params.search_budget());
     match params.algo {
         Algo::Random => random::run(params, space, &mut driver).await?,

@@ -8,9 +8,9 @@ use std::collections::HashMap;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Driver, Evaluate, Params, Space};
+use super::{Driver, Evaluate, Params, Searched, Space};
 
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Result<(), String> {
+pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     let n = ((driver.remaining() / u64::from(params.samples)) as usize).min(space.sets.len());
     // All draws are made up front — as many as the budget could pay at m observations each — and

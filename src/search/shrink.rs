@@ -31,7 +31,7 @@
 
 use crate::ir::{ConceptId, ConceptSet};
 
-use super::{Driver, Evaluate, SetStats, Space};
+use super::{Driver, Evaluate, Searched, SetStats, Space};
 
 /// A failing set none of whose one-smaller valid subsets fails.
 #[derive(Debug, Clone, PartialEq)]
@@ -90,11 +90,7 @@ pub fn lifts(set: &SetStats, sub: &SetStats) -> bool {
 
 /// Shrink the failing set `root` to a 1-minimal failing subset, testing through `driver` (its
 /// rule decides "still fails"; its budget bounds the cost).
-pub async fn shrink<E: Evaluate>(
-    driver: &mut Driver<'_, E>,
-    space: &Space,
-    root: ConceptSet,
-) -> Result<Shrunk, String> {
+pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root: ConceptSet) -> Searched<Shrunk, E> {
     let threshold = driver.rule().threshold;
     let Some(stats) = driver.test(root).await? else { return Ok(Shrunk::Unaffordable) };
     if !stats.is_failure_mode(threshold) {
@@ -233,11 +229,7 @@ pub struct Found {
 /// only when the shrink needed no new observation and the core and every one-smaller valid
 /// subset are settled by the rule (`--algo interact` confirms its cores during the search and
 /// leaves this phase little or no budget: they are reported this way).
-pub async fn run<E: Evaluate>(
-    driver: &mut Driver<'_, E>,
-    space: &Space,
-    roots: &[ConceptSet],
-) -> Result<Found, String> {
+pub async fn run<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, roots: &[ConceptSet]) -> Searched<Found, E> {
     let mut found = Found::default();
     // Not distinct: (set, part).
     let mut flat: Vec<(ConceptSet, ConceptSet)> = Vec::new();

@@ -12,7 +12,9 @@ struct FnEval<F> {
 }
 
 impl<F: Fn(ConceptSet) -> u32> Evaluate for FnEval<F> {
-    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+    type Error = std::convert::Infallible;
+
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, Self::Error> {
         self.asked.push(asks.iter().map(|a| a.set).collect());
         Ok(asks
             .iter()
@@ -173,7 +175,9 @@ struct SimEval {
 }
 
 impl Evaluate for SimEval {
-    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, String> {
+    type Error = std::convert::Infallible;
+
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, Self::Error> {
         use rand::{RngExt, SeedableRng};
         self.asked.extend(asks.iter().cloned());
         Ok(asks
