@@ -5,7 +5,7 @@ use super::*;
 use crate::journal::{Journal, Phase, Record};
 use crate::lattice::testkit::driving;
 use crate::outcome::{Answer, Outcome, Usage};
-use crate::run::eval::Spend;
+use crate::run::summary::Spend;
 use crate::run::runner::{RunConfig, ValidatedSet, Validation, summarize};
 use crate::search::{Params, SetStats};
 
