@@ -4,11 +4,17 @@
 //! may reach anywhere.
 //!
 //! The floors, bottom first (README "Architecture" draws the same line): `diag` (spans,
-//! diagnostics, codes, suggestions), `hash` and `outcome` → `ir` → `syntax` → `check` → `anchor`,
-//! `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure algorithms) →
-//! `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis` → `report` → `fmt` → `lsp` →
-//! `cli` (the language server formats through `fmt`).
+//! diagnostics, codes, suggestions), `hash`, `date` and `outcome` → `ir` → `syntax` → `check` →
+//! `anchor`, `scene` → `lattice` → `oracle` → `lint`, `sample` → `emit` → `search` (pure
+//! algorithms) → `net`, `source` → `render` → `vlm` → `journal` → `run` → `analysis` → `report` →
+//! `fmt` → `lsp` → `cli` (the language server formats through `fmt`).
 //! `ir` is the compiler's output but plain data: it sits below the front end that builds it.
+//!
+//! Imports are read in full: every leaf of a grouped `use` (`use crate::{run::X, search::Y}`),
+//! and `self::`, `super::` and `super::super::` paths resolved against the file's own module.
+//! Within a module, files import one another without a circle (a circle means the shared piece
+//! lives in the wrong file), and every file under `src/`, `tests/`, `benches/` and `examples/`
+//! opens with a `//!` saying why it exists.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -17,6 +23,7 @@ use std::path::Path;
 const FLOORS: &[(&str, u32)] = &[
     ("diag", 0),
     ("hash", 0),
+    ("date", 0),
     ("outcome", 0),
     ("ir", 1),
     ("syntax", 2),
@@ -44,7 +51,7 @@ const FLOORS: &[(&str, u32)] = &[
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.
 const CORE: &[&str] = &[
-    "diag", "hash", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample",
+    "diag", "hash", "date", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample",
     "emit", "search",
 ];
 

@@ -18,6 +18,7 @@
 mod csv;
 mod files;
 mod page;
+mod view;
 pub mod svg;
 
 use std::path::{Path, PathBuf};
