@@ -51,8 +51,8 @@ const FLOORS: &[(&str, u32)] = &[
 
 /// The modules of the core, which does no I/O: no file, network, process or GPU access.
 const CORE: &[&str] = &[
-    "diag", "hash", "date", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint", "sample",
-    "emit", "search",
+    "diag", "hash", "date", "outcome", "syntax", "ir", "check", "anchor", "scene", "lattice", "oracle", "lint",
+    "sample", "emit", "search",
 ];
 
 /// Paths whose use in the core means I/O.

@@ -18,8 +18,8 @@
 mod csv;
 mod files;
 mod page;
-mod view;
 pub mod svg;
+mod view;
 
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;

@@ -603,7 +603,6 @@ pub fn index_page<'a>(
     }
 }
 
-
 fn pair_rows(p: &crate::analysis::PairRates) -> Vec<PairRow> {
     let mut rows = Vec::new();
     for (i, row) in p.cells.iter().enumerate() {
