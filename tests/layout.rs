@@ -344,12 +344,13 @@ fn resolve(
     depth: usize,
 ) -> Option<String> {
     let (k, file) = (1..=path.len()).rev().find_map(|k| files.get(&path[..k]).map(|f| (k, f)))?;
-    if k < path.len() && depth < 8 {
-        if let Some(target) = bound.get(file.as_str()).and_then(|b| b.get(&path[k])) {
-            let full = [target.clone(), path[k + 1..].to_vec()].concat();
-            if let Some(f) = resolve(&full, files, bound, depth + 1) {
-                return Some(f);
-            }
+    if k < path.len()
+        && depth < 8
+        && let Some(target) = bound.get(file.as_str()).and_then(|b| b.get(&path[k]))
+    {
+        let full = [target.clone(), path[k + 1..].to_vec()].concat();
+        if let Some(f) = resolve(&full, files, bound, depth + 1) {
+            return Some(f);
         }
     }
     Some(file.clone())
