@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::run::eval::Spend;
+use crate::run::summary::Spend;
 
 /// One probed set: its concepts, the safety answers, and the statement marks.
 #[derive(Debug, Clone, Default, PartialEq)]

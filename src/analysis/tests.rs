@@ -1,3 +1,6 @@
+//! Run analysis on hand-built journals and rows: the Wilson interval against published values,
+//! per-concept and per-pair rates, retried observations, discovery curves and minimal failure
+//! modes.
 use std::collections::BTreeMap;
 
 use super::*;

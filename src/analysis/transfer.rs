@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::run::eval::Spend;
+use crate::run::summary::Spend;
 use crate::search::SetStats;
 
 /// `transfer.json`: the transfer table and each model's spend.

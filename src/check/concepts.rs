@@ -266,7 +266,7 @@ impl Checker<'_> {
                 }
             }
         }
-        self.related_adds.push(super::relations::RelatedAdd {
+        self.related_adds.push(super::lower::RelatedAdd {
             entity: name.name.clone(),
             region,
             relation: relation.name.clone(),

@@ -45,6 +45,17 @@ pub(crate) enum Progress {
     Done,
 }
 
+/// One `add … RELATION TARGET` to check once every concept is known.
+#[derive(Debug, Clone)]
+pub(crate) struct RelatedAdd {
+    pub entity: String,
+    pub region: RegionId,
+    pub relation: String,
+    /// `None`: ego.
+    pub target: Option<String>,
+    pub span: Span,
+}
+
 /// The checker's state while lowering one compilation.
 pub(crate) struct Checker<'a> {
     pub diags: Vec<Diagnostic>,
@@ -71,7 +82,7 @@ pub(crate) struct Checker<'a> {
     /// Names of the entities that any concept adds (targets of `add … RELATION NAME`).
     pub entity_names: Vec<String>,
     /// Every `add`, with its relation, for the checks that need all concepts.
-    pub related_adds: Vec<super::relations::RelatedAdd>,
+    pub related_adds: Vec<RelatedAdd>,
 }
 
 /// Lower the gathered items. `entry` is the file whose `domain` line names the domain.

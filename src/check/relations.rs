@@ -3,7 +3,7 @@
 //! relative to itself or in a cycle, a region that is out of reach of the relation's target, and
 //! kinds added to or moved into regions they may not stand in.
 
-use super::lower::{Checker, duplicate_statement};
+use super::lower::{Checker, RelatedAdd, duplicate_statement};
 use crate::diag::Diagnostic;
 use crate::diag::codes;
 use crate::diag::suggest::suggest;
@@ -12,17 +12,6 @@ use crate::syntax::ast::{self, Ident, Item};
 
 /// The placement words, and whether each takes a `MIN..MAX` length range.
 const PLACEMENT_WORDS: &[(&str, bool)] = &[("distance", true), ("ahead", true), ("left", true), ("on_top", false)];
-
-/// One `add … RELATION TARGET` to check once every concept is known.
-#[derive(Debug, Clone)]
-pub(crate) struct RelatedAdd {
-    pub entity: String,
-    pub region: RegionId,
-    pub relation: String,
-    /// `None`: ego.
-    pub target: Option<String>,
-    pub span: Span,
-}
 
 impl Checker<'_> {
     pub(super) fn lower_relation(

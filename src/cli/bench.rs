@@ -13,6 +13,8 @@
 //! any search could recover it at this budget were its smaller parts silent.
 //! `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
 //! latencies (see `src/lsp/bench.rs`).
+mod sweep;
+
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,8 +29,7 @@ use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup};
 use crate::run::setup::ModelSettings;
 use crate::search::interact::{Supersets, Surrogate};
-use crate::search::interval::mean_ci95;
-use crate::search::metrics::mean_sd;
+use crate::search::interval::{mean_ci95, mean_sd};
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::{Profile, SimModel};
@@ -297,11 +298,11 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     if let Some(sweep) = &args.sweep {
-        let code = super::sweep::run(
+        let code = sweep::run(
             &args,
             sweep,
             &base,
-            &super::sweep::Bench { domain, world, model, space, planted, truth, tmp: tmp.clone() },
+            &sweep::Bench { domain, world, model, space, planted, truth, tmp: tmp.clone() },
         );
         let _ = std::fs::remove_dir_all(&tmp);
         return code;

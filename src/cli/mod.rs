@@ -22,7 +22,6 @@ pub mod reask;
 pub mod render;
 pub mod report;
 pub mod search;
-pub mod sweep;
 pub mod transfer;
 pub mod validate;
 

@@ -502,7 +502,7 @@ mod tests {
             sets: failure_modes.clone(),
             failure_modes,
             shrink,
-            spend: crate::run::eval::Spend {
+            spend: crate::run::summary::Spend {
                 calls: 1000,
                 cached: 12,
                 input_tokens: 1_290_000,

@@ -190,7 +190,7 @@ mod tests {
             mean_fr: 0.625,
             sd_fr: 0.3889,
             consistent: 1,
-            spend: crate::run::eval::Spend {
+            spend: crate::run::summary::Spend {
                 calls: 40,
                 input_tokens: 51_600,
                 output_tokens: 1_280,

@@ -1,3 +1,5 @@
+//! The lattice lints on the fixture domains: excluded concepts and lost modifiers, shadowed and
+//! undetermined rules, best-fit ties, determinism, and linear time in the number of rules.
 use super::*;
 use crate::ir::{CmpOp, ConceptSet, ConstraintRule, Expr, Selection};
 use crate::lattice::testkit::*;

@@ -1,3 +1,5 @@
+//! The oracle's verdicts and explanations on the fixture domains: the priority and best-fit
+//! rule choices, straddling ranges, safe rules, invalid sets and determinism over the lattice.
 use super::*;
 use crate::ir::{CmpOp, Expr};
 use crate::lattice::Lattice;

@@ -19,6 +19,7 @@ mod csv;
 mod files;
 mod page;
 pub mod svg;
+mod view;
 
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;

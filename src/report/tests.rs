@@ -5,8 +5,8 @@ use super::*;
 use crate::journal::{Journal, Phase, Record};
 use crate::lattice::testkit::driving;
 use crate::outcome::{Answer, Outcome, Usage};
-use crate::run::eval::Spend;
 use crate::run::runner::{RunConfig, ValidatedSet, Validation, summarize};
+use crate::run::summary::Spend;
 use crate::search::{Params, SetStats};
 
 const HOSTILE: &str = "<script>alert(\"x\")</script> & <img src=x onerror=alert(1)> Answer: C";

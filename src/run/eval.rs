@@ -17,7 +17,6 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use serde::{Deserialize, Serialize};
 use tokio::sync::Semaphore;
 
 use crate::ir::ConceptSet;
@@ -31,6 +30,7 @@ use super::observe::{ObsKey, Observation, ObserveError, Observer};
 pub use super::observe::{DomainWorld, Task, World};
 use super::progress::Progress;
 use super::stop::{Stop, StopReason};
+use super::summary::Spend;
 use super::{ResumeError, RunError};
 
 /// SplitMix64 finaliser: mixes run seed, phase, set and observation index into one seed.
@@ -56,41 +56,6 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
     h = mix(h ^ key.set.0 as u64);
     h = mix(h ^ (key.set.0 >> 64) as u64);
     mix(h ^ u64::from(key.index))
-}
-
-/// Tokens and money of a run's observations: the model's usage summed over the journal, so a
-/// resumed run reports what the uninterrupted one would.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Spend {
-    /// Observations answered by a model call (cache hits included).
-    pub calls: u64,
-    /// Of the calls, how many the reply cache served (free).
-    pub cached: u64,
-    pub input_tokens: u64,
-    /// Output tokens, thinking included.
-    pub output_tokens: u64,
-    pub thinking_tokens: u64,
-    pub cost_usd: f64,
-}
-
-impl Spend {
-    pub fn add(&mut self, u: &Usage, cached: bool) {
-        self.calls += 1;
-        self.cached += u64::from(cached);
-        self.input_tokens += u.input_tokens;
-        self.output_tokens += u.output_tokens;
-        self.thinking_tokens += u.thinking_tokens;
-        self.cost_usd += u.cost_usd;
-    }
-
-    /// `1 234 input / 567 output tokens, $0.0123` (and the cache hits, if any).
-    pub fn line(&self) -> String {
-        let cached = if self.cached > 0 { format!(" ({} cached)", self.cached) } else { String::new() };
-        format!(
-            "{} calls{cached}, {} input / {} output tokens ({} thinking), ${:.4}",
-            self.calls, self.input_tokens, self.output_tokens, self.thinking_tokens, self.cost_usd
-        )
-    }
 }
 
 /// Counts model calls that end in `api_error` in a row, as they finish (before the next call

@@ -1,7 +1,8 @@
 //! The search runtime at the I/O edge: the one observation pipeline ([`observe`]), the journaled
 //! evaluator that runs observations concurrently ([`eval`]), model and renderer setup
-//! ([`setup`]), and the runner that drives a whole run on a run folder ([`runner`]). The
-//! algorithms it drives live in [`crate::search`] and do no I/O.
+//! ([`setup`]), the runner that drives a whole run on a run folder ([`runner`]), and the run
+//! folder's format ([`summary`]). The algorithms it drives live in [`crate::search`] and do no
+//! I/O.
 //!
 //! Exit codes of the commands built on it: 0 success, 1 an error in the input or the run
 //! (including a run stopped by repeated model-call failures, or one that ended with a large
@@ -17,6 +18,7 @@ pub mod setup;
 #[cfg(test)]
 mod shrink_tests;
 pub mod stop;
+pub mod summary;
 #[cfg(test)]
 mod testkit;
 #[cfg(test)]

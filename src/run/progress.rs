@@ -5,7 +5,7 @@ use std::io::{IsTerminal, Write};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use super::eval::Spend;
+use super::summary::Spend;
 
 /// Where progress goes.
 #[derive(Clone, Default)]

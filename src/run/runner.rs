@@ -22,13 +22,15 @@ use crate::outcome::Outcome;
 use crate::render::Renderer;
 use crate::vlm::Model;
 
-use super::eval::{Evaluator, EvaluatorConfig, Spend};
+use super::eval::{Evaluator, EvaluatorConfig};
 use super::observe::{Observer, World};
 use super::progress::{Progress, ProgressTo};
 use super::setup::{DEFAULT_CONCURRENCY, ModelSettings};
 use super::stop::Stop;
+use super::summary::Spend;
 use super::{MAX_API_ERRORS, ResumeError, RunError};
-use crate::search::metrics::{Metrics, mean_sd, metrics, ranked};
+use crate::search::interval::mean_sd;
+use crate::search::metrics::{Metrics, metrics, ranked};
 use crate::search::shrink::{self, Found};
 use crate::search::{Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 

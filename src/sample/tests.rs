@@ -1,3 +1,5 @@
+//! Scene sampling on the fixture domains: determinism per seed, values inside their ranges,
+//! placement in regions and by relations, extras, occlusion and clear errors for invalid sets.
 use super::fixture::{set, tiny_domain};
 use super::*;
 use crate::scene::SceneValue;

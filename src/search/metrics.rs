@@ -146,23 +146,10 @@ pub fn ranked(stats: &[SetStats]) -> Vec<&SetStats> {
     v
 }
 
-/// Mean and sample standard deviation (0 for fewer than two values).
-pub fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    if xs.is_empty() {
-        return (0.0, 0.0);
-    }
-    let n = xs.len() as f64;
-    let mean = xs.iter().sum::<f64>() / n;
-    if xs.len() < 2 {
-        return (mean, 0.0);
-    }
-    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, var.sqrt())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::search::interval::mean_sd;
 
     fn stats(bits: u128, outcomes: &[Outcome]) -> SetStats {
         let mut s = SetStats::new(ConceptSet(bits));

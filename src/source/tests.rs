@@ -1,3 +1,5 @@
+//! Loading a domain's files from disk under the source policy: `use` inside the tree, refused
+//! paths, links, special and binary files, and open editor buffers.
 use std::path::Path;
 
 use super::*;

@@ -68,7 +68,7 @@ pub fn uri_encode(s: &str) -> String {
 /// `(YYYYMMDD, YYYYMMDDTHHMMSSZ)` in UTC.
 pub fn amz_date(t: SystemTime) -> (String, String) {
     let secs = t.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
-    let (y, m, d) = crate::net::http::civil_from_days(secs.div_euclid(86_400));
+    let (y, m, d) = crate::date::civil_from_days(secs.div_euclid(86_400));
     let rem = secs.rem_euclid(86_400);
     let date = format!("{y:04}{m:02}{d:02}");
     let full = format!("{date}T{:02}{:02}{:02}Z", rem / 3600, rem % 3600 / 60, rem % 60);

@@ -1,3 +1,5 @@
+//! The pattern model on small lattices: each set's subsets, the binomial evidence, and the
+//! scores that make a failing core the likeliest explanation.
 use super::*;
 use crate::ir::ConceptId;
 use crate::ir::testkit::lattice;

@@ -1,3 +1,5 @@
+//! The surrogate against closed forms and planted signals: the interaction basis, the
+//! conditional posterior, posterior draws, the horseshoe's Gibbs sampler and its variates.
 use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -10,12 +10,12 @@ use std::sync::Arc;
 use crate::analysis::sweep::{Point, Sweep, plot};
 use crate::ir::{ConceptSet, Domain};
 use crate::run::observe::World;
-use crate::search::metrics::mean_sd;
+use crate::search::interval::mean_sd;
 use crate::search::{Params, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::Profile;
 
-use super::bench::{RunFigures, SearchBenchArgs, bench_one};
+use super::{RunFigures, SearchBenchArgs, bench_one};
 
 /// What `bench search` prepared: the domain, its world and search space, the sim model and its
 /// planted modes, and a scratch folder for the runs.
