@@ -64,7 +64,8 @@ pub(crate) fn open_run(
     )
     .map_err(setup_error)?;
     if model.id() != config.model {
-        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() }));
+        let was = crate::diag::terminal_safe(&config.model).into_owned();
+        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was }));
     }
     setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), names).map_err(setup_error)?;
     let journal = Journal::open(dir).map_err(|e| {

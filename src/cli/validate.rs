@@ -82,7 +82,8 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         Err(e) => return setup_error(e),
     };
     if model.id() != config.model {
-        return setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() });
+        let was = crate::diag::terminal_safe(&config.model).into_owned();
+        return setup_error(SetupError::ModelChanged { now: model.id(), was });
     }
     if let Err(e) = setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), setup::FLAGS) {
         return setup_error(e);
