@@ -348,7 +348,21 @@ async fn probe_transfer_and_compare_against_every_providers_mock() {
                 r,
                 "--json",
             ]);
-            check(&["probe", r, "--top", "2", "--samples", "2", "--min-n", "1", "--no-cache", "--json"]);
+            // A run folder never says where a key goes: the endpoint is given again.
+            check(&[
+                "probe",
+                r,
+                "--top",
+                "2",
+                "--samples",
+                "2",
+                "--min-n",
+                "1",
+                "--no-cache",
+                "--json",
+                "--base-url",
+                &uri,
+            ]);
             runs.push(run);
         }
         let source = runs[0].to_str().unwrap();
@@ -364,6 +378,8 @@ async fn probe_transfer_and_compare_against_every_providers_mock() {
             "--model",
             bedrock,
             "--base-url",
+            &uri,
+            "--run-base-url",
             &uri,
             "--no-cache",
             "--top",

@@ -773,3 +773,248 @@ fn a_huge_batch_is_bounded_by_the_candidates() {
     let summary: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(summary["metrics"]["inferences"], 40, "{summary}");
 }
+
+// --- keys and endpoints (issue 27) ---
+
+/// The search flags of a small run against an OpenAI-compatible server (`base`, or the
+/// environment's when `None`).
+fn small_run(out: &Path, base: Option<&str>) -> Vec<String> {
+    let mut a: Vec<String> = ["search", "domains/driving.rev", "--model", "openai:m", "--renderer", "none"]
+        .into_iter()
+        .chain(["--algo", "random", "--budget", "4", "--samples", "1", "--shrink", "0", "--out", s(out)])
+        .map(String::from)
+        .collect();
+    if let Some(b) = base {
+        a.extend(["--base-url".to_string(), b.to_string()]);
+    }
+    a
+}
+
+fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// A copied run folder whose `config.json` was edited to send the model's, the renderer's and
+/// the model config's requests to a stranger's server: no command that opens the folder sends a
+/// key there. Each is refused, naming the recorded destination, until the user gives it on the
+/// command line; given flags are what is used, whatever the folder says.
+#[test]
+fn a_tampered_run_folder_never_chooses_where_a_key_goes() {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let own = rt.block_on(MockServer::start());
+    let capture = rt.block_on(MockServer::start());
+    rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&own));
+    rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&capture));
+    let (own_base, stolen) = (format!("{}/v1", own.uri()), format!("{}/v1", capture.uri()));
+    let env = [("OPENAI_API_KEY", OPENAI_KEY), ("GEMINI_API_KEY", GEMINI_KEY)];
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let o = revelio(&strs(&small_run(&run, Some(&own_base))), &env);
+    assert!(o.status.success(), "{}", text(&o));
+
+    // The stranger's edit: every destination in `config.json`, and a model config of theirs.
+    let theirs = write(dir.path(), "theirs.toml", "[default]\nconcurrency = 1\n");
+    let path = run.join("config.json");
+    let mut config: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    config["endpoint"] = json!(stolen);
+    config["model_settings"] =
+        json!({"base_url": stolen, "renderer_base_url": capture.uri(), "model_config": s(&theirs)});
+    std::fs::write(&path, serde_json::to_string_pretty(&config).unwrap()).unwrap();
+
+    let r = s(&run).to_string();
+    let opened: [Vec<String>; 5] = [
+        small_run(&run, None),
+        ["validate", &r, "--top", "1", "--samples", "1"].map(String::from).to_vec(),
+        ["probe", &r, "--top", "1", "--samples", "1"].map(String::from).to_vec(),
+        ["transfer", &r, "--model", "openai:other", "--base-url", &own_base, "--top", "1", "--samples", "1"]
+            .map(String::from)
+            .to_vec(),
+        // Some flags given: the first one missing is still named.
+        ["validate", &r, "--base-url", &own_base, "--top", "1", "--samples", "1"].map(String::from).to_vec(),
+    ];
+    for args in &opened {
+        let o = revelio(&strs(args), &env);
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {all}");
+        assert!(all.contains("a run folder does not choose where keys go"), "{args:?}: {all}");
+        let named = all.contains("base-url") && all.contains(&capture.address().to_string());
+        assert!(named || all.contains("model-config"), "{args:?}: {all}");
+    }
+    // A recorded endpoint from the environment: refused when the environment now says another.
+    let mut from_env = config.clone();
+    from_env["model_settings"] = json!({});
+    std::fs::write(&path, serde_json::to_string_pretty(&from_env).unwrap()).unwrap();
+    let o = revelio(&["validate", &r, "--top", "1", "--samples", "1"], &[("OPENAI_BASE_URL", &own_base), env[0]]);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{all}");
+    assert!(all.contains(&format!("was called at `{stolen}`, but it now resolves to `{own_base}`")), "{all}");
+
+    // The user's own flags: used, whatever the folder recorded.
+    std::fs::write(&path, serde_json::to_string_pretty(&config).unwrap()).unwrap();
+    let flags = ["--base-url", &own_base, "--renderer-base-url", &own_base, "--model-config", s(&theirs)];
+    let mut validate = vec!["validate", &r, "--top", "1", "--samples", "1"];
+    validate.extend(flags);
+    let o = revelio(&validate, &env);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut transfer = vec!["transfer", &r, "--model", "openai:other", "--base-url", &own_base, "--top", "1"];
+    transfer.extend(["--samples", "1", "--run-base-url", &own_base, "--run-model-config", s(&theirs)]);
+    transfer.extend(["--renderer-base-url", &own_base]);
+    let o = revelio(&transfer, &env);
+    assert!(o.status.success(), "{}", text(&o));
+
+    let stolen_requests = rt.block_on(capture.received_requests()).unwrap_or_default();
+    assert!(stolen_requests.is_empty(), "the stranger's server got {} requests", stolen_requests.len());
+    assert!(rt.block_on(seen(&own)).contains(OPENAI_KEY), "the user's own server got the key");
+}
+
+/// Answers every request with a redirect to `to`.
+struct Redirect(String);
+
+impl Respond for Redirect {
+    fn respond(&self, _: &Request) -> ResponseTemplate {
+        ResponseTemplate::new(307).insert_header("location", format!("{}/stolen?key=x", self.0).as_str())
+    }
+}
+
+/// A 307 to a second local port: no client follows it, so the second port never sees a key
+/// header (`authorization`, `x-api-key`, `x-goog-api-key`, Bedrock's signature and session
+/// token) or the body; the error names the host it pointed to and the call is not retried.
+#[test]
+fn a_redirect_is_never_followed_with_a_key() {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let env = [
+        ("OPENAI_API_KEY", OPENAI_KEY),
+        ("ANTHROPIC_API_KEY", ANTHROPIC_KEY),
+        ("GEMINI_API_KEY", GEMINI_KEY),
+        ("AWS_ACCESS_KEY_ID", AWS_ID),
+        ("AWS_SECRET_ACCESS_KEY", AWS_SECRET),
+        ("AWS_SESSION_TOKEN", "aws-token-CANARY-6"),
+        ("AWS_REGION", "us-east-1"),
+    ];
+    let sim = "sim:examples/sim/driving_paper.toml";
+    let cases = [
+        ("openai:m", "none", true),
+        ("anthropic:m", "none", true),
+        ("gemini:m", "none", true),
+        ("bedrock:m", "none", true),
+        (sim, "imagegen:gemini:img", false),
+        (sim, "imagegen:openai:img", false),
+    ];
+    for (model, renderer, model_redirects) in cases {
+        let (first, second) = (rt.block_on(MockServer::start()), rt.block_on(MockServer::start()));
+        rt.block_on(
+            wiremock::Mock::given(wiremock::matchers::any()).respond_with(Redirect(second.uri())).mount(&first),
+        );
+        rt.block_on(
+            wiremock::Mock::given(wiremock::matchers::any())
+                .respond_with(AnyProvider { png: png_b64() })
+                .mount(&second),
+        );
+        let base = if model.starts_with("openai") || renderer.ends_with("openai:img") {
+            format!("{}/v1", first.uri())
+        } else {
+            first.uri()
+        };
+        let flag = if model_redirects { "--base-url" } else { "--renderer-base-url" };
+        let o = revelio(
+            &["ask", "domains/driving.rev", "debris_far", "--model", model, "--renderer", renderer, flag, &base],
+            &env,
+        );
+        let all = text(&o);
+        let what = format!("{model} / {renderer}");
+        assert_eq!(o.status.code(), Some(1), "{what}: {all}");
+        let port = second.address().port();
+        assert!(all.contains(&format!("redirected (HTTP 307) to `127.0.0.1:{port}`")), "{what}: {all}");
+        assert!(!all.contains("stolen?key"), "{what}: the location's path and query are not shown: {all}");
+        let followed = rt.block_on(second.received_requests()).unwrap_or_default();
+        assert!(followed.is_empty(), "{what}: the redirect was followed: {}", rt.block_on(seen(&second)));
+        let asked = rt.block_on(first.received_requests()).unwrap_or_default();
+        assert_eq!(asked.len(), 1, "{what}: a redirect is not retried");
+    }
+}
+
+/// A user name or password in a base URL (flag or variable) is refused before anything is sent
+/// or recorded, and the message never shows it.
+#[test]
+fn userinfo_in_a_base_url_is_refused() {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let server = rt.block_on(MockServer::start());
+    rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&server));
+    let with_userinfo = format!("http://user:pass-CANARY-7@{}/v1", server.address());
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let sim = "sim:examples/sim/driving_paper.toml";
+    let ask = |extra: &[&str], env: &[(&str, &str)]| {
+        let mut a = vec!["ask", "domains/driving.rev", "debris_far", "--renderer", "none"];
+        a.extend(extra);
+        revelio(&a, env)
+    };
+    let search_args = small_run(&run, None);
+    let mut search = strs(&search_args);
+    search[3] = sim;
+    search.extend(["--renderer-base-url", &with_userinfo]);
+    for o in [
+        ask(&["--model", "openai:m", "--base-url", &with_userinfo], &[("OPENAI_API_KEY", OPENAI_KEY)]),
+        ask(&["--model", "openai:m"], &[("OPENAI_API_KEY", OPENAI_KEY), ("OPENAI_BASE_URL", &with_userinfo)]),
+        ask(&["--model", "gemini:m", "--base-url", &with_userinfo.replace("/v1", "")], &[]),
+        // An unused renderer URL would still be written into `config.json`.
+        revelio(&search, &[]),
+    ] {
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{all}");
+        assert!(all.contains("holds a user name or password") && !all.contains("pass-CANARY-7"), "{all}");
+    }
+    assert!(!run.join("config.json").exists(), "nothing was recorded");
+    assert!(rt.block_on(server.received_requests()).unwrap_or_default().is_empty());
+}
+
+/// Plain `http://` is refused for a provider's own host (even with `--allow-http`) and for any
+/// other host that is not this machine without `--allow-http`, saying why; loopback is allowed.
+#[test]
+fn plain_http_is_refused_for_a_providers_host() {
+    let env = [("OPENAI_API_KEY", OPENAI_KEY), ("ANTHROPIC_API_KEY", ANTHROPIC_KEY), ("GEMINI_API_KEY", GEMINI_KEY)];
+    let ask = |model: &str, base: &str, extra: &[&str]| {
+        let mut a = vec!["ask", "domains/driving.rev", "debris_far", "--model", model, "--renderer", "none"];
+        a.extend(["--base-url", base]);
+        a.extend(extra);
+        revelio(&a, &env)
+    };
+    for (model, base) in [
+        ("openai:m", "http://api.openai.com/v1"),
+        ("anthropic:m", "http://api.anthropic.com"),
+        ("gemini:m", "http://generativelanguage.googleapis.com"),
+    ] {
+        for extra in [&[][..], &["--allow-http"][..]] {
+            let o = ask(model, base, extra);
+            let all = text(&o);
+            assert_eq!(o.status.code(), Some(2), "{base} {extra:?}: {all}");
+            assert!(all.contains("to a provider's host would send the key in cleartext; use `https://`"), "{all}");
+        }
+    }
+    // The image generator's own variable too (exit 1: the renderer cannot start in this
+    // environment, as without its key).
+    let o = revelio(
+        &["ask", "domains/driving.rev", "debris_far", "--model", "sim:examples/sim/driving_paper.toml"]
+            .into_iter()
+            .chain(["--renderer", "imagegen:gemini:img"])
+            .collect::<Vec<_>>(),
+        &[("GEMINI_API_KEY", GEMINI_KEY), ("GEMINI_BASE_URL", "http://generativelanguage.googleapis.com")],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("provider's host would send the key in cleartext"), "{}", text(&o));
+    // A server elsewhere on the network: only when named with `--allow-http`.
+    let o = ask("openai:m", "http://gpu-box.invalid:8000/v1", &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("pass `--allow-http` if `gpu-box.invalid` is a server on your own network"),
+        "{}",
+        text(&o)
+    );
+    // This machine: allowed (every mock server of these tests is one).
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let server = rt.block_on(MockServer::start());
+    rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&server));
+    let local = format!("http://localhost:{}/v1", server.address().port());
+    let o = ask("openai:m", &local, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+}

@@ -70,6 +70,7 @@ async fn served(spec: &str, route: &str, body: Value) -> (MockServer, Arc<dyn Mo
         thinking: None,
         cache_dir: None,
         concurrency: None,
+        allow_http: false,
     };
     (server, build_api_model(spec, &opts).unwrap())
 }

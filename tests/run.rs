@@ -1,5 +1,5 @@
-//! The run runtime through the `revelio` binary: one concurrency setting, model settings reused
-//! from `config.json`, the shared reply cache under concurrent processes, the run-folder lock,
+//! The run runtime through the `revelio` binary: one concurrency setting, model settings
+//! recorded in `config.json` but never taken from it for where a key goes, the shared reply cache under concurrent processes, the run-folder lock,
 //! Ctrl-C, and the exit codes of usage errors.
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -62,7 +62,8 @@ async fn server() -> MockServer {
 
 /// Bugs 4, 5 and 8 of issue 13 against a mock provider: the model config's concurrency is the
 /// run's (the progress line shows it, `--concurrency` overrides it); `validate` rebuilds the
-/// model from the settings in `config.json`; a second run folder with the same settings is
+/// model with the flags given again — the base URL and model config the run recorded are named
+/// when missing, never taken from `config.json` (issue 27); a second run folder with the same settings is
 /// served from the shared cache, also when two processes fill one cache at the same time.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn concurrency_recorded_settings_and_the_shared_cache() {
@@ -88,22 +89,40 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
         five.extend(["--concurrency", "5"]);
         let (mut b, _) = beam("b", &five, &cache2);
         let b = text(&b.output().unwrap());
-        // No model flags: all of them come from a's config.json.
-        let validate = text(
-            &revelio(&["validate", a_out.to_str().unwrap(), "--top", "2", "--samples", "2"])
-                .args(["--cache-dir", cache2.to_str().unwrap()])
-                .output()
-                .unwrap(),
-        );
-        (a, b, validate)
+        // Each destination the run was made with must be given again; with them, it validates.
+        let validate = |flags: &[&str]| {
+            text(
+                &revelio(&["validate", a_out.to_str().unwrap(), "--top", "2", "--samples", "2"])
+                    .args(["--cache-dir", cache2.to_str().unwrap()])
+                    .args(flags)
+                    .output()
+                    .unwrap(),
+            )
+        };
+        let refused = [validate(&[]), validate(&w[..2])];
+        (a, b, (validate(&w), refused))
     })
     .await
     .unwrap();
-    let ((ca, _, ea), (cb, _, eb), (cv, vout, ev)) = results;
+    let ((ca, _, ea), (cb, _, eb), ((cv, vout, ev), [no_flags, no_config])) = results;
     assert_eq!((ca, cb), (0, 0), "{ea}\n{eb}");
     assert!(ea.contains(" · concurrency 64 · "), "the model config's concurrency is the run's: {ea}");
     assert!(eb.contains(" · concurrency 5 · "), "--concurrency wins: {eb}");
-    assert_eq!(cv, 0, "validate reuses the recorded base URL and model config: {ev}");
+    assert_eq!(no_flags.0, 2, "{}", no_flags.2);
+    assert!(
+        no_flags.2.contains(&format!("the run was made with the model endpoint `{uri}`"))
+            && no_flags.2.contains("pass `--base-url` to use it"),
+        "{}",
+        no_flags.2
+    );
+    assert_eq!(no_config.0, 2, "{}", no_config.2);
+    assert!(
+        no_config.2.contains(&format!("the run was made with the model config `{}`", config.display()))
+            && no_config.2.contains("pass `--model-config` to use it"),
+        "{}",
+        no_config.2
+    );
+    assert_eq!(cv, 0, "validate with the run's base URL and model config given again: {ev}");
     assert!(vout.contains("validated FR"), "{vout}");
     let a_config: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("a/config.json")).unwrap()).unwrap();

@@ -96,6 +96,7 @@ fn model(spec: &str, server: &MockServer, extra: &str, thinking: Option<&str>, c
         no_cache: !cache,
         cache_dir: Some(dir.path().join("cache")),
         concurrency: None,
+        allow_http: false,
     };
     Setup { model: build_api_model(spec, &opts).unwrap(), dir }
 }
@@ -624,6 +625,7 @@ fn renderer(spec: &str, server: &MockServer, cache: &Path) -> Arc<dyn revelio::r
         size: Some((96, 54)),
         cache_dir: Some(cache.to_path_buf()),
         base_url: Some(server.uri()),
+        allow_http: false,
     };
     revelio::render::build_renderer(spec, &opts).unwrap().unwrap()
 }

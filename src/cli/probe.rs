@@ -65,7 +65,7 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
-    let open = match open_run(&args.run_dir, &args.model_opts, &args.run, args.json) {
+    let open = match open_run(&args.run_dir, &args.model_opts, crate::run::setup::FLAGS, &args.run, args.json) {
         Ok(o) => o,
         Err(code) => return code,
     };

@@ -29,9 +29,17 @@ pub(crate) struct OpenRun {
     pub reask: Reask,
 }
 
-/// Open `dir` as `validate` does: the recorded domain (unchanged), model (flags override the
-/// recorded settings, the model must stay the same) and renderer.
-pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quiet: bool) -> Result<OpenRun, ExitCode> {
+/// Open `dir` as `validate` does: the recorded domain (unchanged), model and renderer, with
+/// where their requests go taken from `model_opts` and the environment only (the model must
+/// stay the same, its endpoint too unless `--base-url` is given).
+/// `names` spells the flags of `model_opts` in messages.
+pub(crate) fn open_run(
+    dir: &Path,
+    model_opts: &ModelFlags,
+    names: setup::FlagNames,
+    run: &RunFlags,
+    quiet: bool,
+) -> Result<OpenRun, ExitCode> {
     let (config, summary) = runner::load_run(dir).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
@@ -44,7 +52,7 @@ pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quie
     if domain.identity().to_string() != config.domain_hash {
         return Err(setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: dir.into() }));
     }
-    let settings = model_opts.settings().or(&config.model_settings);
+    let settings = model_opts.settings().resume(&config.model_settings, names).map_err(setup_error)?;
     let cache = model_opts.cache();
     let Parts { model, renderer, concurrency } = setup::build_parts(
         &domain,
@@ -56,8 +64,10 @@ pub(crate) fn open_run(dir: &Path, model_opts: &ModelFlags, run: &RunFlags, quie
     )
     .map_err(setup_error)?;
     if model.id() != config.model {
-        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() }));
+        let was = crate::diag::terminal_safe(&config.model).into_owned();
+        return Err(setup_error(SetupError::ModelChanged { now: model.id(), was }));
     }
+    setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), names).map_err(setup_error)?;
     let journal = Journal::open(dir).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(1)

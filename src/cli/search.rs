@@ -13,7 +13,7 @@ use crate::lattice::Lattice;
 use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, RunConfig, Setup, Summary};
-use crate::run::setup::{self, ModelSettings, Parts};
+use crate::run::setup::{self, ModelSettings, Parts, SetupError};
 use crate::search::gp::Kernel;
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
 
@@ -101,8 +101,10 @@ pub struct RunFlags {
     pub max_api_errors: u32,
 }
 
-/// Flags that configure the model and image-generation clients (shared with `validate` and
-/// `ask`). On an existing run folder, the ones not given are taken from its `config.json`.
+/// Flags that configure the model and image-generation clients (shared with `validate`, `probe`,
+/// `transfer` and `ask`). On an existing run folder only `--thinking` is taken from its
+/// `config.json` when not given: where keys go is never read from a run folder
+/// ([`ModelSettings::resume`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ModelFlags {
     /// Override the model provider's endpoint (the model only; never the renderer's)
@@ -115,6 +117,10 @@ pub struct ModelFlags {
     /// Per-model settings (TOML)
     #[arg(long)]
     pub model_config: Option<PathBuf>,
+    /// Allow plain `http://` base URLs for a server other than this machine (a model server on
+    /// your own network); never for a provider's own host. The key goes out unencrypted
+    #[arg(long)]
+    pub allow_http: bool,
     /// Thinking level: minimal, low, medium, high
     #[arg(long)]
     pub thinking: Option<String>,
@@ -135,6 +141,7 @@ impl ModelFlags {
             renderer_base_url: self.renderer_base_url.clone(),
             model_config: self.model_config.as_deref().map(setup::absolute),
             thinking: self.thinking.clone(),
+            allow_http: self.allow_http,
         }
     }
 
@@ -191,8 +198,15 @@ pub fn run(args: SearchArgs) -> ExitCode {
         eprintln!("error: invalid `--kernel`: the GP kernel is GPTS's; `--algo {}` has no GP", params.algo.name());
         return ExitCode::from(2);
     }
+    let setup_error = |e: SetupError| {
+        eprintln!("error: {e}");
+        ExitCode::from(e.exit_code())
+    };
     let settings = match &previous {
-        Some(p) => args.model_opts.settings().or(&p.model_settings),
+        Some(p) => match args.model_opts.settings().resume(&p.model_settings, setup::FLAGS) {
+            Ok(s) => s,
+            Err(e) => return setup_error(e),
+        },
         None => args.model_opts.settings(),
     };
     let cache = args.model_opts.cache();
@@ -200,11 +214,13 @@ pub fn run(args: SearchArgs) -> ExitCode {
     let Parts { model, renderer, concurrency } =
         match setup::build_parts(&domain, &args.model, &args.renderer, &settings, cache.as_deref(), concurrency) {
             Ok(p) => p,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(e.exit_code());
-            }
+            Err(e) => return setup_error(e),
         };
+    if let Some(p) = &previous
+        && let Err(e) = setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS)
+    {
+        return setup_error(e);
+    }
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = {

@@ -42,9 +42,17 @@ pub struct TransferArgs {
     pub random: Option<usize>,
     #[command(flatten)]
     pub run: RunFlags,
-    /// Flags for the target models (the run's own model keeps its recorded settings)
+    /// Flags for the target models; `--renderer-base-url`, `--allow-http` and the cache flags
+    /// serve the run's own model and renderer too
     #[command(flatten)]
     pub model_opts: ModelFlags,
+    /// The run's own model's endpoint, when the run was made with `--base-url` (a run folder
+    /// never chooses where a key goes)
+    #[arg(long, value_name = "URL")]
+    pub run_base_url: Option<String>,
+    /// The run's own model's settings (TOML), when the run was made with `--model-config`
+    #[arg(long, value_name = "FILE")]
+    pub run_model_config: Option<PathBuf>,
     /// Print JSON
     #[arg(long)]
     pub json: bool,
@@ -65,11 +73,15 @@ fn random_sets(space: &[ConceptSet], exclude: &[ConceptSet], k: usize, seed: u64
 
 pub fn run(args: TransferArgs) -> ExitCode {
     let source_flags = ModelFlags {
+        base_url: args.run_base_url.clone(),
+        renderer_base_url: args.model_opts.renderer_base_url.clone(),
+        model_config: args.run_model_config.clone(),
+        allow_http: args.model_opts.allow_http,
         cache_dir: args.model_opts.cache_dir.clone(),
         no_cache: args.model_opts.no_cache,
         ..Default::default()
     };
-    let open = match open_run(&args.run_dir, &source_flags, &args.run, args.json) {
+    let open = match open_run(&args.run_dir, &source_flags, setup::RUN_FLAGS, &args.run, args.json) {
         Ok(o) => o,
         Err(code) => return code,
     };

@@ -4,9 +4,10 @@
 //! reports each validated FR with its interval, mean ± sd FR and how many reach FR ≥ 0.8, then
 //! refreshes the run report.
 //!
-//! The sets are taken in the order of the search's table. The model is rebuilt from the settings
-//! recorded in `config.json` (model flags given here override them, as long as the model stays
-//! the same). Each setting writes its own file, `validation-top{K}-samples{m}.json` (with
+//! The sets are taken in the order of the search's table. The model is rebuilt from the recorded
+//! `--model` and renderer, but where its requests go — `--base-url`, `--renderer-base-url`,
+//! `--model-config` — only from the flags given here and the environment, never from
+//! `config.json` (see `run::setup`); the model must stay the same. Each setting writes its own file, `validation-top{K}-samples{m}.json` (with
 //! `-max{M}` before `.json` when sequential), so validating again with other options never
 //! overwrites an earlier result; the observations themselves are shared through the journal (the
 //! first 20 of `--samples 40` are those of `--samples 20`). Exit codes as for `search`.
@@ -63,7 +64,10 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     if domain.identity().to_string() != config.domain_hash {
         return setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: args.run_dir.clone() });
     }
-    let settings = args.model_opts.settings().or(&config.model_settings);
+    let settings = match args.model_opts.settings().resume(&config.model_settings, setup::FLAGS) {
+        Ok(s) => s,
+        Err(e) => return setup_error(e),
+    };
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer, concurrency } = match setup::build_parts(
@@ -78,7 +82,11 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         Err(e) => return setup_error(e),
     };
     if model.id() != config.model {
-        return setup_error(SetupError::ModelChanged { now: model.id(), was: config.model.clone() });
+        let was = crate::diag::terminal_safe(&config.model).into_owned();
+        return setup_error(SetupError::ModelChanged { now: model.id(), was });
+    }
+    if let Err(e) = setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), setup::FLAGS) {
+        return setup_error(e);
     }
     let mut config = config;
     config.model_settings = settings;

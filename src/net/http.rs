@@ -7,6 +7,11 @@
 //! [`Limits::max_body`] ends the call with an error, never retried, before more is read — an
 //! endless chunked body cannot grow memory) and the gap between chunks (a body that stalls for
 //! [`Limits::stall`] ends the attempt, which is retried like a timeout).
+//!
+//! No redirect is followed: a request carries a key (`Authorization`, `x-api-key`,
+//! `x-goog-api-key`, Bedrock's signature and `x-amz-security-token`) and the prompt and image,
+//! and the HTTP client would re-send all but `Authorization` to wherever a `Location` points. A
+//! 3xx reply ends the call with an error naming the host it pointed to, never retried.
 
 use std::collections::HashMap;
 use std::num::NonZeroU32;
@@ -124,7 +129,7 @@ impl Gate {
     }
 }
 
-/// The shared HTTP client (rustls with the ring provider).
+/// The shared HTTP client (rustls with the ring provider), following no redirect.
 pub fn client() -> Result<reqwest::Client, String> {
     static CLIENT: OnceLock<Result<reqwest::Client, String>> = OnceLock::new();
     CLIENT
@@ -133,6 +138,7 @@ pub fn client() -> Result<reqwest::Client, String> {
             reqwest::Client::builder()
                 .connect_timeout(Duration::from_secs(20))
                 .pool_max_idle_per_host(256)
+                .redirect(reqwest::redirect::Policy::none())
                 .build()
                 .map_err(|e| format!("cannot start the HTTP client: {}", e.without_url()))
         })
@@ -228,6 +234,10 @@ impl Transport {
         let transient = |e: reqwest::Error| Failed::Transient(describe(&e.without_url()));
         let mut resp = rb.send().await.map_err(transient)?;
         let status = resp.status().as_u16();
+        if resp.status().is_redirection() {
+            let location = resp.headers().get(reqwest::header::LOCATION).and_then(|v| v.to_str().ok());
+            return Err(Failed::Permanent(redirect_message(status, &req.url, location)));
+        }
         let retry_after = resp
             .headers()
             .get(reqwest::header::RETRY_AFTER)
@@ -256,6 +266,27 @@ impl Transport {
             body.extend_from_slice(&chunk);
         }
         Ok(Response { status, retry_after, body })
+    }
+}
+
+/// Why a 3xx reply ends the call: it names where the redirect pointed (its host and port only:
+/// a path or query may hold a token) and what to do.
+fn redirect_message(status: u16, url: &str, location: Option<&str>) -> String {
+    let target = location.and_then(|l| reqwest::Url::parse(url).ok()?.join(l).ok()).and_then(|u| {
+        let host = u.host_str()?.to_string();
+        Some(match u.port() {
+            Some(p) => format!("{host}:{p}"),
+            None => host,
+        })
+    });
+    match target {
+        Some(host) => format!(
+            "the endpoint redirected (HTTP {status}) to `{}`; Revelio follows no redirect, which would carry the key and the request elsewhere: if that host is the right one, give it as the base URL",
+            terminal_safe(&host)
+        ),
+        None => format!(
+            "the endpoint answered HTTP {status} (a redirect) without a usable `Location`; Revelio follows no redirect"
+        ),
     }
 }
 
@@ -375,6 +406,16 @@ mod tests {
         assert!(backoff(&l, 1) <= Duration::from_millis(500));
         assert!(backoff(&l, 3) >= Duration::from_secs(1));
         assert!(backoff(&l, 30) <= Duration::from_secs(60));
+    }
+
+    #[test]
+    fn redirects_name_the_host_they_point_to() {
+        let m = redirect_message(307, "https://api.example.com/v1/x", Some("https://evil.example:8443/steal?key=k"));
+        assert!(m.starts_with("the endpoint redirected (HTTP 307) to `evil.example:8443`;"), "{m}");
+        assert!(!m.contains("steal") && !m.contains("key=k"), "{m}");
+        let m = redirect_message(302, "http://127.0.0.1:9/v1/x", Some("/elsewhere"));
+        assert!(m.contains("to `127.0.0.1:9`"), "{m}");
+        assert!(redirect_message(301, "https://h/x", None).contains("without a usable `Location`"));
     }
 
     #[test]

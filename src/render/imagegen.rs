@@ -16,7 +16,7 @@ use crate::net::cache::Store;
 use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict, snippet};
 use crate::net::json as json_at;
 use crate::net::secret::{Secret, redact};
-use crate::net::{BoxFuture, gemini, openai};
+use crate::net::{BoxFuture, EndpointFlags, gemini, openai};
 use crate::render::{RenderError, Rendered, Renderer, RendererOptions};
 use crate::scene::Scene;
 
@@ -50,7 +50,7 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
     }
     // The renderer's own endpoint: `--renderer-base-url` or its provider's variables, never the
     // model's `--base-url`, so each key goes only to its own provider's host.
-    let base = opts.base_url.as_deref();
+    let base = EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http };
     let (provider, endpoint) = match provider {
         "gemini" => {
             let e = gemini::HOST.endpoint(spec, base, gemini::DEFAULT_BASE_URL)?;

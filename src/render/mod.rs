@@ -99,6 +99,9 @@ pub struct RendererOptions {
     /// `--renderer-base-url`: the image-generation provider's endpoint (else its provider's
     /// variable, `GEMINI_BASE_URL` or `OPENAI_BASE_URL`). Never the model's `--base-url`.
     pub base_url: Option<String>,
+    /// `--allow-http`: plain `http://` to a named server other than this machine (never to a
+    /// provider's own host).
+    pub allow_http: bool,
 }
 
 /// `--renderer` specs: `none` (no image; models see only the prompt), `builtin` (wgpu),

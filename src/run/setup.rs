@@ -5,8 +5,13 @@
 //!   effective value bounds the run's observations in flight *and* the provider's request gate,
 //!   and the progress line shows it.
 //! - **Model settings** (`--base-url`, `--renderer-base-url`, `--model-config`, `--thinking`)
-//!   are recorded in `config.json`; `validate` and a resumed `search` reuse the recorded ones
-//!   unless a flag overrides them.
+//!   are recorded in `config.json`, but a run folder is untrusted input (shared, downloaded,
+//!   edited): nothing that decides where a key goes is ever read back from it. `validate`,
+//!   `probe`, `transfer` and a resumed `search` take the base URLs and the model config from
+//!   their own flags and the environment; one the run recorded and the command does not give
+//!   is refused, naming it, and so is a model endpoint that differs from the recorded one
+//!   unless `--base-url` is given ([`ModelSettings::resume`], [`check_endpoint`]).
+//!   `--allow-http` is never recorded.
 //! - **Reply cache**: shared by every run, under `$XDG_CACHE_HOME/revelio` (else
 //!   `~/.cache/revelio`); `--cache-dir` moves it, `--no-cache` turns it off. Entries are written
 //!   to a temporary file and renamed, so concurrent processes never read half an entry.
@@ -15,6 +20,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+use crate::diag::terminal_safe;
 use crate::ir::Domain;
 use crate::render::{Renderer, RendererOptions, build_renderer};
 use crate::vlm::Model;
@@ -40,18 +46,73 @@ pub struct ModelSettings {
     /// `--thinking`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thinking: Option<String>,
+    /// `--allow-http`: a choice of the person running the command, never written to or read
+    /// from a run folder.
+    #[serde(skip)]
+    pub allow_http: bool,
 }
 
+/// How a command spells the flags that choose a model's destinations, for the messages that ask
+/// for them: [`FLAGS`], except for the run's own model in `transfer` ([`RUN_FLAGS`]), whose
+/// `--base-url` and `--model-config` are the target models'.
+#[derive(Debug, Clone, Copy)]
+pub struct FlagNames {
+    pub base_url: &'static str,
+    pub model_config: &'static str,
+}
+
+pub const FLAGS: FlagNames = FlagNames { base_url: "--base-url", model_config: "--model-config" };
+pub const RUN_FLAGS: FlagNames = FlagNames { base_url: "--run-base-url", model_config: "--run-model-config" };
+
 impl ModelSettings {
-    /// These settings, with each one not given taken from `recorded`.
-    pub fn or(self, recorded: &ModelSettings) -> ModelSettings {
-        ModelSettings {
-            base_url: self.base_url.or_else(|| recorded.base_url.clone()),
-            renderer_base_url: self.renderer_base_url.or_else(|| recorded.renderer_base_url.clone()),
-            model_config: self.model_config.or_else(|| recorded.model_config.clone()),
-            thinking: self.thinking.or_else(|| recorded.thinking.clone()),
+    /// The settings for another command on a recorded run (a resumed `search`, `validate`,
+    /// `probe`, `transfer`): `self` holds the flags given now, `recorded` what the run's
+    /// `config.json` says. Where a key goes — the model's base URL, the renderer's, the model
+    /// config file — comes from `self` (and the environment) alone. One the run was made with
+    /// and that is not given again is refused, naming it, rather than silently dropped; an
+    /// endpoint that came from the environment is compared once the model is built
+    /// ([`check_endpoint`]).
+    /// Only `--thinking`, which sends nothing anywhere, is taken from the record when not given.
+    pub fn resume(self, recorded: &ModelSettings, names: FlagNames) -> Result<ModelSettings, SetupError> {
+        for (what, flag, given, was) in [
+            ("the model endpoint", names.base_url, &self.base_url, &recorded.base_url),
+            ("the image endpoint", "--renderer-base-url", &self.renderer_base_url, &recorded.renderer_base_url),
+            ("the model config", names.model_config, &self.model_config, &recorded.model_config),
+        ] {
+            if let (None, Some(was)) = (given, was) {
+                return Err(SetupError::NotGivenAgain { what, flag, was: terminal_safe(was).into_owned() });
+            }
         }
+        Ok(ModelSettings { thinking: self.thinking.or_else(|| recorded.thinking.clone()), ..self })
     }
+
+    /// Refuse base URLs that carry credentials before anything is built from them or recorded
+    /// (the renderer's is checked even when no image generator uses it: it is recorded too).
+    fn check(&self) -> Result<(), SetupError> {
+        for url in [&self.base_url, &self.renderer_base_url].into_iter().flatten() {
+            crate::net::refuse_url_credentials(url).map_err(SetupError::Model)?;
+        }
+        Ok(())
+    }
+}
+
+/// Refuse to go on with a run whose model now resolves to another endpoint than the one the run
+/// recorded (`recorded`, its `config.json`'s `endpoint`), unless `--base-url` was given now:
+/// with the endpoint coming from the provider's variables or its default, a changed
+/// environment would otherwise mix answers from two servers in one run without a word. A
+/// resumed `search` refuses a changed endpoint even then: the endpoint is part of what a run is.
+pub fn check_endpoint(
+    settings: &ModelSettings,
+    recorded: Option<&str>,
+    model: &dyn Model,
+    names: FlagNames,
+) -> Result<(), SetupError> {
+    let now = model.endpoint();
+    if settings.base_url.is_some() || now.as_deref() == recorded {
+        return Ok(());
+    }
+    let name = |e: Option<&str>| e.map_or_else(|| "none".to_string(), |e| format!("`{}`", terminal_safe(e)));
+    Err(SetupError::EndpointChanged { flag: names.base_url, was: name(recorded), now: name(now.as_deref()) })
 }
 
 /// Where the reply cache lives: `flag`, else `$XDG_CACHE_HOME/revelio`, else
@@ -87,13 +148,27 @@ pub enum SetupError {
     DomainChanged { file: String, dir: PathBuf },
     #[error("the model now resolves to `{now}`, but the run used `{was}`; pass the model flags the search used")]
     ModelChanged { now: String, was: String },
+    /// A destination the run recorded, not given again (a run folder never chooses one).
+    #[error(
+        "the run was made with {what} `{was}`; a run folder does not choose where keys go: pass `{flag}` to use it"
+    )]
+    NotGivenAgain { what: &'static str, flag: &'static str, was: String },
+    /// The model's endpoint differs from the recorded one and `--base-url` was not given.
+    #[error(
+        "the run's model was called at {was}, but it now resolves to {now} (from the provider's variables or its default); a run folder does not choose where keys go: pass `{flag}` to say where to call it"
+    )]
+    EndpointChanged { flag: &'static str, was: String, now: String },
 }
 
 impl SetupError {
     /// 2 for what the user typed, 1 for what the machine lacks or the files changed.
     pub fn exit_code(&self) -> u8 {
         match self {
-            SetupError::Model(_) | SetupError::RendererSpec(_) | SetupError::ModelChanged { .. } => 2,
+            SetupError::Model(_)
+            | SetupError::RendererSpec(_)
+            | SetupError::ModelChanged { .. }
+            | SetupError::NotGivenAgain { .. }
+            | SetupError::EndpointChanged { .. } => 2,
             SetupError::Renderer(_) | SetupError::DomainChanged { .. } => 1,
         }
     }
@@ -116,8 +191,10 @@ pub fn build_parts(
     cache: Option<&Path>,
     concurrency: Option<usize>,
 ) -> Result<Parts, SetupError> {
+    settings.check()?;
     let options = ModelOptions {
         base_url: settings.base_url.clone(),
+        allow_http: settings.allow_http,
         config: settings.model_config.as_ref().map(PathBuf::from),
         thinking: settings.thinking.clone(),
         no_cache: cache.is_none(),
@@ -131,6 +208,7 @@ pub fn build_parts(
             size: None,
             cache_dir: cache.map(|c| c.join("images")),
             base_url: settings.renderer_base_url.clone(),
+            allow_http: settings.allow_http,
         },
     )
     .map_err(|e| if known_renderer(renderer_spec) { SetupError::Renderer(e) } else { SetupError::RendererSpec(e) })?;
@@ -150,4 +228,64 @@ fn known_renderer(spec: &str) -> bool {
 /// A path as an absolute string, for `config.json` (a later command may run elsewhere).
 pub fn absolute(p: &Path) -> String {
     std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn recorded() -> ModelSettings {
+        ModelSettings {
+            base_url: Some("https://elsewhere.example/v1".into()),
+            renderer_base_url: Some("https://images.example".into()),
+            model_config: Some("/theirs/models.toml".into()),
+            thinking: Some("low".into()),
+            allow_http: false,
+        }
+    }
+
+    #[test]
+    fn a_recorded_destination_is_named_never_used() {
+        let e = ModelSettings::default().resume(&recorded(), FLAGS).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the run was made with the model endpoint `https://elsewhere.example/v1`; a run folder does not choose where keys go: pass `--base-url` to use it"
+        );
+        assert_eq!(e.exit_code(), 2);
+        let given = ModelSettings { base_url: Some("http://localhost:8000/v1".into()), ..Default::default() };
+        let e = given.clone().resume(&recorded(), FLAGS).unwrap_err().to_string();
+        assert!(
+            e.contains("the image endpoint `https://images.example`") && e.contains("`--renderer-base-url`"),
+            "{e}"
+        );
+        let e = ModelSettings { renderer_base_url: Some("https://mine.example".into()), ..given.clone() }
+            .resume(&recorded(), RUN_FLAGS)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("the model config `/theirs/models.toml`") && e.contains("`--run-model-config`"), "{e}");
+        // Given: the flags win; only `--thinking` comes from the record.
+        let mine = ModelSettings {
+            renderer_base_url: Some("https://mine.example".into()),
+            model_config: Some("/mine.toml".into()),
+            allow_http: true,
+            ..given
+        };
+        let resumed = mine.clone().resume(&recorded(), FLAGS).unwrap();
+        assert_eq!(resumed, ModelSettings { thinking: Some("low".into()), ..mine });
+    }
+
+    #[test]
+    fn allow_http_is_never_recorded_or_read() {
+        let s = ModelSettings { allow_http: true, ..Default::default() };
+        assert_eq!(serde_json::to_string(&s).unwrap(), "{}");
+        let read: ModelSettings = serde_json::from_str(r#"{"allow_http": true}"#).unwrap();
+        assert!(!read.allow_http);
+    }
+
+    #[test]
+    fn recorded_text_is_escaped_in_messages() {
+        let r = ModelSettings { base_url: Some("https://x\u{1b}[2J".into()), ..Default::default() };
+        let e = ModelSettings::default().resume(&r, FLAGS).unwrap_err().to_string();
+        assert!(!e.contains('\u{1b}') && e.contains("\\u{1b}[2J"), "{e}");
+    }
 }

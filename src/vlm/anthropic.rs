@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
 use crate::net::secret::Secret;
-use crate::net::{Host, ProviderError, json as j};
+use crate::net::{EndpointFlags, Host, ProviderError, json as j};
 use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
@@ -75,7 +75,7 @@ pub fn build(
     spec: &str,
     model: &str,
     settings: Resolved,
-    base: Option<&str>,
+    base: EndpointFlags<'_>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Anthropic>, String> {
     let endpoint = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;

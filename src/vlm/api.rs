@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use crate::net::http::{self, Gate, Limits, Request, Response, Transport, Verdict};
 use crate::net::secret::redact;
-use crate::net::{Endpoint, Host, ProviderError};
+use crate::net::{Endpoint, EndpointFlags, Host, ProviderError};
 use crate::outcome::{Answer, Usage};
 use crate::vlm::cache::ReplyCache;
 use crate::vlm::config::{ImageFormat, Resolved};
@@ -27,13 +27,13 @@ pub struct Provider {
 
 /// The start every provider's `build` shares: the model is named, `extra` leaves Revelio's
 /// request fields alone, and the endpoint is resolved (`--base-url`, then the provider's
-/// variables, then `default`) with the provider's key.
+/// variables, then `default`) and checked ([`Host::endpoint`]) with the provider's key.
 pub fn start(
     p: &Provider,
     spec: &str,
     model: &str,
     settings: &Resolved,
-    base: Option<&str>,
+    base: EndpointFlags<'_>,
     default: &str,
 ) -> Result<Endpoint, String> {
     check_request(p, spec, model, settings)?;

@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 
 use crate::net::http::{Request, snippet};
 use crate::net::secret::env_any;
-use crate::net::{Host, ProviderError, json as j};
+use crate::net::{EndpointFlags, Host, ProviderError, json as j};
 use crate::vlm::anthropic::thinking_fields;
 use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, check_extra, check_request};
 use crate::vlm::config::Resolved;
@@ -47,7 +47,7 @@ pub fn build(
     spec: &str,
     model: &str,
     settings: Resolved,
-    base: Option<&str>,
+    base: EndpointFlags<'_>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Bedrock>, String> {
     check_request(&PROVIDER, spec, model, &settings)?;

@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 use crate::net::gemini::{DEFAULT_BASE_URL, HOST, endpoint, error, headers};
 use crate::net::http::Request;
 use crate::net::secret::Secret;
-use crate::net::{ProviderError, json as j};
+use crate::net::{EndpointFlags, ProviderError, json as j};
 use crate::vlm::api::{ApiModel, Parsed, Protocol, Provider, Stop, start};
 use crate::vlm::config::Resolved;
 use crate::vlm::image::Encoded;
@@ -45,7 +45,7 @@ pub fn build(
     spec: &str,
     model: &str,
     settings: Resolved,
-    base: Option<&str>,
+    base: EndpointFlags<'_>,
     cache: Option<&std::path::Path>,
 ) -> Result<ApiModel<Gemini>, String> {
     let ep = start(&PROVIDER, spec, model, &settings, base, DEFAULT_BASE_URL)?;

@@ -15,6 +15,9 @@ use crate::vlm::{anthropic, bedrock, gemini, openai};
 pub struct ModelOptions {
     /// `--base-url`: overrides the model provider's endpoint (the renderer has its own).
     pub base_url: Option<String>,
+    /// `--allow-http`: plain `http://` to a named server other than this machine (never to a
+    /// provider's own host).
+    pub allow_http: bool,
     /// `--model-config`: per-model settings TOML.
     pub config: Option<PathBuf>,
     /// `--thinking minimal|low|medium|high`.
@@ -58,7 +61,7 @@ pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>
     if let Some(c) = opts.concurrency {
         settings.concurrency = c.max(1);
     }
-    let base = opts.base_url.as_deref();
+    let base = crate::net::EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http };
     let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
     Ok(match provider {
         "openai" => Arc::new(openai::build(spec, rest, settings, base, cache)?),
