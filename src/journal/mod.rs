@@ -134,8 +134,8 @@ pub enum JournalError {
     Encode { name: String, message: String },
 }
 
-/// An I/O error as one lowercase clause.
-fn io_message(e: &std::io::Error) -> String {
+/// An I/O error as one lowercase clause (only its first letter lowered: it may name a FIFO).
+pub fn io_message(e: &std::io::Error) -> String {
     let s = e.to_string();
     let mut c = s.chars();
     match c.next() {

@@ -30,7 +30,7 @@ fn is_hash(s: &str) -> bool {
 }
 
 fn io_err(what: &str, path: &Path, e: std::io::Error) -> String {
-    format!("cannot {what} `{}`: {}", path.display(), e.to_string().to_lowercase())
+    format!("cannot {what} `{}`: {}", path.display(), crate::journal::io_message(&e))
 }
 
 /// Bring the images named by `hashes` into `out/images` and `out/thumbs`. Hashes with no image

@@ -121,16 +121,9 @@ fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<O
     let text = match safe::read_text(&path, safe::MAX_JSON_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(format!("cannot read `{}`: {}", path.display(), lower(&e))),
+        Err(e) => return Err(format!("cannot read `{}`: {}", path.display(), crate::journal::io_message(&e))),
     };
     serde_json::from_str(&text).map(Some).map_err(|e| format!("invalid `{name}` in `{}`: {e}", dir.display()))
-}
-
-/// An I/O error as a lowercase clause.
-fn lower(e: &std::io::Error) -> String {
-    let s = e.to_string();
-    let mut c = s.chars();
-    c.next().map(|f| f.to_lowercase().chain(c).collect()).unwrap_or(s)
 }
 
 /// The run's most recent validation file: `revelio validate` writes one per setting
@@ -336,7 +329,7 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     }
     std::fs::create_dir_all(out)
         .and_then(|()| safe::ensure_dir(out))
-        .map_err(|e| format!("cannot create `{}`: {}", out.display(), lower(&e)))?;
+        .map_err(|e| format!("cannot create `{}`: {}", out.display(), crate::journal::io_message(&e)))?;
     // What the run folder says is checked against the domain before it sizes anything (the pair
     // matrix is the square of the concepts named); `load` already bounded their number.
     if let Some(d) = domain {

@@ -599,7 +599,7 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
         RunError::Usage(format!(
             "cannot read `{}`: {} (is `{}` a finished run folder?)",
             path.display(),
-            e.to_string().to_lowercase(),
+            crate::journal::io_message(&e),
             dir.display()
         ))
     })?;
