@@ -909,13 +909,34 @@ fn a_summary_naming_forty_thousand_concepts_is_refused() {
     let run = finished_run(dir.path(), "run");
     let path = run.join("summary.json");
     let original: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    let mut summary = original.clone();
     let names: Vec<String> = (0..40_000).map(|i| format!("c{i}")).collect();
-    summary["sets"][0]["concepts"] = json!(names);
-    std::fs::write(&path, summary.to_string()).unwrap();
-    let o = revelio_in_3gb(&["report", s(&run)]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("it names more than 128 concepts"), "{}", text(&o));
+    let row = original["sets"][0].clone();
+    let in_one_set = {
+        let mut v = original.clone();
+        v["sets"][0]["concepts"] = json!(names);
+        v
+    };
+    let in_pairs = {
+        let mut v = original.clone();
+        v["sets"] = names
+            .chunks(2)
+            .map(|pair| {
+                let mut r = row.clone();
+                r["concepts"] = json!(pair);
+                r
+            })
+            .collect();
+        v
+    };
+    for (summary, says) in [
+        (in_one_set, "a set of 40000 names repeats one or is larger than any domain allows"),
+        (in_pairs, "it names more than 128 concepts"),
+    ] {
+        std::fs::write(&path, summary.to_string()).unwrap();
+        let o = revelio_in_3gb(&["report", s(&run)]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(says), "{}", text(&o));
+    }
     // A name the domain does not declare is refused too, when the domain is at hand.
     let mut summary = original;
     summary["sets"][0]["concepts"] = json!(["ghost\u{1b}[2J"]);

@@ -631,6 +631,14 @@ pub fn check_summary(dir: &Path, summary: &Summary, domain: Option<&Domain>) -> 
             ))
             .into());
         }
+        let mut seen = std::collections::BTreeSet::new();
+        if row.concepts.len() > crate::ir::MAX_CONCEPTS || !row.concepts.iter().all(|c| seen.insert(c)) {
+            return Err(bad(format!(
+                "invalid `summary.json`: a set of {} names repeats one or is larger than any domain allows",
+                row.concepts.len()
+            ))
+            .into());
+        }
         for name in &row.concepts {
             if let Some(d) = domain
                 && d.concept_by_name(name).is_none()
