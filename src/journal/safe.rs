@@ -183,7 +183,8 @@ mod tests {
         std::fs::write(&target, "keep").unwrap();
         let link = dir.path().join("link");
         std::os::unix::fs::symlink(&target, &link).unwrap();
-        for e in [read(&link, 10).unwrap_err(), open_rw(&link, true).unwrap_err(), write_atomic(&link, b"x").unwrap_err()]
+        for e in
+            [read(&link, 10).unwrap_err(), open_rw(&link, true).unwrap_err(), write_atomic(&link, b"x").unwrap_err()]
         {
             assert!(e.to_string().contains("symbolic link"), "{e}");
         }

@@ -613,7 +613,8 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
 
 /// Every set a summary lists, wherever it lists it.
 fn summary_sets(summary: &Summary) -> impl Iterator<Item = &SetRow> {
-    let shrink = summary.shrink.iter().flat_map(|s| s.refuted.iter().chain(s.not_distinct.iter().flat_map(|n| [&n.set, &n.by])));
+    let shrink =
+        summary.shrink.iter().flat_map(|s| s.refuted.iter().chain(s.not_distinct.iter().flat_map(|n| [&n.set, &n.by])));
     summary.sets.iter().chain(&summary.failure_modes).chain(summary.cores.iter().map(|c| &c.set)).chain(shrink)
 }
 
