@@ -1018,3 +1018,204 @@ fn plain_http_is_refused_for_a_providers_host() {
     let o = ask("openai:m", &local, &[]);
     assert!(o.status.success(), "{}", text(&o));
 }
+
+// --- run folders (issue 27) ---
+// A run folder is untrusted input (shared, downloaded): its names may be links, FIFOs or
+// devices, its files huge or crafted. Nothing in it may make Revelio write outside it, hang,
+// read without end, allocate by a number it chose, or silently destroy a damaged journal line.
+
+/// The arguments of a small `search` into `out` (sim model, no renderer); run again, they resume.
+fn small_search(out: &Path) -> Vec<String> {
+    [
+        "search",
+        "domains/driving.rev",
+        "--model",
+        "sim:examples/sim/driving_paper.toml",
+        "--renderer",
+        "none",
+        "--budget",
+        "12",
+        "--samples",
+        "2",
+        "--shrink",
+        "0",
+        "--out",
+        s(out),
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+fn args(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// A finished run folder (with its report) in `dir/name`.
+fn finished_run(dir: &Path, name: &str) -> PathBuf {
+    let out = dir.join(name);
+    let o = revelio(&args(&small_search(&out)), &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(out.join("report/index.html").is_file(), "{}", text(&o));
+    out
+}
+
+/// Replace `path` (file or folder) by a link to `target`.
+#[cfg(unix)]
+fn link_over(path: &Path, target: &Path) {
+    if path.is_dir() {
+        std::fs::remove_dir_all(path).unwrap();
+    } else {
+        std::fs::remove_file(path).unwrap();
+    }
+    std::os::unix::fs::symlink(target, path).unwrap();
+}
+
+#[cfg(unix)]
+#[test]
+fn links_in_a_run_folder_are_never_written_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let victim = write(dir.path(), "victim.txt", "precious");
+    let victim_dir = dir.path().join("elsewhere");
+    write(&victim_dir, "index.html", "precious page");
+    for name in ["lock", "journal.jsonl", "report"] {
+        let run = finished_run(dir.path(), &format!("run-{}", name.replace('.', "-")));
+        let target = if name == "report" { victim_dir.clone() } else { victim.clone() };
+        link_over(&run.join(name), &target);
+        // A resume writes the lock, the journal and the report; `report` reads the journal and
+        // writes the report (it takes no lock).
+        let resume = revelio(&args(&small_search(&run)), &[]);
+        let refused = |o: &Output| text(o).contains("symbolic link") && text(o).contains(name);
+        assert!(!resume.status.success() || name == "report", "{name}: {}", text(&resume));
+        assert!(refused(&resume), "{name}: {}", text(&resume));
+        let report = revelio(&["report", s(&run)], &[]);
+        if name == "lock" {
+            assert!(report.status.success(), "{}", text(&report));
+        } else {
+            assert!(!report.status.success() && refused(&report), "{name}: {}", text(&report));
+        }
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious", "{name}: the link's target was written");
+        let names: Vec<_> = std::fs::read_dir(&victim_dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, ["index.html"], "{name}: files were written into the linked folder");
+        assert_eq!(std::fs::read_to_string(victim_dir.join("index.html")).unwrap(), "precious page");
+        assert!(std::fs::symlink_metadata(run.join(name)).unwrap().file_type().is_symlink(), "{name}");
+    }
+}
+
+/// The run's report page (it lists the run files it could not read).
+fn page(run: &Path) -> String {
+    std::fs::read_to_string(run.join("report/index.html")).unwrap_or_default()
+}
+
+#[cfg(unix)]
+#[test]
+fn fifos_and_devices_in_a_run_folder_are_refused_without_hanging() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = finished_run(dir.path(), "run");
+    let keep = dir.path().join("keep");
+    std::fs::create_dir(&keep).unwrap();
+    for name in ["config.json", "summary.json", "journal.jsonl", "probe.json"] {
+        let at = run.join(name);
+        if at.exists() {
+            std::fs::rename(&at, keep.join(name)).unwrap();
+        }
+        if !mkfifo(&at) {
+            eprintln!("note: `mkfifo` is not available; FIFO attacks are not checked");
+            return;
+        }
+        // Reading a FIFO blocks until a writer comes: a command that returns is the check.
+        let o = revelio(&["report", s(&run)], &[]);
+        let all = format!("{}{}", text(&o), page(&run));
+        assert!(all.contains("is a FIFO (named pipe), not a regular file"), "{name}: {all}");
+        // `probe.json` is an addition: the report goes on without its section.
+        assert_eq!(o.status.success(), name == "probe.json", "{name}: {all}");
+        if name != "probe.json" {
+            let o = revelio(&args(&small_search(&run)), &[]);
+            assert!(!o.status.success(), "{name}: {}", text(&o));
+        }
+        std::fs::remove_file(&at).unwrap();
+        // `/dev/zero` behind a link: refused by what it is, in the memory `report` was killed in.
+        std::os::unix::fs::symlink("/dev/zero", &at).unwrap();
+        let o = revelio_in_3gb(&["report", s(&run)]);
+        assert!(format!("{}{}", text(&o), page(&run)).contains("symbolic link"), "{name}: {}", text(&o));
+        assert_eq!(o.status.success(), name == "probe.json", "{name}: {}", text(&o));
+        std::fs::remove_file(&at).unwrap();
+        if keep.join(name).exists() {
+            std::fs::rename(keep.join(name), &at).unwrap();
+        }
+    }
+    let o = revelio(&["report", s(&run)], &[]);
+    assert!(o.status.success(), "the restored folder reports again: {}", text(&o));
+}
+
+#[test]
+fn a_summary_naming_forty_thousand_concepts_is_refused() {
+    // 40 000 names made `report` allocate their square (about 25 GB) for the pair matrix.
+    let dir = tempfile::tempdir().unwrap();
+    let run = finished_run(dir.path(), "run");
+    let path = run.join("summary.json");
+    let original: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let names: Vec<String> = (0..40_000).map(|i| format!("c{i}")).collect();
+    let row = original["sets"][0].clone();
+    let in_one_set = {
+        let mut v = original.clone();
+        v["sets"][0]["concepts"] = json!(names);
+        v
+    };
+    let in_pairs = {
+        let mut v = original.clone();
+        v["sets"] = names
+            .chunks(2)
+            .map(|pair| {
+                let mut r = row.clone();
+                r["concepts"] = json!(pair);
+                r
+            })
+            .collect();
+        v
+    };
+    for (summary, says) in [
+        (in_one_set, "a set of 40000 names repeats one or is larger than any domain allows"),
+        (in_pairs, "it names more than 128 concepts"),
+    ] {
+        std::fs::write(&path, summary.to_string()).unwrap();
+        let o = revelio_in_3gb(&["report", s(&run)]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(says), "{}", text(&o));
+    }
+    // A name the domain does not declare is refused too, when the domain is at hand.
+    let mut summary = original;
+    summary["sets"][0]["concepts"] = json!(["ghost\u{1b}[2J"]);
+    std::fs::write(&path, summary.to_string()).unwrap();
+    let o = revelio(&["report", s(&run)], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("concept `ghost\\u{1b}[2J` is not in domain `driving`"), "{}", text(&o));
+    assert!(!text(&o).contains('\u{1b}'), "{}", text(&o));
+}
+
+#[test]
+fn a_corrupt_journal_line_stops_the_command_and_can_be_set_aside() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = finished_run(dir.path(), "run");
+    let path = run.join("journal.jsonl");
+    let good = std::fs::read_to_string(&path).unwrap();
+    let (first, rest) = good.split_at(good.find('\n').unwrap() + 1);
+    // A complete line that does not parse, then the rest, ending in a complete bad line.
+    let damaged = format!("{first}{{\"phase\": oops\n{rest}not json\n");
+    std::fs::write(&path, &damaged).unwrap();
+    for cmd in [args(&small_search(&run)), vec!["report", s(&run)]] {
+        let o = revelio(&cmd, &[]);
+        assert!(!o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains(&format!("corrupt journal line 2 in `{}`", path.display())), "{}", text(&o));
+        assert!(text(&o).contains("--set-aside-corrupt"), "{}", text(&o));
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), damaged, "the journal is left as it is");
+        assert!(!run.join("journal.corrupt").exists());
+    }
+    let mut cmd = small_search(&run);
+    cmd.push("--set-aside-corrupt".into());
+    let o = revelio(&args(&cmd), &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("moved 2 corrupt line(s)"), "{}", text(&o));
+    assert_eq!(std::fs::read_to_string(run.join("journal.corrupt")).unwrap(), "{\"phase\": oops\nnot json\n");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), good, "the good lines stay, nothing asked again");
+    assert!(revelio(&["report", s(&run)], &[]).status.success());
+}

@@ -68,10 +68,18 @@ pub(crate) fn open_run(
         return Err(setup_error(SetupError::ModelChanged { now: model.id(), was }));
     }
     setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), names).map_err(setup_error)?;
-    let journal = Journal::open(dir).map_err(|e| {
+    let journal = Journal::open_with(dir, run.on_corrupt()).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(1)
     })?;
+    if journal.set_aside > 0 {
+        eprintln!(
+            "note: moved {} corrupt line(s) of `{}` into `{}`",
+            journal.set_aside,
+            dir.join("journal.jsonl").display(),
+            dir.join(crate::journal::CORRUPT_FILE).display()
+        );
+    }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let domain = Arc::new(domain);
     let reask = Reask {

@@ -99,6 +99,17 @@ pub struct RunFlags {
     /// Stop the run after this many model calls in a row fail (0: never)
     #[arg(long, default_value_t = crate::run::MAX_API_ERRORS)]
     pub max_api_errors: u32,
+    /// Move complete journal lines that do not parse into `journal.corrupt` beside the journal
+    /// and go on (without it, such a line stops the command and the journal is left as it is)
+    #[arg(long)]
+    pub set_aside_corrupt: bool,
+}
+
+impl RunFlags {
+    /// What a corrupt journal line does.
+    pub fn on_corrupt(&self) -> crate::journal::OnCorrupt {
+        if self.set_aside_corrupt { crate::journal::OnCorrupt::SetAside } else { crate::journal::OnCorrupt::Refuse }
+    }
 }
 
 /// Flags that configure the model and image-generation clients (shared with `validate`, `probe`,
@@ -248,6 +259,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
+    setup.on_corrupt = args.run.on_corrupt();
     let started = std::time::Instant::now();
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);

@@ -95,6 +95,7 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
+    setup.on_corrupt = args.run.on_corrupt();
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
     let v = match rt.block_on(runner::validate(

@@ -2,8 +2,8 @@
 //! journal is open. The OS releases it when the process ends, even on `kill -9`, so a stale lock
 //! never needs cleaning up; the file itself stays and only says who held it last.
 
-use std::fs::{File, OpenOptions, TryLockError};
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::fs::{File, TryLockError};
+use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
 use super::JournalError;
@@ -22,18 +22,14 @@ impl RunLock {
     pub fn acquire(dir: &Path) -> Result<RunLock, JournalError> {
         let path = dir.join(LOCK_FILE);
         let io = |action, source| JournalError::Io { action, path: path.clone(), source };
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(&path)
-            .map_err(|e| io("open", e))?;
+        // Not through a link: a planted `lock` must not make us truncate another file.
+        let mut file = super::safe::open_rw(&path, false).map_err(|e| io("open", e))?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
-                let mut holder = String::new();
-                let _ = file.read_to_string(&mut holder);
+                let holder = super::safe::read_open(&file, super::safe::MAX_LOCK_BYTES).unwrap_or_default();
+                // Printed to a terminal: a planted note must not carry escape sequences there.
+                let holder = crate::diag::terminal_safe(&String::from_utf8_lossy(&holder)).into_owned();
                 let holder = holder.trim();
                 let holder =
                     if holder.is_empty() { "it has not written its pid yet".to_string() } else { holder.to_string() };

@@ -13,15 +13,24 @@
 //!
 //! Durability: each line is written with one `write` call on an append-mode file, so a killed
 //! process (even `kill -9`) leaves every finished line in the kernel's page cache and at most one
-//! torn last line, which [`Journal::open`] drops (and truncates away) on resume. The file is
+//! torn last line (one without its newline), which [`Journal::open`] drops (and truncates away)
+//! on resume. A complete line that does not parse is not a torn write but damage: opening stops
+//! with `corrupt journal line N` and leaves the file as it is, unless asked
+//! ([`OnCorrupt::SetAside`], the commands' `--set-aside-corrupt`) to move such lines into
+//! `journal.corrupt` beside it and go on. The file is
 //! fsynced every [`SYNC_EVERY`] lines and at the end of each search step, so a power loss costs at
 //! most that many observations (paid again on resume). `config.json`, images and `summary.json`
 //! are written to a temporary file and renamed, so they are either absent or complete.
+//!
+//! A run folder is untrusted input (it may have been downloaded): every file in it is read and
+//! written through [`safe`], which follows no link, reads only regular files and reads no
+//! further than a bound.
 
 mod lock;
+pub mod safe;
 
-use std::fs::{File, OpenOptions};
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::fs::File;
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -102,9 +111,15 @@ fn is_zero(n: &u32) -> bool {
 pub enum JournalError {
     #[error("cannot {action} `{}`: {}", path.display(), io_message(source))]
     Io { action: &'static str, path: PathBuf, source: std::io::Error },
-    #[error("cannot resume: line {line} of `{}` is corrupt: {message}", path.display())]
+    #[error(
+        "corrupt journal line {line} in `{}`: {message}; the file is left as it is (`--set-aside-corrupt` moves such lines into `journal.corrupt` and goes on)",
+        path.display()
+    )]
     Corrupt { path: PathBuf, line: usize, message: String },
-    #[error("cannot read the journal: line {line} of `{}` is corrupt: {message}", path.display())]
+    #[error(
+        "corrupt journal line {line} in `{}`: {message}; a command that resumes the run with `--set-aside-corrupt` moves such lines into `journal.corrupt`",
+        path.display()
+    )]
     CorruptRead { path: PathBuf, line: usize, message: String },
     #[error(
         "run folder `{}` is in use by another revelio process ({holder}); wait for it to finish or choose another `--out` folder",
@@ -119,8 +134,8 @@ pub enum JournalError {
     Encode { name: String, message: String },
 }
 
-/// An I/O error as one lowercase clause.
-fn io_message(e: &std::io::Error) -> String {
+/// An I/O error as one lowercase clause (only its first letter lowered: it may name a FIFO).
+pub fn io_message(e: &std::io::Error) -> String {
     let s = e.to_string();
     let mut c = s.chars();
     match c.next() {
@@ -144,19 +159,32 @@ pub struct Journal {
     pub records: Vec<Record>,
     /// Whether `open` dropped a torn last line.
     pub dropped_torn_line: bool,
+    /// How many corrupt lines `open` moved into `journal.corrupt` ([`OnCorrupt::SetAside`]).
+    pub set_aside: usize,
     _lock: RunLock,
 }
+
+/// What [`Journal::open_with`] does with a complete journal line that does not parse.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OnCorrupt {
+    /// Stop with an error naming the line; the file is not touched.
+    #[default]
+    Refuse,
+    /// Move such lines into `journal.corrupt` beside the journal and go on without them.
+    SetAside,
+}
+
+/// The file corrupt journal lines are moved into.
+pub const CORRUPT_FILE: &str = "journal.corrupt";
 
 struct Writer {
     file: File,
     unsynced: usize,
 }
 
-/// Write a file atomically (temporary file, then rename).
+/// Write a file atomically (temporary file, then rename), never through a link.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), JournalError> {
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io("write", &tmp))?;
-    std::fs::rename(&tmp, path).map_err(io("write", path))
+    safe::write_atomic(path, bytes).map_err(io("write", path))
 }
 
 impl Journal {
@@ -164,6 +192,11 @@ impl Journal {
     /// journal. A folder that holds files but no run is refused, so a mistyped `--out` never
     /// writes into someone's documents.
     pub fn open(dir: &Path) -> Result<Journal, JournalError> {
+        Journal::open_with(dir, OnCorrupt::Refuse)
+    }
+
+    /// [`Journal::open`], with `corrupt` deciding what a complete line that does not parse does.
+    pub fn open_with(dir: &Path, corrupt: OnCorrupt) -> Result<Journal, JournalError> {
         let config_path = dir.join("config.json");
         if !config_path.exists() && holds_other_files(dir)? {
             return Err(JournalError::NotARun(dir.to_path_buf()));
@@ -172,7 +205,7 @@ impl Journal {
         let lock = RunLock::acquire(dir)?;
         // Another process may have started this run between the check above and the lock.
         let config = if config_path.exists() {
-            let text = std::fs::read_to_string(&config_path).map_err(io("read", &config_path))?;
+            let text = safe::read_text(&config_path, safe::MAX_JSON_BYTES).map_err(io("read", &config_path))?;
             Some(
                 serde_json::from_str(&text)
                     .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?,
@@ -181,25 +214,32 @@ impl Journal {
             None
         };
         let images = dir.join("images");
-        std::fs::create_dir_all(&images).map_err(io("create", &images))?;
+        safe::ensure_dir(&images).map_err(io("create", &images))?;
         let path = dir.join("journal.jsonl");
-        let mut file =
-            OpenOptions::new().read(true).append(true).create(true).open(&path).map_err(io("open", &path))?;
-        let mut text = Vec::new();
-        file.read_to_end(&mut text).map_err(io("read", &path))?;
-        let (records, good_len) = parse_journal(&text, &path)?;
-        let dropped_torn_line = good_len < text.len();
-        if dropped_torn_line {
-            file.set_len(good_len as u64).map_err(io("truncate", &path))?;
+        let mut file = safe::open_rw(&path, true).map_err(io("open", &path))?;
+        let text = safe::read_open(&file, safe::MAX_JOURNAL_BYTES).map_err(io("read", &path))?;
+        let parsed = parse_journal(&text);
+        let mut set_aside = 0;
+        if let Some((line, message)) = parsed.corrupt {
+            if corrupt == OnCorrupt::Refuse {
+                return Err(JournalError::Corrupt { path, line, message });
+            }
+            set_aside = set_aside_corrupt(dir, &text)?;
+            drop(file);
+            file = safe::open_rw(&path, true).map_err(io("open", &path))?;
+        } else if parsed.good_len < text.len() {
+            file.set_len(parsed.good_len as u64).map_err(io("truncate", &path))?;
             file.sync_all().map_err(io("sync", &path))?;
         }
+        let dropped_torn_line = parsed.good_len < text.len();
         file.seek(SeekFrom::End(0)).map_err(io("seek", &path))?;
         Ok(Journal {
             dir: dir.to_path_buf(),
             file: Mutex::new(Writer { file, unsynced: 0 }),
             config,
-            records,
+            records: parsed.records,
             dropped_torn_line,
+            set_aside,
             _lock: lock,
         })
     }
@@ -272,39 +312,68 @@ fn holds_other_files(dir: &Path) -> Result<bool, JournalError> {
 }
 
 /// Read a run folder's journal without opening it for appending or locking the folder (reports
-/// read finished runs). A torn last line is skipped, as [`Journal::open`] would drop it.
+/// read finished runs). A torn last line is skipped, as [`Journal::open`] would drop it; a
+/// corrupt line is an error.
 pub fn read(dir: &Path) -> Result<Vec<Record>, JournalError> {
     let path = dir.join("journal.jsonl");
-    let text = std::fs::read(&path).map_err(io("read", &path))?;
-    match parse_journal(&text, &path) {
-        Ok((records, _)) => Ok(records),
-        Err(JournalError::Corrupt { path, line, message }) => Err(JournalError::CorruptRead { path, line, message }),
-        Err(e) => Err(e),
+    let text = safe::read(&path, safe::MAX_JOURNAL_BYTES).map_err(io("read", &path))?;
+    let parsed = parse_journal(&text);
+    match parsed.corrupt {
+        Some((line, message)) => Err(JournalError::CorruptRead { path, line, message }),
+        None => Ok(parsed.records),
     }
 }
 
-/// Parse journal bytes; returns the records and the length of the valid prefix. Only the last
-/// line may be torn (no newline, or unparseable): it is dropped. A bad line before it is an error
-/// that names the line.
-fn parse_journal(text: &[u8], path: &Path) -> Result<(Vec<Record>, usize), JournalError> {
-    let mut records = Vec::new();
-    let mut start = 0;
-    let mut line_no = 0;
-    while start < text.len() {
-        line_no += 1;
-        let Some(nl) = text[start..].iter().position(|&b| b == b'\n') else { break };
-        let line = &text[start..start + nl];
-        let end = start + nl + 1;
+/// A journal's bytes, parsed.
+struct Parsed {
+    records: Vec<Record>,
+    /// Where the complete lines end: anything after is a torn last line.
+    good_len: usize,
+    /// The first complete line that does not parse: (line number, why).
+    corrupt: Option<(usize, String)>,
+}
+
+/// Each complete line of `text` (without its newline), numbered from 1.
+fn lines(text: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    text.split_inclusive(|&b| b == b'\n').filter_map(|l| l.strip_suffix(b"\n")).enumerate().map(|(i, l)| (i + 1, l))
+}
+
+/// Parse journal bytes. Only a last line without its newline is torn (a write cut short);
+/// a complete line that does not parse is corrupt.
+fn parse_journal(text: &[u8]) -> Parsed {
+    let mut parsed = Parsed { records: Vec::new(), good_len: 0, corrupt: None };
+    for (n, line) in lines(text) {
         match serde_json::from_slice::<Record>(line) {
-            Ok(r) => records.push(r),
-            Err(_) if end == text.len() => break,
+            Ok(r) => parsed.records.push(r),
             Err(e) => {
-                return Err(JournalError::Corrupt { path: path.to_path_buf(), line: line_no, message: e.to_string() });
+                parsed.corrupt.get_or_insert((n, e.to_string()));
             }
         }
-        start = end;
     }
-    Ok((records, start))
+    parsed.good_len = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    parsed
+}
+
+/// Append the corrupt lines of `text` to `journal.corrupt` (synced), then replace the journal
+/// with its good lines; returns how many lines moved. In that order, a crash in between leaves a
+/// line in both files, never in neither.
+fn set_aside_corrupt(dir: &Path, text: &[u8]) -> Result<usize, JournalError> {
+    let (mut good, mut bad, mut moved) = (Vec::with_capacity(text.len()), Vec::new(), 0);
+    for (_, line) in lines(text) {
+        let to = if serde_json::from_slice::<Record>(line).is_ok() {
+            &mut good
+        } else {
+            moved += 1;
+            &mut bad
+        };
+        to.extend_from_slice(line);
+        to.push(b'\n');
+    }
+    let aside_path = dir.join(CORRUPT_FILE);
+    let mut aside = safe::open_rw(&aside_path, true).map_err(io("open", &aside_path))?;
+    aside.write_all(&bad).and_then(|()| aside.sync_all()).map_err(io("write", &aside_path))?;
+    write_atomic(&dir.join("journal.jsonl"), &good)?;
+    Ok(moved)
 }
 
 #[cfg(test)]
@@ -371,7 +440,57 @@ mod tests {
         std::fs::write(dir.path().join("journal.jsonl"), format!("{line}\n{line}\n{{oops\n{line}\n")).unwrap();
         let e = Journal::open(dir.path()).err().unwrap();
         assert!(matches!(e, JournalError::Corrupt { line: 3, .. }), "{e:?}");
-        assert!(e.to_string().starts_with("cannot resume: line 3 of `"), "{e}");
+        assert!(e.to_string().starts_with("corrupt journal line 3 in `"), "{e}");
+    }
+
+    #[test]
+    fn a_complete_last_line_that_does_not_parse_is_corrupt_not_torn() {
+        let dir = tempfile::tempdir().unwrap();
+        let j = Journal::open(dir.path()).unwrap();
+        j.write_config(&serde_json::json!({})).unwrap();
+        drop(j);
+        let line = serde_json::to_string(&record(0)).unwrap();
+        let path = dir.path().join("journal.jsonl");
+        let damaged = format!("{line}\n{{oops\n");
+        std::fs::write(&path, &damaged).unwrap();
+        let e = Journal::open(dir.path()).err().unwrap();
+        assert!(matches!(e, JournalError::Corrupt { line: 2, .. }), "{e:?}");
+        assert!(matches!(read(dir.path()), Err(JournalError::CorruptRead { line: 2, .. })));
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), damaged, "the file is left as it is");
+        // Set aside: the bad lines move beside the journal, a torn tail is dropped as ever.
+        std::fs::write(&path, format!("{line}\n{{oops\n{line}\n\n{line}\n{{\"torn")).unwrap();
+        let j = Journal::open_with(dir.path(), OnCorrupt::SetAside).unwrap();
+        assert_eq!((j.records.len(), j.set_aside, j.dropped_torn_line), (3, 2, true));
+        j.append(&record(1)).unwrap();
+        drop(j);
+        assert_eq!(std::fs::read_to_string(dir.path().join(CORRUPT_FILE)).unwrap(), "{oops\n\n");
+        let again = Journal::open(dir.path()).unwrap();
+        assert_eq!(again.records.len(), 4);
+        assert_eq!((again.set_aside, again.dropped_torn_line), (0, false));
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn planted_links_are_refused_and_their_targets_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, "precious").unwrap();
+        for name in [lock::LOCK_FILE, "journal.jsonl", "images"] {
+            let run = dir.path().join(format!("run-{name}"));
+            let j = Journal::open(&run).unwrap();
+            j.write_config(&serde_json::json!({})).unwrap();
+            drop(j);
+            let at = run.join(name);
+            if at.is_dir() {
+                std::fs::remove_dir(&at).unwrap();
+            } else {
+                std::fs::remove_file(&at).unwrap();
+            }
+            std::os::unix::fs::symlink(&victim, &at).unwrap();
+            let e = Journal::open(&run).err().unwrap().to_string();
+            assert!(e.contains("symbolic link") && e.contains(name), "{name}: {e}");
+            assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious", "{name}");
+        }
     }
 
     #[test]

@@ -1,7 +1,13 @@
 //! A content-addressed store on disk: files named by a SHA-256 key ([`crate::hash::parts_hex`]), written to a temporary name and
 //! renamed, so a killed run never leaves a half-written entry that a resumed run would trust.
 //! Used by the reply cache of the model clients and the image cache of the image generators.
+//!
+//! No link in the cache is followed, for reading or writing, and an entry is read only when it
+//! is a regular file no larger than [`MAX_ENTRY_BYTES`]: a planted link must not make a put
+//! overwrite another file, nor a FIFO or a device make a get hang or read without end.
 
+use std::fs::OpenOptions;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -25,8 +31,20 @@ impl Store {
         self.dir.join(&key[..2.min(key.len())]).join(format!("{key}.{}", self.ext))
     }
 
+    /// The entry under `key`; `None` when absent or not a regular file of a plausible size (it
+    /// is then asked again and replaced).
     pub fn get(&self, key: &str) -> Option<Vec<u8>> {
-        std::fs::read(self.path(key)).ok()
+        let path = self.path(key);
+        if !std::fs::symlink_metadata(&path).ok()?.is_file() {
+            return None;
+        }
+        let file = no_follow(OpenOptions::new().read(true)).open(&path).ok()?;
+        if !file.metadata().ok()?.is_file() {
+            return None;
+        }
+        let mut bytes = Vec::new();
+        file.take(MAX_ENTRY_BYTES + 1).read_to_end(&mut bytes).ok()?;
+        (bytes.len() as u64 <= MAX_ENTRY_BYTES).then_some(bytes)
     }
 
     /// Write atomically: temporary file in the same folder, then rename.
@@ -36,10 +54,38 @@ impl Store {
         let parent = path.parent().unwrap_or(&self.dir);
         std::fs::create_dir_all(parent)
             .map_err(|e| format!("cannot create cache folder `{}`: {e}", parent.display()))?;
+        if std::fs::symlink_metadata(parent).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Err(format!(
+                "cannot write cache entry `{}`: its folder is a symbolic link, and revelio writes through no link",
+                path.display()
+            ));
+        }
         let tmp = parent.join(format!(".{key}.{}.{}.tmp", std::process::id(), SEQ.fetch_add(1, Ordering::Relaxed)));
-        std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, &path)).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            format!("cannot write cache entry `{}`: {e}", path.display())
-        })
+        // A new file (never opened through a link), renamed over the entry: a link there is
+        // replaced, its target untouched.
+        no_follow(OpenOptions::new().write(true).create_new(true))
+            .open(&tmp)
+            .and_then(|mut f| f.write_all(bytes))
+            .and_then(|()| std::fs::rename(&tmp, &path))
+            .map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                format!("cannot write cache entry `{}`: {e}", path.display())
+            })
     }
+}
+
+/// The largest cache entry read (replies are bounded far below; images by the generators).
+pub const MAX_ENTRY_BYTES: u64 = 64 << 20;
+
+/// `O_NOFOLLOW` (the last component may not be a link) and `O_NONBLOCK` (a FIFO does not block
+/// the open).
+#[cfg(unix)]
+fn no_follow(opts: &mut OpenOptions) -> &mut OpenOptions {
+    use std::os::unix::fs::OpenOptionsExt;
+    opts.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
+}
+
+#[cfg(not(unix))]
+fn no_follow(opts: &mut OpenOptions) -> &mut OpenOptions {
+    opts
 }

@@ -2,10 +2,14 @@
 //! content-addressed `images/` into the report's `images/` (copied where a link cannot be made,
 //! e.g. across file systems), and a thumbnail is written to `thumbs/`. Both are named by the
 //! image's SHA-256, so a refresh only adds what is new; files of images no longer shown are
-//! removed (only names of that form, so nothing else in the folder is touched).
+//! removed (only names of that form, so nothing else in the folder is touched). Images are read
+//! through [`safe`] (regular files of a bounded size, no link followed), and a link found in the
+//! report's `images/` or `thumbs/` is replaced, not written through.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
+
+use crate::journal::safe;
 
 /// Width of thumbnails in pixels (shown at about 210 CSS pixels; sharp on 1.5× screens).
 pub const THUMB_WIDTH: u32 = 320;
@@ -26,7 +30,7 @@ fn is_hash(s: &str) -> bool {
 }
 
 fn io_err(what: &str, path: &Path, e: std::io::Error) -> String {
-    format!("cannot {what} `{}`: {}", path.display(), e.to_string().to_lowercase())
+    format!("cannot {what} `{}`: {}", path.display(), crate::journal::io_message(&e))
 }
 
 /// Bring the images named by `hashes` into `out/images` and `out/thumbs`. Hashes with no image
@@ -38,21 +42,20 @@ pub fn materialize(run_images: &Path, out: &Path, hashes: &[&str]) -> Result<BTr
     let mut map = BTreeMap::new();
     for hash in wanted {
         let src = run_images.join(format!("{hash}.png"));
-        if !src.is_file() {
-            continue;
-        }
+        // Only a regular file of a plausible size (no link, FIFO or device) is shown.
+        let Ok(png) = safe::read(&src, safe::MAX_IMAGE_BYTES) else { continue };
         for dir in [&full_dir, &thumb_dir] {
-            std::fs::create_dir_all(dir).map_err(|e| io_err("create", dir, e))?;
+            safe::ensure_dir(dir).map_err(|e| io_err("create", dir, e))?;
         }
         let name = format!("{hash}.png");
         let full = full_dir.join(&name);
-        if !full.is_file() && std::fs::hard_link(&src, &full).is_err() {
-            std::fs::copy(&src, &full).map_err(|e| io_err("copy an image to", &full, e))?;
+        if !regular_or_cleared(&full)? && std::fs::hard_link(&src, &full).is_err() {
+            crate::journal::write_atomic(&full, &png).map_err(|e| e.to_string())?;
         }
         let thumb = thumb_dir.join(&name);
-        let size = match image::image_dimensions(&thumb) {
-            Ok(size) => Some(size),
-            Err(_) => write_thumbnail(&src, &thumb)?,
+        let size = match regular_or_cleared(&thumb)?.then(|| image::image_dimensions(&thumb).ok()).flatten() {
+            Some(size) => Some(size),
+            None => write_thumbnail(&src, &png, &thumb)?,
         };
         if let Some((width, height)) = size {
             map.insert(
@@ -67,9 +70,19 @@ pub fn materialize(run_images: &Path, out: &Path, hashes: &[&str]) -> Result<BTr
     Ok(map)
 }
 
-/// Write a thumbnail of `src`; `None` when `src` is not a readable image.
-fn write_thumbnail(src: &Path, dst: &Path) -> Result<Option<(u32, u32)>, String> {
-    let Ok(img) = image::open(src) else { return Ok(None) };
+/// Whether `path` is a regular file; anything else there (a link planted in the report
+/// folder, a FIFO) is removed — a link, never its target — so that a fresh file takes its place.
+fn regular_or_cleared(path: &Path) -> Result<bool, String> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_file() => Ok(true),
+        Ok(_) => std::fs::remove_file(path).map(|()| false).map_err(|e| io_err("remove", path, e)),
+        Err(_) => Ok(false),
+    }
+}
+
+/// Write a thumbnail of `bytes` (the file `src`); `None` when it is not a readable image.
+fn write_thumbnail(src: &Path, bytes: &[u8], dst: &Path) -> Result<Option<(u32, u32)>, String> {
+    let Ok(img) = image::load_from_memory(bytes) else { return Ok(None) };
     let (w, h) = (img.width().max(1), img.height().max(1));
     let (tw, th) = if w <= THUMB_WIDTH {
         (w, h)

@@ -30,7 +30,7 @@ use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::TransferReport;
 use crate::analysis::{self, is_subset, same_set, wilson95};
 use crate::ir::Domain;
-use crate::journal::{Phase, Record};
+use crate::journal::{Phase, Record, safe};
 use crate::outcome::Outcome;
 use crate::run::runner::{self, RunConfig, SetRow, Summary, Validation};
 
@@ -115,12 +115,14 @@ pub struct ShrinkRow {
     pub not_distinct: Vec<runner::NotDistinctRow>,
 }
 
+/// A JSON file of the run folder; `None` when absent. Read through [`safe`]: a regular file (a
+/// FIFO would block the report forever, `/dev/zero` would never end), no link followed, bounded.
 fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<Option<T>, String> {
     let path = dir.join(name);
-    let text = match std::fs::read_to_string(&path) {
+    let text = match safe::read_text(&path, safe::MAX_JSON_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(format!("cannot read `{}`: {}", path.display(), e.to_string().to_lowercase())),
+        Err(e) => return Err(format!("cannot read `{}`: {}", path.display(), crate::journal::io_message(&e))),
     };
     serde_json::from_str(&text).map(Some).map_err(|e| format!("invalid `{name}` in `{}`: {e}", dir.display()))
 }
@@ -318,8 +320,22 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
             out.display()
         ));
     }
+    // The default report folder lies in the run folder: a planted link there must not send
+    // `index.html` and the rest into another folder.
+    if safe::is_link(out) {
+        return Err(format!(
+            "cannot write the report into `{}`: it is a symbolic link (revelio follows no link in a run folder or a report); name the folder it points to with `--out`",
+            out.display()
+        ));
+    }
     std::fs::create_dir_all(out)
-        .map_err(|e| format!("cannot create `{}`: {}", out.display(), e.to_string().to_lowercase()))?;
+        .and_then(|()| safe::ensure_dir(out))
+        .map_err(|e| format!("cannot create `{}`: {}", out.display(), crate::journal::io_message(&e)))?;
+    // What the run folder says is checked against the domain before it sizes anything (the pair
+    // matrix is the square of the concepts named); `load` already bounded their number.
+    if let Some(d) = domain {
+        runner::check_summary(&run.dir, &run.summary, Some(d)).map_err(|e| e.to_string())?;
+    }
     let findings = run.findings();
     let wanted: Vec<&str> = findings.core_observations.iter().flatten().map(|r| r.image.as_str()).collect();
     let images = files::materialize(&run.dir.join("images"), out, &wanted)?;

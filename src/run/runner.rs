@@ -17,7 +17,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, JournalError, Phase};
+use crate::journal::{Journal, JournalError, OnCorrupt, Phase, safe};
 use crate::outcome::Outcome;
 use crate::render::Renderer;
 use crate::vlm::Model;
@@ -164,7 +164,7 @@ pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
     if !path.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path).map_err(|source| JournalError::Io {
+    let text = safe::read_text(&path, safe::MAX_JSON_BYTES).map_err(|source| JournalError::Io {
         action: "read",
         path: path.clone(),
         source,
@@ -182,8 +182,16 @@ pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
 
 /// Open the run folder for `config`: a new folder gets the configuration, an existing one must
 /// match it (a raised budget is written back).
-fn open_run(out: &Path, config: &RunConfig) -> Result<Arc<Journal>, RunError> {
-    let journal = Journal::open(out)?;
+fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Journal>, RunError> {
+    let journal = Journal::open_with(out, corrupt)?;
+    if journal.set_aside > 0 {
+        eprintln!(
+            "note: moved {} corrupt line(s) of `{}` into `{}`",
+            journal.set_aside,
+            out.join("journal.jsonl").display(),
+            out.join(crate::journal::CORRUPT_FILE).display()
+        );
+    }
     let write = match journal.config() {
         None => true,
         Some(old) => {
@@ -211,6 +219,8 @@ pub struct Setup {
     pub stop: Stop,
     /// Stop after this many model calls in a row end in `api_error` (0: never).
     pub max_api_errors: u32,
+    /// What a corrupt journal line does (`--set-aside-corrupt`).
+    pub on_corrupt: OnCorrupt,
 }
 
 impl Setup {
@@ -233,6 +243,7 @@ impl Setup {
             progress: ProgressTo::Off,
             stop: Stop::default(),
             max_api_errors: MAX_API_ERRORS,
+            on_corrupt: OnCorrupt::Refuse,
         }
     }
 
@@ -404,6 +415,8 @@ pub struct RunReport {
     /// Observations served from the journal (a resumed run).
     pub replayed: u64,
     pub dropped_torn_line: bool,
+    /// Corrupt journal lines moved into `journal.corrupt` (`--set-aside-corrupt`).
+    pub set_aside: usize,
     /// The effective concurrency the run used.
     pub concurrency: usize,
 }
@@ -422,8 +435,8 @@ pub fn search_space(sets: Vec<ConceptSet>, dim: usize, world: &dyn World) -> (Sp
 pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, RunError> {
     let params = &config.params;
     params.validate().map_err(RunError::Usage)?;
-    let journal = open_run(&setup.out, config)?;
-    let dropped_torn_line = journal.dropped_torn_line;
+    let journal = open_run(&setup.out, config, setup.on_corrupt)?;
+    let (dropped_torn_line, set_aside) = (journal.dropped_torn_line, journal.set_aside);
     let mut eval = setup.evaluator(journal.clone(), params.seed, params.threshold, Phase::Search)?;
     eval.progress = Some(Progress::start(&setup.progress, "search", params.budget + params.shrink, setup.concurrency));
     let result = search_and_shrink(params, space, &mut eval).await;
@@ -459,6 +472,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         found,
         replayed: eval.replayed,
         dropped_torn_line,
+        set_aside,
         concurrency: setup.concurrency,
     })
 }
@@ -591,11 +605,11 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
     let config = read_config(dir)?
         .ok_or_else(|| RunError::Usage(format!("`{}` is not a run folder (it has no config.json)", dir.display())))?;
     let path = dir.join("summary.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| {
+    let text = safe::read_text(&path, safe::MAX_JSON_BYTES).map_err(|e| {
         RunError::Usage(format!(
             "cannot read `{}`: {} (is `{}` a finished run folder?)",
             path.display(),
-            e.to_string().to_lowercase(),
+            crate::journal::io_message(&e),
             dir.display()
         ))
     })?;
@@ -603,7 +617,60 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
         dir: dir.to_path_buf(),
         message: format!("invalid `summary.json`: {e}"),
     })?;
+    check_summary(dir, &summary, None)?;
     Ok((config, summary))
+}
+
+/// Every set a summary lists, wherever it lists it.
+fn summary_sets(summary: &Summary) -> impl Iterator<Item = &SetRow> {
+    let shrink =
+        summary.shrink.iter().flat_map(|s| s.refuted.iter().chain(s.not_distinct.iter().flat_map(|n| [&n.set, &n.by])));
+    summary.sets.iter().chain(&summary.failure_modes).chain(summary.cores.iter().map(|c| &c.set)).chain(shrink)
+}
+
+/// A summary read from a run folder sizes what is computed from it (the report's pair matrix
+/// is the square of its concepts): its concept names must be the domain's, when the domain is
+/// at hand, and are never more than a domain may declare ([`crate::ir::MAX_CONCEPTS`]).
+pub fn check_summary(dir: &Path, summary: &Summary, domain: Option<&Domain>) -> Result<(), RunError> {
+    let bad = |message: String| JournalError::BadConfig { dir: dir.to_path_buf(), message };
+    let mut names = std::collections::BTreeSet::new();
+    for row in summary_sets(summary) {
+        if row.wrong > row.answered {
+            return Err(bad(format!(
+                "invalid `summary.json`: a set has {} wrong answers of {} answered",
+                row.wrong, row.answered
+            ))
+            .into());
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        if row.concepts.len() > crate::ir::MAX_CONCEPTS || !row.concepts.iter().all(|c| seen.insert(c)) {
+            return Err(bad(format!(
+                "invalid `summary.json`: a set of {} names repeats one or is larger than any domain allows",
+                row.concepts.len()
+            ))
+            .into());
+        }
+        for name in &row.concepts {
+            if let Some(d) = domain
+                && d.concept_by_name(name).is_none()
+            {
+                return Err(bad(format!(
+                    "invalid `summary.json`: concept `{}` is not in domain `{}`",
+                    crate::diag::terminal_safe(name),
+                    crate::diag::terminal_safe(&d.name)
+                ))
+                .into());
+            }
+            if names.insert(name.as_str()) && names.len() > crate::ir::MAX_CONCEPTS {
+                return Err(bad(format!(
+                    "invalid `summary.json`: it names more than {} concepts, more than any domain declares",
+                    crate::ir::MAX_CONCEPTS
+                ))
+                .into());
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each —
@@ -644,7 +711,7 @@ pub async fn validate(
         .collect::<Result<Vec<_>, String>>()
         .map_err(|e| RunError::Search(format!("cannot validate `{}`: {e}", setup.out.display())))?;
     let chosen = top_sets(&history, top);
-    let journal = open_run(&setup.out, config)?;
+    let journal = open_run(&setup.out, config, setup.on_corrupt)?;
     let mut eval = setup.evaluator(journal.clone(), config.params.seed, CONSISTENT_FR, Phase::Validate)?;
     let most = chosen.len() as u64 * u64::from(rule.max_samples);
     eval.progress = Some(Progress::start(&setup.progress, "validate", most, setup.concurrency));
