@@ -181,7 +181,7 @@ fn render(path: &str, json: bool) -> String {
 
 #[test]
 fn snapshots_of_rendered_diagnostics() {
-    for name in ["syntax_many", "names", "types", "relations"] {
+    for name in ["syntax_many", "names", "types", "relations", "bounds"] {
         let path = format!("tests/corpus/bad/{name}.rev");
         insta::assert_snapshot!(format!("{name}_human"), render(&path, false));
         insta::assert_snapshot!(format!("{name}_json"), render(&path, true));
