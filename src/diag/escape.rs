@@ -75,7 +75,8 @@ mod tests {
     fn the_writer_escapes_what_passes_through() {
         use std::io::Write as _;
         let mut w = TerminalSafe(Vec::new());
-        write!(w, "model {}\n", "x\u{1b}]0;owned\u{7}").unwrap();
+        let name = "x\u{1b}]0;owned\u{7}";
+        writeln!(w, "model {name}").unwrap();
         w.write_all(b"\xff\x1b[2J").unwrap();
         assert_eq!(w.0, b"model x\\u{1b}]0;owned\\u{7}\n\xff\\u{1b}[2J");
     }
