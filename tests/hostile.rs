@@ -1219,3 +1219,161 @@ fn a_corrupt_journal_line_stops_the_command_and_can_be_set_aside() {
     assert_eq!(std::fs::read_to_string(&path).unwrap(), good, "the good lines stay, nothing asked again");
     assert!(revelio(&["report", s(&run)], &[]).status.success());
 }
+
+// --- front end and compare (issue 27) ---
+
+/// A domain whose one rule condition is `exists … where` nested `depth` deep.
+fn nested_exists_domain(depth: usize) -> String {
+    let mut t = String::from(
+        "domain deep\nkind Cone {}\nregion lane { x 5m..20m  y -1m..1m  z 0m }\n\
+         concept cone { description \"c\" probe \"p\" not \"n\" add cone: Cone in lane ahead_of ego }\n\
+         question q { text \"q\" option a \"a\" option b \"b\" }\nrules priority {\n  rule r {\n    when ",
+    );
+    for i in 0..depth {
+        t.push_str(&format!("exists e{i}: Cone where "));
+    }
+    t.push_str("true\n    expect q.a\n  }\n}\n");
+    t
+}
+
+/// An LSP session on standard input: open `text`, then shut down.
+fn lsp_session(uri: &str, text: &str) -> String {
+    let messages = [
+        json!({ "jsonrpc": "2.0", "id": 1, "method": "initialize", "params": { "capabilities": {} } }),
+        json!({ "jsonrpc": "2.0", "method": "initialized", "params": {} }),
+        json!({ "jsonrpc": "2.0", "method": "textDocument/didOpen", "params": { "textDocument": {
+            "uri": uri, "languageId": "revelio", "version": 1, "text": text } } }),
+        json!({ "jsonrpc": "2.0", "id": 2, "method": "shutdown", "params": null }),
+        json!({ "jsonrpc": "2.0", "method": "exit", "params": null }),
+    ];
+    messages
+        .iter()
+        .map(|m| {
+            let body = m.to_string();
+            format!("Content-Length: {}\r\n\r\n{body}", body.len())
+        })
+        .collect()
+}
+
+#[test]
+fn a_3000_deep_domain_is_refused_by_check_fmt_and_the_language_server() {
+    // `exists … where` 3 000 deep (84 KB) overflowed the parser's stack: `check`, `fmt` and
+    // `revelio lsp` died of SIGABRT. Now one nesting budget, counted before parsing, refuses it.
+    let dir = tempfile::tempdir().unwrap();
+    let shapes = [
+        nested_exists_domain(3000),
+        nested_exists_domain(40_000),
+        nested_exists_domain(60).replace("where ", "where not not "),
+        nested_exists_domain(120).replace("exists", "(exists").replace("true", &format!("true{}", ")".repeat(120))),
+    ];
+    for (i, t) in shapes.iter().enumerate() {
+        let d = write(dir.path(), &format!("deep{i}.rev"), t);
+        let o = revelio(&["check", s(&d), "--format", "plain"], &[]);
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(1), "shape {i}: {all}");
+        assert!(all.contains("R0003") && all.contains("nests too deeply"), "shape {i}: {all}");
+        let o = revelio(&["fmt", "--check", s(&d)], &[]);
+        assert_eq!(o.status.code(), Some(1), "shape {i}: {}", text(&o));
+        assert!(text(&o).contains("nests too deeply"), "shape {i}: {}", text(&o));
+    }
+    let cache = dir.path().join("cache");
+    let uri = format!("file://{}", s(&dir.path().join("deep0.rev")));
+    let o = revelio_fed(&["lsp"], &[("XDG_CACHE_HOME", s(&cache))], Some(lsp_session(&uri, &shapes[0])));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "the server ends cleanly: {:?} {}", o.status, text(&o));
+    assert!(out.contains("publishDiagnostics") && out.contains("R0003"), "{out}");
+    // Within the budget, the same shapes check (a 3-deep condition is fine).
+    let o = revelio(&["check", s(&write(dir.path(), "ok.rev", &nested_exists_domain(3))), "--format", "plain"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+#[test]
+fn a_40_deep_condition_is_refused_before_any_evaluation() {
+    // 40 nested `exists` passed `check`, and deciding one set visited entities^40 bindings (it
+    // did not end in a minute). Past three, `check` refuses it, so no command evaluates it.
+    let dir = tempfile::tempdir().unwrap();
+    let d = write(dir.path(), "deep.rev", &nested_exists_domain(40));
+    let o = revelio(&["check", s(&d), "--format", "plain"], &[]);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("R0034") && all.contains("`exists e3` nests more than 3 quantifiers deep"), "{all}");
+    assert!(!all.contains("R0003"), "within the nesting budget: {all}");
+    let o = revelio(&["oracle", s(&d), "cone"], &[]);
+    assert_ne!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("R0034"), "{}", text(&o));
+}
+
+#[test]
+fn a_huge_repeat_is_refused_by_check() {
+    // `repeat 4000000000` passed `check`; `emit scene` then asked for 960 GB and aborted.
+    let dir = tempfile::tempdir().unwrap();
+    let t = nested_exists_domain(1)
+        + "stage dashes repeat 4000000000 step (1m, 0m, 0m) { box size (1m, 0.1m, 0.01m) color #ffffff }\n";
+    let d = write(dir.path(), "huge.rev", &t);
+    let o = revelio(&["check", s(&d), "--format", "plain"], &[]);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(
+        all.contains("R0035") && all.contains("`repeat 4000000000` is over the most a stage item repeats"),
+        "{all}"
+    );
+    let o = revelio_in_3gb(&["emit", "scene", s(&d), "cone"]);
+    assert_eq!(o.status.code(), Some(1), "refused, not aborted: {}", text(&o));
+    // Every count a file chooses is bounded: stage parts with repeats, parts in a block, entities.
+    let parts = |n: usize| "box size (1m, 1m, 1m) color #ffffff ".repeat(n);
+    let cases = [
+        (format!("stage a repeat 1000 step (1m, 0m, 0m) {{ {} }}\n", parts(5)), "past 4096 stage parts"),
+        (format!("stage b {{ {} }}\n", parts(300)), "a block may list at most 256 parts; this one lists 300"),
+        (
+            (0..65)
+                .map(|i| format!("concept c{i} {{ description \"c\" probe \"p\" not \"n\" add x: Cone in lane add y: Cone in lane }}\n"))
+                .collect(),
+            "the concepts add 131 entities; a domain may add at most 128",
+        ),
+    ];
+    for (extra, message) in cases {
+        let d = write(dir.path(), "counts.rev", &(nested_exists_domain(1) + &extra));
+        let o = revelio(&["check", s(&d), "--format", "plain"], &[]);
+        let all = text(&o);
+        assert!(all.contains("R0035") && all.contains(message), "{message}: {all}");
+    }
+}
+
+#[test]
+fn escapes_in_a_run_folder_never_reach_the_terminal_from_compare_or_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run\u{1b}[2J");
+    let o = revelio(
+        &[
+            "search",
+            "domains/driving.rev",
+            "--model",
+            "sim:examples/sim/driving_paper.toml",
+            "--renderer",
+            "none",
+            "--budget",
+            "8",
+            "--samples",
+            "1",
+            "--out",
+            s(&run),
+            "--json",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let config_path = run.join("config.json");
+    let mut config: Value = serde_json::from_str(&std::fs::read_to_string(&config_path).unwrap()).unwrap();
+    config["model"] = json!("evil\u{1b}]0;owned\u{7}\u{9b}31m");
+    config["domain_file"] = json!("/gone/\u{1b}[2Jdomain.rev");
+    std::fs::write(&config_path, serde_json::to_string_pretty(&config).unwrap()).unwrap();
+    for args in [vec!["compare", s(&run)], vec!["report", s(&run)]] {
+        let o = revelio(&args, &[]);
+        let all = text(&o);
+        assert!(o.status.success(), "{args:?}: {all}");
+        assert!(!all.contains(['\u{1b}', '\u{7}', '\u{9b}']), "{args:?}: raw escapes: {all:?}");
+        assert!(all.contains("\\u{1b}[2J"), "{args:?}: {all}");
+    }
+    let o = revelio(&["compare", s(&run)], &[]);
+    assert!(text(&o).contains("evil\\u{1b}]0;owned\\u{7}\\u{9b}31m"), "{}", text(&o));
+}

@@ -71,6 +71,9 @@ fn jaccard_distance(a: &BTreeSet<&str>, b: &BTreeSet<&str>) -> f64 {
     if union == 0 { 0.0 } else { 1.0 - a.intersection(b).count() as f64 / union as f64 }
 }
 
+/// The mean pairwise distance with mode `skip` left out, pair by pair: the definition, which
+/// [`diversity`] computes from row sums instead (the test checks that the two agree).
+#[cfg(test)]
 fn mean_distance(sets: &[BTreeSet<&str>], skip: Option<usize>) -> f64 {
     let (mut sum, mut pairs) = (0.0, 0u64);
     for i in 0..sets.len() {
@@ -92,11 +95,25 @@ pub fn diversity(modes: &[Vec<String>]) -> Option<Rate> {
     if n < 2 {
         return None;
     }
-    let value = mean_distance(&sets, None);
+    // Each distance once, with each mode's row sum: leaving mode `i` out removes exactly its row,
+    // so every leave-one-out mean comes from the total in O(1), and the whole is O(n²) distances
+    // (it was O(n³) recomputing the pairs for each left-out mode).
+    let (mut total, mut rows) = (0.0, vec![0.0; n]);
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = jaccard_distance(&sets[i], &sets[j]);
+            total += d;
+            rows[i] += d;
+            rows[j] += d;
+        }
+    }
+    let pairs = |m: usize| (m * (m - 1) / 2) as f64;
+    let value = total / pairs(n);
     if n < 3 {
         return Some(Rate { value, low: 0.0, high: 1.0 });
     }
-    let loo: Vec<f64> = (0..n).map(|i| mean_distance(&sets, Some(i))).collect();
+    // Rounding can leave a hair below zero where every remaining distance is 0.
+    let loo: Vec<f64> = rows.iter().map(|r| ((total - r) / pairs(n - 1)).max(0.0)).collect();
     let mean = loo.iter().sum::<f64>() / n as f64;
     let var = (n as f64 - 1.0) / n as f64 * loo.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
     let half = crate::search::interval::Z95 * var.sqrt();
@@ -178,5 +195,54 @@ mod tests {
         assert_eq!((same.value, same.low, same.high), (0.0, 0.0, 0.0));
         let d = diversity(&names(&[&["a"], &["b"], &["a", "b"], &["c"]])).unwrap();
         assert!(d.low <= d.value && d.value <= d.high && d.value > 0.5, "{d:?}");
+    }
+
+    /// The jackknife as first written: every leave-one-out mean recomputed pair by pair (O(n³)).
+    fn diversity_by_definition(modes: &[Vec<String>]) -> Option<Rate> {
+        let sets: Vec<BTreeSet<&str>> = modes.iter().map(|m| m.iter().map(String::as_str).collect()).collect();
+        let n = sets.len();
+        if n < 2 {
+            return None;
+        }
+        let value = mean_distance(&sets, None);
+        if n < 3 {
+            return Some(Rate { value, low: 0.0, high: 1.0 });
+        }
+        let loo: Vec<f64> = (0..n).map(|i| mean_distance(&sets, Some(i))).collect();
+        let mean = loo.iter().sum::<f64>() / n as f64;
+        let var = (n as f64 - 1.0) / n as f64 * loo.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+        let half = crate::search::interval::Z95 * var.sqrt();
+        Some(Rate { value, low: (value - half).max(0.0), high: (value + half).min(1.0) })
+    }
+
+    #[test]
+    fn the_row_sum_jackknife_equals_the_definition_on_random_modes() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = |below: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % below
+        };
+        let concepts = ["a", "b", "c", "d", "e", "f", "g", "h"];
+        for trial in 0..200 {
+            let n = next(40) as usize;
+            let modes: Vec<Vec<String>> = (0..n)
+                .map(|_| {
+                    let k = next(5) as usize;
+                    (0..k).map(|_| concepts[next(if trial % 3 == 0 { 3 } else { 8 }) as usize].to_string()).collect()
+                })
+                .collect();
+            let (fast, slow) = (diversity(&modes), diversity_by_definition(&modes));
+            match (fast, slow) {
+                (None, None) => {}
+                (Some(f), Some(s)) => {
+                    for (a, b) in [(f.value, s.value), (f.low, s.low), (f.high, s.high)] {
+                        assert!((a - b).abs() < 1e-9, "trial {trial}: {f:?} vs {s:?}");
+                    }
+                }
+                other => panic!("trial {trial}: {other:?}"),
+            }
+        }
     }
 }

@@ -1,5 +1,6 @@
 //! Concepts, modifiers and compatibility constraints.
 
+use super::MAX_ENTITIES;
 use super::expr::Scope;
 use super::lower::{Checker, TypeSym, duplicate_statement, push_unique};
 use super::names::{Namespace, unknown};
@@ -21,6 +22,28 @@ impl Checker<'_> {
             if self.concepts.span(&name.name) == Some(name.span) {
                 self.d.concepts.push(concept);
             }
+        }
+        self.check_entity_count();
+    }
+
+    /// Every entity of a scene comes from an `add`; bounding them all bounds every anchor graph
+    /// and every scene, whichever concepts a set holds.
+    fn check_entity_count(&mut self) {
+        let adds = self.d.concepts.iter().flat_map(|c| &c.effects).filter_map(|e| match e {
+            Effect::Add { span, .. } => Some(*span),
+            _ => None,
+        });
+        if let Some(span) = adds.clone().nth(MAX_ENTITIES) {
+            let total = adds.count();
+            self.error(
+                Diagnostic::error(
+                    codes::COUNT_TOO_LARGE,
+                    span,
+                    format!("the concepts add {total} entities; a domain may add at most {MAX_ENTITIES}"),
+                )
+                .with_label(format!("entity {}", MAX_ENTITIES + 1))
+                .with_help("merge concepts that add the same entity, or split the domain"),
+            );
         }
     }
 

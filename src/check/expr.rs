@@ -1,5 +1,6 @@
 //! Conditions (`when …` of rules, shape parts and stage items) → IR expressions.
 
+use super::MAX_QUANTIFIERS;
 use super::lower::Checker;
 use super::names::unknown;
 use crate::diag::Diagnostic;
@@ -27,6 +28,14 @@ impl Scope {
     }
 }
 
+/// The variables bound around a point, quoted, outermost first.
+fn bound_names(scope: &Scope) -> String {
+    let own = scope.self_kinds.as_ref().map(|_| "self");
+    let names: Vec<String> =
+        own.into_iter().chain(scope.vars.iter().map(|(n, _)| n.as_str())).map(|n| format!("`{n}`")).collect();
+    names.join(", ")
+}
+
 impl Checker<'_> {
     pub(crate) fn lower_expr(&mut self, e: &ast::Expr, scope: &mut Scope) -> Option<Expr> {
         match &e.kind {
@@ -44,6 +53,20 @@ impl Checker<'_> {
             },
             ExprKind::Exists { var, filter, cond } => {
                 self.check_var_name(var)?;
+                let bound = scope.vars.len() + usize::from(scope.self_kinds.is_some());
+                if bound >= MAX_QUANTIFIERS {
+                    // Evaluation visits entities^depth bindings: the bound keeps it polynomial.
+                    self.error(
+                        Diagnostic::error(
+                            codes::TOO_MANY_QUANTIFIERS,
+                            var.span,
+                            format!("`exists {}` nests more than {MAX_QUANTIFIERS} quantifiers deep", var.name),
+                        )
+                        .with_label(format!("{} already bound here", bound_names(scope)))
+                        .with_help("split the condition into several rules, or compare fewer entities at once"),
+                    );
+                    return None;
+                }
                 let f = self.lower_filter(filter);
                 let kinds = self.matching_kinds(&f);
                 scope.vars.push((var.name.clone(), kinds));

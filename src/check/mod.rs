@@ -43,6 +43,27 @@ pub const MAX_FILE_BYTES: usize = 1 << 20;
 /// The most source text one compilation loads, all files together (8 MiB).
 pub const MAX_DOMAIN_BYTES: usize = 8 << 20;
 
+// Bounds on what a domain makes the later stages do (R0034, R0035), each far above the shipped
+// domains, so that no `.rev` file sizes an allocation or a rule evaluation past them. They are
+// stated in `docs/language.md`.
+
+/// The most `exists` one condition may nest (a shape condition's `self` counts as one): a rule
+/// evaluation visits at most entities^3 bindings. The shipped domains nest two.
+pub const MAX_QUANTIFIERS: usize = 3;
+
+/// The most entities a domain's concepts add, all together: the most any anchor graph or scene
+/// holds (the shipped domains add at most 35).
+pub const MAX_ENTITIES: usize = 128;
+
+/// The most parts one `shape { … }`, `look` or `stage` block may list.
+pub const MAX_SHAPE_PARTS: usize = 256;
+
+/// The largest `repeat` count of a stage item.
+pub const MAX_REPEAT: u32 = 1000;
+
+/// The most stage parts a scene may hold, repeats expanded, all stage items together.
+pub const MAX_STAGE_PARTS: u64 = 4096;
+
 /// A `use "PATH"` item, as handed to the `load` callback of [`compile`].
 #[derive(Debug, Clone, Copy)]
 pub struct UseRequest<'a> {

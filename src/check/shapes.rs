@@ -3,6 +3,7 @@
 
 use super::expr::Scope;
 use super::lower::{Checker, TypeSym, duplicate_statement};
+use super::{MAX_REPEAT, MAX_SHAPE_PARTS, MAX_STAGE_PARTS};
 use crate::diag::Diagnostic;
 use crate::diag::codes;
 use crate::ir::*;
@@ -54,6 +55,7 @@ impl Checker<'_> {
     }
 
     pub(crate) fn lower_stage(&mut self, items: &[(u32, &Item)]) {
+        let (mut stage_parts, mut reported) = (0u64, false);
         for (_, item) in items {
             let ItemKind::Stage { name, opts, parts } = &item.kind else { continue };
             let mut at = [0.0; 3];
@@ -74,7 +76,19 @@ impl Checker<'_> {
                 seen.push((key, span));
                 match o {
                     ast::StageOpt::At(v, _) => at = self.vec3(v, "length").unwrap_or(at),
-                    ast::StageOpt::Repeat { count, step, .. } => {
+                    ast::StageOpt::Repeat { count, step, span } => {
+                        if *count > MAX_REPEAT {
+                            self.error(
+                                Diagnostic::error(
+                                    codes::COUNT_TOO_LARGE,
+                                    *span,
+                                    format!("`repeat {count}` is over the most a stage item repeats, {MAX_REPEAT}"),
+                                )
+                                .with_label("too many copies")
+                                .with_help("use a longer `step` and fewer copies"),
+                            );
+                            continue;
+                        }
                         repeat = self.vec3(step, "length").map(|s| (*count, s));
                     }
                     ast::StageOpt::When(e, _) => when = self.lower_expr(e, &mut Scope::default()),
@@ -82,6 +96,23 @@ impl Checker<'_> {
             }
             let mut scope = Scope::default();
             let Some(parts) = self.lower_parts(parts, &mut scope) else { continue };
+            let copies = u64::from(repeat.map_or(1, |(n, _)| n));
+            stage_parts += parts.len() as u64 * copies;
+            if stage_parts > MAX_STAGE_PARTS && !reported {
+                reported = true;
+                self.error(
+                    Diagnostic::error(
+                        codes::COUNT_TOO_LARGE,
+                        name.span,
+                        format!(
+                            "stage `{}` brings the scene past {MAX_STAGE_PARTS} stage parts, repeats counted",
+                            name.name
+                        ),
+                    )
+                    .with_label(format!("{stage_parts} parts so far"))
+                    .with_help("repeat fewer copies, or draw fewer stage items"),
+                );
+            }
             if self.stages.span(&name.name) == Some(name.span) {
                 self.d.stage.push(StageItem { name: name.name.clone(), parts, at, repeat, when, span: item.span });
             }
@@ -92,6 +123,18 @@ impl Checker<'_> {
     pub(crate) fn lower_parts(&mut self, parts: &ast::Parts, scope: &mut Scope) -> Option<Vec<ShapePart>> {
         let mut out = Vec::new();
         let mut ok = true;
+        if let Some(past) = parts.parts.get(MAX_SHAPE_PARTS) {
+            self.error(
+                Diagnostic::error(
+                    codes::COUNT_TOO_LARGE,
+                    past.span,
+                    format!("a block may list at most {MAX_SHAPE_PARTS} parts; this one lists {}", parts.parts.len()),
+                )
+                .with_label(format!("part {}", MAX_SHAPE_PARTS + 1))
+                .with_help("split the block into several stage items, or use `repeat`"),
+            );
+            return None;
+        }
         for p in &parts.parts {
             match self.lower_part(p, scope) {
                 Some(part) => out.push(part),

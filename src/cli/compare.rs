@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crate::analysis::compare::{Rate, Row, RunFacts, row};
+use crate::diag::terminal_safe;
 use crate::run::runner;
 
 #[derive(clap::Args, Debug)]
@@ -49,7 +50,7 @@ pub fn run(args: CompareArgs) -> ExitCode {
     let rows = match rows(&args.run_dirs) {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", terminal_safe(&e.to_string()));
             return ExitCode::from(e.exit_code());
         }
     };
@@ -86,20 +87,24 @@ fn div(r: &Option<Rate>) -> String {
     r.as_ref().map_or_else(|| "-".into(), |r| format!("{:.2} [{:.2}, {:.2}]", r.value, r.low, r.high))
 }
 
+/// The table for the terminal. Names and paths come from the run folders, which whoever shared
+/// them controls: each is escaped ([`terminal_safe`]) before it is measured and printed.
 pub fn print_table(w: &mut impl Write, rows: &[Row]) -> std::io::Result<()> {
-    let mw = rows.iter().map(|r| r.model.len()).max().unwrap_or(5).max(5);
+    let safe: Vec<[String; 4]> =
+        rows.iter().map(|r| [&r.domain, &r.model, &r.algo, &r.run].map(|s| terminal_safe(s).into_owned())).collect();
+    let mw = safe.iter().map(|[_, model, ..]| model.len()).max().unwrap_or(5).max(5);
     writeln!(
         w,
         "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  run",
         "domain", "model", "algo", "PFM [95% CI]", "MFR [95% CI]", "Div [95% CI]", "modes", "cores", "calls", "cost"
     )?;
-    for r in rows {
+    for (r, [domain, model, algo, run]) in rows.iter().zip(&safe) {
         writeln!(
             w,
             "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  {}",
-            r.domain,
-            r.model,
-            r.algo,
+            domain,
+            model,
+            algo,
             rate(&r.pfm),
             rate(&r.mfr),
             div(&r.div),
@@ -107,7 +112,7 @@ pub fn print_table(w: &mut impl Write, rows: &[Row]) -> std::io::Result<()> {
             r.cores,
             r.calls,
             format!("${:.4}", r.cost_usd),
-            r.run
+            run
         )?;
     }
     Ok(())
@@ -219,5 +224,21 @@ mod tests {
         print_table(&mut t, &sample()).unwrap();
         let t = String::from_utf8(t).unwrap();
         assert!(t.contains("25.0% [22.4, 27.8]"), "{t}");
+    }
+
+    #[test]
+    fn the_table_escapes_names_and_paths_from_run_folders() {
+        let mut rows = sample();
+        rows[0].model = "m\u{1b}]0;owned\u{7}".into();
+        rows[0].domain = "d\u{9b}2J".into();
+        rows[0].run = "runs/\u{1b}[2J".into();
+        let mut t = Vec::new();
+        print_table(&mut t, &rows).unwrap();
+        let t = String::from_utf8(t).unwrap();
+        assert!(!t.contains(['\u{1b}', '\u{7}', '\u{9b}']), "{t:?}");
+        assert!(
+            t.contains("m\\u{1b}]0;owned\\u{7}") && t.contains("d\\u{9b}2J") && t.contains("runs/\\u{1b}[2J"),
+            "{t}"
+        );
     }
 }

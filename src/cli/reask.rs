@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::analysis::reask::Reask;
+use crate::diag::TerminalSafe;
 use crate::ir::{ConceptSet, Domain};
 use crate::journal::Journal;
 use crate::run::observe::{DomainWorld, Observer, World};
@@ -110,7 +111,7 @@ impl OpenRun {
         file: &str,
         result: &T,
         json: bool,
-        print: impl FnOnce(&mut std::io::StdoutLock<'static>) -> std::io::Result<()>,
+        print: impl FnOnce(&mut TerminalSafe<&mut std::io::StdoutLock<'static>>) -> std::io::Result<()>,
     ) -> ExitCode {
         if let Err(e) = self.reask.journal.write_json(file, result) {
             eprintln!("error: {e}");
@@ -120,7 +121,8 @@ impl OpenRun {
         let written = if json {
             serde_json::to_writer_pretty(&mut out, result).map_err(std::io::Error::from).and_then(|_| writeln!(out))
         } else {
-            print(&mut out).and_then(|()| writeln!(out, "written to {}", dir.join(file).display()))
+            let mut safe = TerminalSafe(&mut out);
+            print(&mut safe).and_then(|()| writeln!(safe, "written to {}", dir.join(file).display()))
         };
         drop(out);
         if written.is_ok() {

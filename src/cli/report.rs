@@ -5,6 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use crate::diag::{TerminalSafe, terminal_safe};
 use crate::ir::Domain;
 
 #[derive(clap::Args, Debug)]
@@ -20,7 +21,7 @@ pub fn run(args: ReportArgs) -> ExitCode {
     let run = match crate::report::load(&args.run_dir) {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", terminal_safe(&e.to_string()));
             // As `validate`: a folder that holds no finished run is a usage error.
             return ExitCode::from(2);
         }
@@ -29,7 +30,7 @@ pub fn run(args: ReportArgs) -> ExitCode {
     let out = args.out.unwrap_or_else(|| args.run_dir.join("report"));
     match crate::report::write(&run, domain.as_ref(), &out) {
         Ok(w) => {
-            println!("report: {}", w.index.display());
+            println!("report: {}", terminal_safe(&w.index.display().to_string()));
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -44,12 +45,17 @@ pub fn run(args: ReportArgs) -> ExitCode {
 fn run_domain(file: &str, hash: &str) -> Option<Domain> {
     let path = Path::new(file);
     if !path.is_file() {
+        // The path comes from the run folder's `config.json`.
+        let file = terminal_safe(file);
         eprintln!("note: the domain file `{file}` is gone; the report leaves out the oracle's explanations");
         return None;
     }
     let domain = crate::cli::load_domain(path).ok()?;
     if domain.identity().to_string() != hash {
-        eprintln!("note: `{file}` changed since the run; the report leaves out the oracle's explanations");
+        eprintln!(
+            "note: `{}` changed since the run; the report leaves out the oracle's explanations",
+            terminal_safe(file)
+        );
         return None;
     }
     Some(domain)
@@ -62,9 +68,9 @@ pub fn refresh(run_dir: &Path, domain: &Domain, json: bool) {
     let written =
         crate::report::load(run_dir).and_then(|run| crate::report::write(&run, Some(domain), &run_dir.join("report")));
     match written {
-        Ok(w) if json => eprintln!("report: {}", w.index.display()),
+        Ok(w) if json => eprintln!("report: {}", terminal_safe(&w.index.display().to_string())),
         // A closed stdout (`| head`) is no reason to panic here.
-        Ok(w) => drop(writeln!(std::io::stdout(), "report: {}", w.index.display())),
+        Ok(w) => drop(writeln!(TerminalSafe(std::io::stdout()), "report: {}", w.index.display())),
         Err(e) => eprintln!(
             "warning: the run is complete but its report was not written: {e}; `revelio report {}` tries again",
             run_dir.display()

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
+use crate::diag::{TerminalSafe, terminal_safe};
 use crate::lattice::Lattice;
 use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
@@ -279,7 +280,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
             .map_err(std::io::Error::from)
             .and_then(|_| writeln!(stdout))
     } else {
-        print_summary(&mut stdout, &report.summary, args.top, &out, started.elapsed())
+        print_summary(&mut TerminalSafe(&mut stdout), &report.summary, args.top, &out, started.elapsed())
     };
     if written.is_ok() {
         super::report::refresh(&out, &setup.domain, args.json);
@@ -309,7 +310,8 @@ fn fail(e: &RunError) -> ExitCode {
 
 /// Report a run that ended early; a stopped run says how to go on.
 pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
-    eprintln!("error: {e}");
+    // A run error may quote what a run folder holds (names, paths, a provider's reply).
+    eprintln!("error: {}", terminal_safe(&e.to_string()));
     if e.resumable() {
         eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
     }

@@ -16,6 +16,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
+use crate::diag::TerminalSafe;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
 use crate::run::setup::{self, Parts, SetupError};
@@ -113,7 +114,7 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &v).map_err(std::io::Error::from).and_then(|_| writeln!(out))
     } else {
-        print_validation(&mut out, &v).and_then(|()| {
+        print_validation(&mut TerminalSafe(&mut out), &v).and_then(|()| {
             writeln!(
                 out,
                 "written to {}",

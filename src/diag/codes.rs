@@ -39,6 +39,8 @@ codes! {
     DIMENSION_MISMATCH = "R0031", "dimension-mismatch", "a number whose unit measures the wrong dimension";
     OUT_OF_RANGE = "R0032", "out-of-range", "a value outside the attribute's `in MIN..MAX` bounds";
     EMPTY_RANGE = "R0033", "empty-range", "a range `a..b` with `a > b`";
+    TOO_MANY_QUANTIFIERS = "R0034", "too-many-quantifiers", "a condition that nests more than 3 `exists` (a shape condition's `self` counts as one)";
+    COUNT_TOO_LARGE = "R0035", "count-too-large", "a count past its bound: `repeat` over 1 000, over 4 096 stage parts with repeats, over 256 parts in one block, over 128 entities added";
     MISPLACED_STATEMENT = "R0040", "misplaced-statement", "a statement where it means nothing (`move` in a concept, `add` in a modifier, …)";
     MISSING_STATEMENT = "R0041", "missing-statement", "a required statement is missing (a modifier's `target`, a rule's `expect`, a shape part's `size`, …)";
     DUPLICATE_STATEMENT = "R0042", "duplicate-statement", "a statement or setting given twice where only one counts";

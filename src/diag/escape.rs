@@ -23,6 +23,36 @@ pub fn terminal_safe(text: &str) -> Cow<'_, str> {
     Cow::Owned(out)
 }
 
+/// A writer that passes everything through [`terminal_safe`]: the plain-text output of the
+/// commands that print what a run folder holds (model and domain names, concept names, paths),
+/// which a shared or downloaded run folder controls. JSON output needs no wrapper (serde escapes
+/// control characters) and must not get one (`\u{…}` is no JSON escape).
+pub struct TerminalSafe<W>(pub W);
+
+impl<W: std::io::Write> std::io::Write for TerminalSafe<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        // `write!` hands over whole `str` pieces, so a character is never split between calls;
+        // bytes that are no UTF-8 have their control bytes escaped one by one.
+        match std::str::from_utf8(buf) {
+            Ok(s) => self.0.write_all(terminal_safe(s).as_bytes())?,
+            Err(_) => {
+                for &b in buf {
+                    if (b < 0x20 && b != b'\n' && b != b'\t') || b == 0x7f {
+                        write!(self.0, "\\u{{{b:x}}}")?;
+                    } else {
+                        self.0.write_all(&[b])?;
+                    }
+                }
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
 fn unsafe_char(c: char) -> bool {
     (c.is_control() && c != '\n' && c != '\t') || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
 }
@@ -39,5 +69,15 @@ mod tests {
         assert_eq!(terminal_safe("abc\u{202e}cba"), "abc\\u{202e}cba");
         let once = terminal_safe("\u{1b}[31m").into_owned();
         assert_eq!(terminal_safe(&once), once, "idempotent");
+    }
+
+    #[test]
+    fn the_writer_escapes_what_passes_through() {
+        use std::io::Write as _;
+        let mut w = TerminalSafe(Vec::new());
+        let name = "x\u{1b}]0;owned\u{7}";
+        writeln!(w, "model {name}").unwrap();
+        w.write_all(b"\xff\x1b[2J").unwrap();
+        assert_eq!(w.0, b"model x\\u{1b}]0;owned\\u{7}\n\xff\\u{1b}[2J");
     }
 }

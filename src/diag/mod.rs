@@ -7,7 +7,7 @@ pub mod codes;
 mod escape;
 pub mod suggest;
 
-pub use escape::terminal_safe;
+pub use escape::{TerminalSafe, terminal_safe};
 
 use serde::{Deserialize, Serialize};
 

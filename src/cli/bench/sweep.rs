@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::analysis::sweep::{Point, Sweep, plot};
+use crate::diag::TerminalSafe;
 use crate::ir::{ConceptSet, Domain};
 use crate::run::observe::World;
 use crate::search::interval::mean_sd;
@@ -95,7 +96,8 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
     let written = if args.json {
         serde_json::to_writer_pretty(&mut w, &points).map_err(std::io::Error::from).and_then(|_| writeln!(w))
     } else {
-        print(&mut w, args, sweep, &points).and_then(|()| writeln!(w, "plot: {}", path.display()))
+        let mut safe = TerminalSafe(&mut w);
+        print(&mut safe, args, sweep, &points).and_then(|()| writeln!(safe, "plot: {}", path.display()))
     };
     match written {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {

@@ -3,25 +3,30 @@
 use pest::iterators::Pair;
 
 use super::literals::{cmp_op, span_text};
-use super::{Builder, Children, MAX_NESTING, not_chain, too_deep};
+use super::{Builder, Children};
 use crate::syntax::ast::*;
-use crate::syntax::grammar::Rule;
+use crate::syntax::grammar::{Rule, is_keyword};
 
 impl Builder<'_> {
-    pub(super) fn expr(&mut self, p: Pair<Rule>) -> Expr {
+    pub(super) fn expr(&mut self, mut p: Pair<Rule>) -> Expr {
+        // An `or` or `and` of one term (every level of brackets has two) is that term: step
+        // down to it here rather than recurse, so the tree builder uses as little stack per
+        // level of nesting as the budget ([`super::MAX_NESTING`]) assumes.
+        while matches!(p.as_rule(), Rule::expr | Rule::and_expr) {
+            let mut terms = p.clone().into_inner().filter(|t| !is_keyword(t.as_rule()));
+            match (terms.next(), terms.next()) {
+                (Some(only), None) => p = only,
+                _ => break,
+            }
+        }
         let span = self.span(&p);
         let rule = p.as_rule();
-        if rule == Rule::not_expr && not_chain(p.clone()) > MAX_NESTING {
-            // `not not not …` nests without parentheses; the same limit applies.
-            self.diagnostics.push(too_deep(span));
-            return Expr { kind: ExprKind::Bool(false), span };
-        }
         let mut c = Children::of(p);
         let kind = match rule {
             Rule::expr | Rule::and_expr => {
-                let mut terms: Vec<Expr> = c.rest().map(|t| self.expr(t)).collect();
-                if terms.len() == 1 {
-                    return terms.pop().expect("one term");
+                let mut terms = Vec::new();
+                for t in c.rest() {
+                    terms.push(self.expr(t));
                 }
                 if rule == Rule::expr { ExprKind::Or(terms) } else { ExprKind::And(terms) }
             }

@@ -21,7 +21,7 @@ use pest::iterators::Pair;
 
 use super::ast::*;
 use super::grammar::{RevParser, Rule, is_keyword};
-use super::lexer::{self, Token};
+use super::lexer::{self, Token, TokenKind};
 use crate::diag::Diagnostic;
 use crate::diag::codes;
 use crate::ir::Span;
@@ -52,7 +52,7 @@ pub fn parse(file: u32, text: &str) -> Parsed {
     pest::set_call_limit(NonZeroUsize::new(CALL_LIMIT));
     pest::set_error_detail(true);
     let mut b = Builder { file, text, tokens: lexer::lex(text), diagnostics: Vec::new() };
-    if let Some(pos) = too_deep_at(text) {
+    if let Some(pos) = too_deep_at(text, &b.tokens) {
         // The tree builder and the checker recurse over nesting; refuse before either runs.
         let span = b.span_at(pos, pos + 1);
         b.diagnostics.push(too_deep(span));
@@ -76,58 +76,110 @@ pub fn parse(file: u32, text: &str) -> Parsed {
     Parsed { file: File { items }, diagnostics: b.diagnostics }
 }
 
-/// Deepest `(`/`{` nesting accepted; real files stay below 10.
-pub const MAX_NESTING: usize = 200;
+/// The one nesting budget of the front end: the most levels of `(`, `{`, `not` and
+/// `exists … where` that one point of a file may stand inside. Every later stage (the tree
+/// builder, the checker, the oracle, the formatter, the language server) recurses over this
+/// nesting, so a file past it is refused here, before any of them runs; real files stay below 10.
+pub const MAX_NESTING: usize = 100;
 
 fn too_deep(span: Span) -> Diagnostic {
     Diagnostic::error(codes::TOO_DEEP, span, "the input nests too deeply to parse")
-        .with_label(format!("more than {MAX_NESTING} levels of `(` and `{{`"))
+        .with_label(format!("more than {MAX_NESTING} levels of `(`, `{{`, `not` and `where`"))
         .with_help("split deeply nested expressions into several rules or `and` terms")
 }
 
-/// How many `not`s are chained at this node.
-fn not_chain(mut p: Pair<Rule>) -> usize {
-    let mut depth = 0;
-    while p.as_rule() == Rule::not_expr {
-        depth += 1;
-        match Children::of(p).rest().next() {
-            Some(inner) => p = inner,
-            None => break,
-        }
-    }
-    depth
-}
-
-/// Where `(`/`{` nesting first exceeds [`MAX_NESTING`], outside strings and comments.
-fn too_deep_at(text: &str) -> Option<usize> {
-    let bytes = text.as_bytes();
-    let (mut depth, mut i) = (0usize, 0usize);
-    while i < bytes.len() {
-        match bytes[i] {
-            b'(' | b'{' => {
-                depth += 1;
-                if depth > MAX_NESTING {
-                    return Some(i);
+/// Where the nesting first exceeds [`MAX_NESTING`], read from the tokens so that it runs before
+/// pest (whose descent recurses too) and cannot itself overflow.
+///
+/// The count never falls short of the nesting any parse of the text reaches; it may overcount:
+/// - `(` and `{` open a level until their closer; a bracket inside an unclosed `"` string counts
+///   too, as recovery reads that text outside any string.
+/// - `where` opens a level that lasts to the end of the enclosing bracket: its condition runs to
+///   the end of the expression, and an expression ends no later than its bracket.
+/// - A `not` before `not` or `exists` lasts as long; a `not` before `(` is one more level for
+///   that bracket; a `not` before anything else is one level for the one term it negates.
+/// - A `}` ends the item or statement around it (no expression holds a `{`), so the `not` and
+///   `where` levels open in the enclosing bracket close with it.
+fn too_deep_at(text: &str, tokens: &[Token]) -> Option<usize> {
+    let mut nesting = Nesting { frames: vec![Frame { open: 0, negated: false }], depth: 0 };
+    let significant: Vec<&Token> = tokens.iter().filter(|t| !t.kind.is_trivia()).collect();
+    let mut not_before_paren = false;
+    for (i, t) in significant.iter().enumerate() {
+        let mut at = t.start as usize;
+        let over = match t.kind {
+            TokenKind::LParen | TokenKind::LBrace | TokenKind::RParen | TokenKind::RBrace => {
+                nesting.bracket(text.as_bytes()[at], std::mem::take(&mut not_before_paren))
+            }
+            TokenKind::UnterminatedString => match t.text(text).bytes().position(|b| nesting.bracket(b, false)) {
+                Some(j) => {
+                    at += j;
+                    true
+                }
+                None => false,
+            },
+            TokenKind::Ident if t.text(text) == "where" => nesting.open(),
+            TokenKind::Ident if t.text(text) == "not" => {
+                match significant.get(i + 1).map(|n| (n.kind, n.text(text))) {
+                    Some((TokenKind::LParen, _)) => {
+                        not_before_paren = true;
+                        false
+                    }
+                    Some((TokenKind::Ident, "not" | "exists")) => nesting.open(),
+                    // One term, whose own nesting is counted as it comes.
+                    _ => nesting.depth + 1 > MAX_NESTING,
                 }
             }
-            b')' | b'}' => depth = depth.saturating_sub(1),
-            b'/' if bytes.get(i + 1) == Some(&b'/') => {
-                i += text[i..].find('\n').unwrap_or(text.len() - i);
-            }
-            b'"' if text[i..].starts_with("\"\"\"") => {
-                i += 3 + text[i + 3..].find("\"\"\"").map_or(text.len() - i - 3, |e| e + 2);
-            }
-            b'"' => {
-                i += 1;
-                while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
-                    i += if bytes[i] == b'\\' { 2 } else { 1 };
-                }
-            }
-            _ => {}
+            _ => false,
+        };
+        if over {
+            return Some(at);
         }
-        i += 1;
     }
     None
+}
+
+/// The running count of [`too_deep_at`]: one frame per open bracket, plus the file's.
+struct Nesting {
+    frames: Vec<Frame>,
+    depth: usize,
+}
+
+struct Frame {
+    /// `not` and `where` levels opened inside this bracket and still open.
+    open: usize,
+    /// Whether a `not` stands right before the bracket (one more level while it is open).
+    negated: bool,
+}
+
+impl Nesting {
+    /// Open a `not`/`where` level in the innermost bracket; whether the budget is passed.
+    fn open(&mut self) -> bool {
+        self.frames.last_mut().expect("the file frame stays").open += 1;
+        self.depth += 1;
+        self.depth > MAX_NESTING
+    }
+
+    /// Count byte `b` if it is a bracket; whether the budget is passed.
+    fn bracket(&mut self, b: u8, negated: bool) -> bool {
+        match b {
+            b'(' | b'{' => {
+                self.depth += 1 + usize::from(negated);
+                self.frames.push(Frame { open: 0, negated });
+                self.depth > MAX_NESTING
+            }
+            b')' | b'}' if self.frames.len() > 1 => {
+                let f = self.frames.pop().expect("more than the file frame");
+                self.depth -= 1 + usize::from(f.negated) + f.open;
+                if b == b'}' {
+                    let parent = self.frames.last_mut().expect("the file frame stays");
+                    self.depth -= parent.open;
+                    parent.open = 0;
+                }
+                false
+            }
+            _ => false,
+        }
+    }
 }
 
 struct Builder<'t> {

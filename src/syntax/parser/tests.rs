@@ -87,11 +87,145 @@ fn expected_tokens_point_at_the_mistake() {
     assert_eq!(&text[d.span.unwrap().start as usize..d.span.unwrap().end as usize], "blue");
 }
 
+fn deep_at(text: &str) -> Option<usize> {
+    too_deep_at(text, &lexer::lex(text))
+}
+
 #[test]
 fn nesting_limit_ignores_strings_and_comments() {
     let parens = "(".repeat(MAX_NESTING + 1);
-    assert_eq!(too_deep_at(&format!("// {parens}\n\"{parens}\" \"\"\"{parens}\"\"\"")), None);
-    assert_eq!(too_deep_at(&format!("x {parens}")), Some(2 + MAX_NESTING));
+    assert_eq!(deep_at(&format!("// {parens}\n\"{parens}\" \"\"\"{parens}\"\"\"")), None);
+    assert_eq!(deep_at(&format!("x {parens}")), Some(2 + MAX_NESTING));
+    // An unclosed string is read by recovery as plain text: its brackets count.
+    assert_eq!(deep_at(&format!("x \"{parens}")), Some(3 + MAX_NESTING));
+}
+
+#[test]
+fn every_nesting_construct_counts_against_one_budget() {
+    let n = MAX_NESTING + 1;
+    let rule = |cond: String| format!("rules p {{ rule r {{ when {cond} expect q.a }} }}");
+    let over = [
+        rule(format!("{}true", "exists e: K where ".repeat(n))),
+        rule(format!("{}true", "not ".repeat(n))),
+        rule(format!("{}true{}", "not (".repeat(n / 2 + 1), ")".repeat(n / 2 + 1))),
+        rule(format!("{}true", "exists e: K where not exists f: K where ".repeat(n / 3 + 1))),
+        rule(format!("{}true{}", "(exists e: K where ".repeat(n / 2 + 1), ")".repeat(n / 2 + 1))),
+        format!("kind K {{ shape {{ box when {}true }} }}", "(".repeat(n - 2)),
+    ];
+    for text in &over {
+        assert!(deep_at(text).is_some(), "{}", &text[..80]);
+        let p = parse(0, text);
+        assert_eq!(p.diagnostics.iter().map(|d| d.code).collect::<Vec<_>>(), [codes::TOO_DEEP]);
+    }
+    // `where` and `not` levels close with their bracket, and a `}` ends the statement: many
+    // rules, parts and bracketed terms each within the budget add up to nothing.
+    let many_rules =
+        (0..500).map(|_| rule("exists e: K where not exists f: K where e near f".into())).collect::<String>();
+    let many_terms = rule(vec!["(exists e: K where not e.a == 1)"; 500].join(" and "));
+    let leaf_nots = rule(vec!["not has c"; 500].join(" and "));
+    for text in [many_rules, many_terms, leaf_nots] {
+        assert_eq!(deep_at(&text), None, "{}", &text[..80]);
+    }
+}
+
+/// A random well-formed condition and its true nesting (levels of `(`, `not` and `where` around
+/// its deepest point). An `and`/`or` takes a leaf or a bracketed term on its left, so that no
+/// `where` there swallows the right side and the tracked nesting is the parsed one.
+struct Gen(u64);
+
+impl Gen {
+    fn below(&mut self, n: u64) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0 % n
+    }
+
+    fn leaf(&mut self) -> &'static str {
+        ["a.b == 1", "has c", "e near f", "true"][self.below(4) as usize]
+    }
+
+    /// A condition at nesting `at` that goes on nesting up to about `target`: its text and the
+    /// deepest nesting inside it.
+    fn expr(&mut self, at: usize, target: usize) -> (String, usize) {
+        match (at < target, self.below(5)) {
+            (false, 0) => (format!("not {}", self.leaf()), at + 1),
+            (false, _) => (self.leaf().to_string(), at),
+            (true, 0) => {
+                let (inner, d) = self.expr(at, target);
+                let (left, l) = if self.below(2) == 0 {
+                    (self.leaf().to_string(), at)
+                } else {
+                    let side = at + 1 + self.below(4) as usize;
+                    let (i, l) = self.expr(at + 1, side);
+                    (format!("({i})"), l)
+                };
+                (format!("{left} {} {inner}", ["and", "or"][self.below(2) as usize]), d.max(l))
+            }
+            (true, 1) => {
+                let (inner, d) = self.expr(at + 1, target);
+                (format!("({inner})"), d)
+            }
+            (true, 2) => {
+                // `not` takes one term: not a where-less `exists`, which the count takes for a
+                // `where` to come (a harmless overcount this property does not measure).
+                let (inner, d) = match self.below(2) {
+                    0 => {
+                        let (i, d) = self.expr(at + 2, target);
+                        (format!("({i})"), d)
+                    }
+                    _ => {
+                        let (i, d) = self.expr(at + 2, target);
+                        (format!("exists g: K where {i}"), d)
+                    }
+                };
+                (format!("not {inner}"), d.max(at + 1))
+            }
+            (true, _) => {
+                let (inner, d) = self.expr(at + 1, target);
+                (format!("exists e: K where {inner}"), d)
+            }
+        }
+    }
+}
+
+/// The nesting of a parsed condition: how deep the later stages recurse over it.
+fn expr_depth(e: &Expr) -> usize {
+    1 + match &e.kind {
+        ExprKind::Not(inner) => expr_depth(inner),
+        ExprKind::And(ts) | ExprKind::Or(ts) => ts.iter().map(expr_depth).max().unwrap_or(0),
+        ExprKind::Exists { cond: Some(c), .. } => expr_depth(c),
+        _ => 0,
+    }
+}
+
+/// Property, on random well-formed conditions around the budget: one past it is refused (the
+/// count never falls short), one within it parses, and what parses nests at most twice the
+/// budget in the tree (an `and`/`or` node between two counted levels), so no later stage
+/// recurses deeper than that.
+#[test]
+fn the_nesting_count_is_exact_on_random_conditions() {
+    let mut g = Gen(0x2545_f491_4f6c_dd1d);
+    let (mut refused, mut parsed) = (0, 0);
+    for _ in 0..300 {
+        let target = MAX_NESTING * 3 / 4 + g.below(MAX_NESTING as u64 / 2) as usize;
+        let (cond, depth) = g.expr(0, target);
+        let text = format!("rules p {{ rule r {{ when {cond} expect q.a }} }}");
+        let p = parse(0, &text);
+        let too_deep = p.diagnostics.iter().any(|d| d.code == codes::TOO_DEEP);
+        // The rule's `{` and the `rules` block's `{` are two levels more.
+        assert_eq!(too_deep, depth + 2 > MAX_NESTING, "depth {depth}: {cond}");
+        if too_deep {
+            refused += 1;
+            continue;
+        }
+        parsed += 1;
+        assert!(p.diagnostics.is_empty(), "{:?} for {cond}", p.diagnostics);
+        let ItemKind::Rules { rules, .. } = &p.file.items[0].kind else { panic!("{cond}") };
+        let Some(RuleStmt::When(e, _)) = rules[0].stmts.first() else { panic!("{cond}") };
+        assert!(expr_depth(e) <= 2 * MAX_NESTING + 1, "tree depth {} for {cond}", expr_depth(e));
+    }
+    assert!(refused > 20 && parsed > 20, "{refused} refused, {parsed} parsed");
 }
 
 /// The raw-text scan the token layer replaced, kept as the reference it must agree with.
