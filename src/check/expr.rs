@@ -11,7 +11,8 @@ use crate::syntax::ast::{self, ExprKind, Ident};
 /// stand for) and, in shape conditions, `self`.
 #[derive(Debug, Default)]
 pub(crate) struct Scope {
-    vars: Vec<(String, Vec<KindId>)>,
+    /// Name, where it is bound, kinds.
+    vars: Vec<(String, crate::ir::Span, Vec<KindId>)>,
     self_kinds: Option<Vec<KindId>>,
 }
 
@@ -19,11 +20,12 @@ impl Scope {
     pub fn for_self(kinds: Vec<KindId>) -> Self {
         Scope { vars: Vec::new(), self_kinds: Some(kinds) }
     }
-    fn lookup(&self, name: &str) -> Option<&Vec<KindId>> {
+    /// The kinds a name stands for, and where it is bound (`None` for `self`).
+    fn lookup(&self, name: &str) -> Option<(&Vec<KindId>, Option<crate::ir::Span>)> {
         if name == "self" {
-            return self.self_kinds.as_ref();
+            return self.self_kinds.as_ref().map(|k| (k, None));
         }
-        self.vars.iter().rev().find(|(n, _)| n == name).map(|(_, k)| k)
+        self.vars.iter().rev().find(|(n, _, _)| n == name).map(|(_, s, k)| (k, Some(*s)))
     }
 }
 
@@ -35,7 +37,10 @@ impl Checker<'_> {
             ExprKind::And(terms) => self.lower_terms(terms, scope).map(Expr::And),
             ExprKind::Or(terms) => self.lower_terms(terms, scope).map(Expr::Or),
             ExprKind::Has(name) => match self.concepts.get(&name.name) {
-                Some(id) => Some(Expr::Has(*id)),
+                Some(&id) => {
+                    self.refer(name, self.concepts.span(&name.name));
+                    Some(Expr::Has(id))
+                }
                 None => {
                     let d = unknown("concept", name, self.concepts.names());
                     self.error(d);
@@ -46,7 +51,7 @@ impl Checker<'_> {
                 self.check_var_name(var)?;
                 let f = self.lower_filter(filter);
                 let kinds = self.matching_kinds(&f);
-                scope.vars.push((var.name.clone(), kinds));
+                scope.vars.push((var.name.clone(), var.span, kinds));
                 let cond = cond.as_ref().map(|c| self.lower_expr(c, scope));
                 scope.vars.pop();
                 let cond = match cond {
@@ -61,7 +66,10 @@ impl Checker<'_> {
             ExprKind::In { var, region } => {
                 self.bound_var(var, scope)?;
                 match self.regions.get(&region.name) {
-                    Some(r) => Some(Expr::InRegion { var: var.name.clone(), region: *r }),
+                    Some(&r) => {
+                        self.refer(region, self.regions.span(&region.name));
+                        Some(Expr::InRegion { var: var.name.clone(), region: r })
+                    }
                     None => {
                         let d = unknown("region", region, self.regions.names());
                         self.error(d);
@@ -78,6 +86,7 @@ impl Checker<'_> {
                     let d = unknown("relation", relation, self.relations.names());
                     self.error(d);
                 }
+                self.refer(relation, self.relations.span(&relation.name));
                 let to = if to.name == "ego" {
                     None
                 } else {
@@ -108,8 +117,10 @@ impl Checker<'_> {
 
     /// The kinds a variable may stand for, reporting an unbound one.
     fn bound_var(&mut self, var: &Ident, scope: &Scope) -> Option<Vec<KindId>> {
-        if let Some(k) = scope.lookup(&var.name) {
-            return Some(k.clone());
+        if let Some((k, bound)) = scope.lookup(&var.name) {
+            let k = k.clone();
+            self.refer(var, bound);
+            return Some(k);
         }
         let d = if var.name == "self" {
             Diagnostic::error(codes::BAD_REFERENCE, var.span, "`self` is only bound in shape conditions")
@@ -223,7 +234,10 @@ impl Checker<'_> {
         };
         let (var, ty) = if head.name == "world" {
             match self.world_attrs.get(&attr.name) {
-                Some(&i) => (None, self.d.world[i].ty.clone()),
+                Some(&i) => {
+                    self.refer(attr, self.world_attrs.span(&attr.name));
+                    (None, self.d.world[i].ty.clone())
+                }
                 None => {
                     let mut d = unknown("world attribute", attr, self.world_attrs.names());
                     d.code = codes::UNKNOWN_ATTR;
@@ -243,7 +257,9 @@ impl Checker<'_> {
         for k in kinds {
             let kind = &self.d.kinds[k.index()];
             if let Some(i) = kind.attr(&attr.name) {
-                return Some(kind.attrs[i].ty.clone());
+                let (ty, decl) = (kind.attrs[i].ty.clone(), kind.attrs[i].span);
+                self.refer(attr, Some(decl));
+                return Some(ty);
             }
         }
         let mut names: Vec<&str> = Vec::new();
