@@ -1,7 +1,10 @@
 //! The VS Code extension packages without a question asked: `npm install` of its one
 //! dependency (vscode-languageclient) and `npx @vscode/vsce package`, in a copy of
 //! `editors/vscode/`. Needs `node`/`npx` and the npm registry; without `npx` the test says so
-//! and passes (CI's machine has node).
+//! and passes, or fails where `REVELIO_REQUIRE_PEERS` is set (`.ci/run` installs node and sets
+//! it).
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -41,7 +44,7 @@ fn run(dir: &Path, program: &str, args: &[&str]) {
 #[test]
 fn the_vscode_extension_packages_non_interactively() {
     if Command::new("npx").arg("--version").stdin(Stdio::null()).output().is_err() {
-        eprintln!("note: skipping the VS Code packaging test: `npx` (node) is not installed");
+        common::peer_missing("the VS Code packaging test", "`npx` (node) is not installed (`.ci/run` installs it)");
         return;
     }
     let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("editors/vscode");

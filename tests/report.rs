@@ -2,7 +2,11 @@
 //! `probe` and `transfer` refresh it and print its path, every file the page links exists, every
 //! core has its card with the renderer's visibility figures, the probe and transfer sections are
 //! there — and a real browser (headless Chromium) opens it with every image loaded and no error
-//! logged. Without Chromium the browser test says so and skips (`.ci/run` installs it).
+//! logged. Without Chromium the browser test says so and skips, or fails where
+//! `REVELIO_REQUIRE_PEERS` is set (`.ci/run` installs Chromium and sets it).
+
+mod common;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -319,8 +323,9 @@ fn page_errors(events: &[Value]) -> Vec<String> {
 #[test]
 fn chromium_loads_every_image_without_errors() {
     let Some(exe) = chromium() else {
-        eprintln!(
-            "skipped: no chromium on the PATH, so the report was not opened in a browser (`.ci/run` installs Debian's `chromium`; or `apt-get install chromium`)"
+        common::peer_missing(
+            "the browser test",
+            "no chromium on the PATH, so the report was not opened in a browser (`.ci/run` installs Debian's `chromium`; or `apt-get install chromium`)",
         );
         return;
     };

@@ -3,7 +3,8 @@
 //! reply fixtures its parsers are checked with here, validated by `openai`, `anthropic` and
 //! `google-genai` (`tests/sdk/check_shapes.py`). Needs Python 3 with `venv`; the first run
 //! installs the pinned SDKs into `target/sdk-venv` from PyPI. Without Python or PyPI the test
-//! prints a note and passes: the shapes are also pinned by the unit tests of each provider.
+//! prints a note and passes (the shapes are also pinned by the unit tests of each provider), or
+//! fails with the reason where `REVELIO_REQUIRE_PEERS` is set, as `.ci/run` does.
 //! Bedrock is left out (its SDK, boto3, has no request types to check against).
 
 mod common;
@@ -32,7 +33,7 @@ fn sdk_python() -> Option<PathBuf> {
     match python {
         Ok(python) => Some(python.clone()),
         Err(e) => {
-            eprintln!("note: {e}: the SDK shape check is skipped");
+            common::peer_missing("the SDK shape check", e);
             None
         }
     }

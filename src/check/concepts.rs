@@ -235,6 +235,7 @@ impl Checker<'_> {
                     self.error(d);
                     return None;
                 }
+                self.refer(rel, self.relations.span(&rel.name));
                 let to = if to.name == "ego" {
                     None
                 } else if to.name == name.name {
@@ -249,6 +250,9 @@ impl Checker<'_> {
                     );
                     return None;
                 } else if self.entity_names.contains(&to.name) {
+                    // An entity of this concept, else the first concept's that adds one so named.
+                    let decl = entities.span(&to.name).or_else(|| self.entity_spans.get(&to.name).copied());
+                    self.refer(to, decl);
                     Some(to.name.clone())
                 } else {
                     let mut d = unknown("entity", to, self.entity_names.iter().map(String::as_str));
@@ -274,6 +278,8 @@ impl Checker<'_> {
             match kd.attr(&attr.name) {
                 Some(i) => {
                     let ty = kd.attrs[i].ty.clone();
+                    let decl = kd.attrs[i].span;
+                    self.refer(attr, Some(decl));
                     match self.lower_value(v, &ty, &attr.name) {
                         Some(val) => values.push((attr.name.clone(), val)),
                         None => ok = false,
@@ -301,7 +307,10 @@ impl Checker<'_> {
 
     fn resolve_region(&mut self, region: &Ident) -> Option<RegionId> {
         match self.regions.get(&region.name) {
-            Some(r) => Some(*r),
+            Some(&r) => {
+                self.refer(region, self.regions.span(&region.name));
+                Some(r)
+            }
             None => {
                 let d = unknown("region", region, self.regions.names());
                 self.error(d);
@@ -358,6 +367,7 @@ impl Checker<'_> {
             self.error(d);
             return None;
         };
+        self.refer(attr, self.world_attrs.span(&attr.name));
         let ty = self.d.world[i].ty.clone();
         let value = self.lower_value(value, &ty, &attr.name)?;
         Some(Effect::SetWorld { attr: attr.name.clone(), value, span })
@@ -406,7 +416,9 @@ impl Checker<'_> {
             );
         }
         let kd = &self.d.kinds[first.index()];
-        let ty = kd.attrs[kd.attr(&attr.name)?].ty.clone();
+        let def = &kd.attrs[kd.attr(&attr.name)?];
+        let (ty, decl) = (def.ty.clone(), def.span);
+        self.refer(attr, Some(decl));
         let value = self.lower_value(value, &ty, &attr.name)?;
         Some(Effect::SetTarget { attr: attr.name.clone(), value, span })
     }
@@ -536,7 +548,10 @@ impl Checker<'_> {
         match m {
             Member::Name(n) => match self.concepts.get(&n.name) {
                 // A concept past the set width was reported (R0044) and takes no bit.
-                Some(id) => (id.index() < MAX_CONCEPTS).then(|| ConceptSet::single(*id)),
+                Some(&id) => {
+                    self.refer(n, self.concepts.span(&n.name));
+                    (id.index() < MAX_CONCEPTS).then(|| ConceptSet::single(id))
+                }
                 None => {
                     let d = unknown("concept", n, self.concepts.names());
                     self.error(d);

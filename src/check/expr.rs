@@ -12,7 +12,8 @@ use crate::syntax::ast::{self, ExprKind, Ident};
 /// stand for) and, in shape conditions, `self`.
 #[derive(Debug, Default)]
 pub(crate) struct Scope {
-    vars: Vec<(String, Vec<KindId>)>,
+    /// Name, where it is bound, kinds.
+    vars: Vec<(String, crate::ir::Span, Vec<KindId>)>,
     self_kinds: Option<Vec<KindId>>,
 }
 
@@ -20,11 +21,12 @@ impl Scope {
     pub fn for_self(kinds: Vec<KindId>) -> Self {
         Scope { vars: Vec::new(), self_kinds: Some(kinds) }
     }
-    fn lookup(&self, name: &str) -> Option<&Vec<KindId>> {
+    /// The kinds a name stands for, and where it is bound (`None` for `self`).
+    fn lookup(&self, name: &str) -> Option<(&Vec<KindId>, Option<crate::ir::Span>)> {
         if name == "self" {
-            return self.self_kinds.as_ref();
+            return self.self_kinds.as_ref().map(|k| (k, None));
         }
-        self.vars.iter().rev().find(|(n, _)| n == name).map(|(_, k)| k)
+        self.vars.iter().rev().find(|(n, _, _)| n == name).map(|(_, s, k)| (k, Some(*s)))
     }
 }
 
@@ -32,7 +34,7 @@ impl Scope {
 fn bound_names(scope: &Scope) -> String {
     let own = scope.self_kinds.as_ref().map(|_| "self");
     let names: Vec<String> =
-        own.into_iter().chain(scope.vars.iter().map(|(n, _)| n.as_str())).map(|n| format!("`{n}`")).collect();
+        own.into_iter().chain(scope.vars.iter().map(|(n, _, _)| n.as_str())).map(|n| format!("`{n}`")).collect();
     names.join(", ")
 }
 
@@ -44,7 +46,10 @@ impl Checker<'_> {
             ExprKind::And(terms) => self.lower_terms(terms, scope).map(Expr::And),
             ExprKind::Or(terms) => self.lower_terms(terms, scope).map(Expr::Or),
             ExprKind::Has(name) => match self.concepts.get(&name.name) {
-                Some(id) => Some(Expr::Has(*id)),
+                Some(&id) => {
+                    self.refer(name, self.concepts.span(&name.name));
+                    Some(Expr::Has(id))
+                }
                 None => {
                     let d = unknown("concept", name, self.concepts.names());
                     self.error(d);
@@ -69,7 +74,7 @@ impl Checker<'_> {
                 }
                 let f = self.lower_filter(filter);
                 let kinds = self.matching_kinds(&f);
-                scope.vars.push((var.name.clone(), kinds));
+                scope.vars.push((var.name.clone(), var.span, kinds));
                 let cond = cond.as_ref().map(|c| self.lower_expr(c, scope));
                 scope.vars.pop();
                 let cond = match cond {
@@ -84,7 +89,10 @@ impl Checker<'_> {
             ExprKind::In { var, region } => {
                 self.bound_var(var, scope)?;
                 match self.regions.get(&region.name) {
-                    Some(r) => Some(Expr::InRegion { var: var.name.clone(), region: *r }),
+                    Some(&r) => {
+                        self.refer(region, self.regions.span(&region.name));
+                        Some(Expr::InRegion { var: var.name.clone(), region: r })
+                    }
                     None => {
                         let d = unknown("region", region, self.regions.names());
                         self.error(d);
@@ -101,6 +109,7 @@ impl Checker<'_> {
                     let d = unknown("relation", relation, self.relations.names());
                     self.error(d);
                 }
+                self.refer(relation, self.relations.span(&relation.name));
                 let to = if to.name == "ego" {
                     None
                 } else {
@@ -131,8 +140,10 @@ impl Checker<'_> {
 
     /// The kinds a variable may stand for, reporting an unbound one.
     fn bound_var(&mut self, var: &Ident, scope: &Scope) -> Option<Vec<KindId>> {
-        if let Some(k) = scope.lookup(&var.name) {
-            return Some(k.clone());
+        if let Some((k, bound)) = scope.lookup(&var.name) {
+            let k = k.clone();
+            self.refer(var, bound);
+            return Some(k);
         }
         let d = if var.name == "self" {
             Diagnostic::error(codes::BAD_REFERENCE, var.span, "`self` is only bound in shape conditions")
@@ -246,7 +257,10 @@ impl Checker<'_> {
         };
         let (var, ty) = if head.name == "world" {
             match self.world_attrs.get(&attr.name) {
-                Some(&i) => (None, self.d.world[i].ty.clone()),
+                Some(&i) => {
+                    self.refer(attr, self.world_attrs.span(&attr.name));
+                    (None, self.d.world[i].ty.clone())
+                }
                 None => {
                     let mut d = unknown("world attribute", attr, self.world_attrs.names());
                     d.code = codes::UNKNOWN_ATTR;
@@ -266,7 +280,9 @@ impl Checker<'_> {
         for k in kinds {
             let kind = &self.d.kinds[k.index()];
             if let Some(i) = kind.attr(&attr.name) {
-                return Some(kind.attrs[i].ty.clone());
+                let (ty, decl) = (kind.attrs[i].ty.clone(), kind.attrs[i].span);
+                self.refer(attr, Some(decl));
+                return Some(ty);
             }
         }
         let mut names: Vec<&str> = Vec::new();

@@ -8,7 +8,7 @@
 //! Kinds, tags and enums share one namespace (a filter `Collidable | Pedestrian` may name
 //! either).
 
-use super::names::Namespace;
+use super::names::{Namespace, Reference};
 use crate::diag::Diagnostic;
 use crate::diag::codes;
 use crate::ir::*;
@@ -83,10 +83,18 @@ pub(crate) struct Checker<'a> {
     pub entity_names: Vec<String>,
     /// Every `add`, with its relation, for the checks that need all concepts.
     pub related_adds: Vec<RelatedAdd>,
+    /// Where each entity name is first declared (by any concept).
+    pub entity_spans: std::collections::HashMap<String, Span>,
+    /// Where each variant of each enum is declared.
+    pub variant_spans: Vec<Vec<Span>>,
+    /// Where each option of each question is declared.
+    pub option_spans: Vec<Vec<Span>>,
+    /// Every name resolved so far, and its declaration.
+    pub refs: Vec<Reference>,
 }
 
 /// Lower the gathered items. `entry` is the file whose `domain` line names the domain.
-pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<Diagnostic>) {
+pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<Diagnostic>, Vec<Reference>) {
     let mut c = Checker::new();
     c.domain_line(entry, items);
     c.declare(items);
@@ -117,8 +125,8 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
     c.lower_rules(entry, items);
     c.lower_allows(items);
     let has_errors = c.diags.iter().any(Diagnostic::is_error);
-    let Checker { d, diags, .. } = c;
-    (if has_errors { None } else { Some(d) }, diags)
+    let Checker { d, diags, refs, .. } = c;
+    (if has_errors { None } else { Some(d) }, diags, refs)
 }
 
 impl<'a> Checker<'a> {
@@ -165,6 +173,17 @@ impl<'a> Checker<'a> {
             look_spans: Vec::new(),
             entity_names: Vec::new(),
             related_adds: Vec::new(),
+            entity_spans: std::collections::HashMap::new(),
+            variant_spans: Vec::new(),
+            option_spans: Vec::new(),
+            refs: Vec::new(),
+        }
+    }
+
+    /// Record that the name at `at` resolved to the declaration at `decl`.
+    pub fn refer(&mut self, at: &Ident, decl: Option<Span>) {
+        if let Some(decl) = decl {
+            self.refs.push(Reference { at: at.span, decl });
         }
     }
 
@@ -208,6 +227,7 @@ impl<'a> Checker<'a> {
                         for v in variants {
                             seen.declare(v, (), |_| "a variant of this enum", &mut self.diags);
                         }
+                        self.variant_spans.push(seen.names().filter_map(|v| seen.span(v)).collect());
                         self.d.enums.push(EnumDef {
                             name: name.name.clone(),
                             variants: seen.names().map(str::to_string).collect(),
@@ -271,6 +291,7 @@ impl<'a> Checker<'a> {
                     for s in stmts {
                         if let ast::ConceptStmt::Add { name, .. } = s {
                             self.entity_names.push(name.name.clone());
+                            self.entity_spans.entry(name.name.clone()).or_insert(name.span);
                         }
                     }
                 }

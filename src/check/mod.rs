@@ -19,6 +19,8 @@ mod shapes;
 mod types;
 mod values;
 
+pub use names::Reference;
+
 use std::collections::{HashMap, HashSet};
 
 use crate::diag::suggest::suggest;
@@ -135,6 +137,8 @@ pub struct Compiled {
     pub diagnostics: Vec<Diagnostic>,
     /// Every file that was loaded (entry first), for rendering diagnostics.
     pub files: Vec<SourceFile>,
+    /// Every name that resolved, with its declaration (for the language server).
+    pub references: Vec<Reference>,
 }
 
 impl Compiled {
@@ -167,6 +171,7 @@ pub fn compile_entry(
         order: Vec::new(),
         visited: HashSet::new(),
         diagnostics: Vec::new(),
+        references: Vec::new(),
     };
     let entry = loader.add(entry_name.to_string(), entry_text.to_string());
     loader.by_key.insert(entry_key.to_string(), entry);
@@ -180,18 +185,19 @@ pub fn compile_entry(
     };
     loader.visit(core);
     loader.visit(entry);
-    let Loader { files, parsed, order, mut diagnostics, .. } = loader;
+    let Loader { files, parsed, order, mut diagnostics, mut references, .. } = loader;
     let items: Vec<(u32, &ast::Item)> =
         order.iter().flat_map(|&f| parsed[f as usize].items.iter().map(move |i| (f, i))).collect();
     let syntax_ok = !diagnostics.iter().any(Diagnostic::is_error);
-    let (domain, lowered) = lower::lower(entry, &items);
+    let (domain, lowered, names) = lower::lower(entry, &items);
     diagnostics.extend(lowered);
+    references.extend(names);
     let mut domain = domain.filter(|_| syntax_ok && !diagnostics.iter().any(Diagnostic::is_error));
     if let Some(d) = domain.as_mut() {
         d.files = files.clone();
     }
     sort_diagnostics(&mut diagnostics);
-    Compiled { domain, diagnostics, files }
+    Compiled { domain, diagnostics, files, references }
 }
 
 /// Compile one text that may only `use` standard-library modules (for tests and examples).
@@ -235,6 +241,8 @@ struct Loader<'l> {
     order: Vec<u32>,
     visited: HashSet<u32>,
     diagnostics: Vec<Diagnostic>,
+    /// Each `use` and the file it loaded (declared at its start).
+    references: Vec<Reference>,
 }
 
 impl Loader<'_> {
@@ -273,6 +281,11 @@ impl Loader<'_> {
             .collect();
         for target in uses {
             if let Some(dep) = self.resolve(file, &target) {
+                let at = match &target {
+                    ast::UseTarget::Std(m) => m.span,
+                    ast::UseTarget::File(p) => p.span,
+                };
+                self.references.push(Reference { at, decl: crate::ir::Span { file: dep, start: 0, end: 0 } });
                 self.visit(dep);
             }
         }

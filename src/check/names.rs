@@ -1,5 +1,5 @@
-//! Namespaces of declared names, duplicate detection, and unknown-name diagnostics with "did you
-//! mean".
+//! Namespaces of declared names, duplicate detection, unknown-name diagnostics with "did you
+//! mean", and the record of every name resolved (what the language server navigates by).
 
 use std::collections::HashMap;
 
@@ -65,6 +65,16 @@ impl<T: Clone> Namespace<T> {
     pub fn len(&self) -> usize {
         self.entries.len()
     }
+}
+
+/// One use of a name and the declaration it resolved to: what the language server's go to
+/// definition, find references, hover and highlighting read, so that names are resolved once,
+/// here. `decl` is the declared name's span; for an attribute, its whole declaration
+/// (`NAME: TYPE = DEFAULT`); for a module, the start of its file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reference {
+    pub at: Span,
+    pub decl: Span,
 }
 
 /// "unknown SORT `name`" with a "did you mean" help when a candidate is close.

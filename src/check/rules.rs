@@ -58,6 +58,7 @@ impl Checker<'_> {
                     .with_help("add `option NAME \"…\"` lines; their letters are A, B, C … in order"),
                 );
             }
+            self.option_spans.push(options.names().filter_map(|n| options.span(n)).collect());
             let options = options
                 .names()
                 .map(|n| AnswerOption { name: n.to_string(), text: options.get(n).cloned().unwrap_or_default() })
@@ -196,6 +197,7 @@ impl Checker<'_> {
                 },
                 RuleStmt::Elements(names, _) => {
                     for n in names {
+                        self.refer(n, self.concepts.span(&n.name));
                         match self.concepts.get(&n.name) {
                             Some(id) if id.index() < MAX_CONCEPTS => rule.elements = rule.elements.with(*id),
                             Some(_) => ok = false, // past the set width: reported as R0044
@@ -246,9 +248,14 @@ impl Checker<'_> {
             self.error(d);
             return None;
         };
+        self.refer(q, self.questions.span(&q.name));
         let question = &self.d.questions[qid.index()];
         match question.options.iter().position(|x| x.name == o.name) {
-            Some(i) => Some((qid, i as u32)),
+            Some(i) => {
+                let decl = self.option_spans.get(qid.index()).and_then(|o| o.get(i)).copied();
+                self.refer(o, decl);
+                Some((qid, i as u32))
+            }
             None => {
                 let qname = question.name.clone();
                 let d = unknown("option", o, question.options.iter().map(|x| x.name.as_str()))

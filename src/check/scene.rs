@@ -116,7 +116,11 @@ impl Checker<'_> {
             }
             let value = match &n.unit {
                 None => Some(n.value),
-                Some(u) => self.units.get(&u.name).map(|i| i.scale * n.value),
+                Some(u) => {
+                    let scale = self.units.get(&u.name).map(|i| i.scale);
+                    self.refer(u, self.units.span(&u.name));
+                    scale.map(|s| s * n.value)
+                }
             };
             match value {
                 Some(v) => out.push((p.name.clone(), v)),
@@ -264,6 +268,10 @@ impl Checker<'_> {
             firsts.push((key.clone(), item.span));
             let is_concept = target.as_ref().is_some_and(|t| self.d.concepts.iter().any(|c| c.name == t.name));
             let sym = target.as_ref().filter(|_| !is_concept).and_then(|t| self.types.get(&t.name).copied());
+            if let Some(t) = target {
+                let decl = if is_concept { self.concepts.span(&t.name) } else { self.types.span(&t.name) };
+                self.refer(t, decl);
+            }
             if let Some(t) = target
                 && !is_concept
             {

@@ -71,7 +71,10 @@ impl Checker<'_> {
     /// Look a name up in the type namespace, reporting it when unknown.
     pub fn resolve_type(&mut self, name: &Ident, sort: &str) -> Option<TypeSym> {
         match self.types.get(&name.name) {
-            Some(t) => Some(*t),
+            Some(&t) => {
+                self.refer(name, self.types.span(&name.name));
+                Some(t)
+            }
             None => {
                 let d = unknown(sort, name, self.types.names());
                 self.error(d);
@@ -168,7 +171,10 @@ impl Checker<'_> {
         let mut out = Vec::new();
         for r in first {
             match self.regions.get(&r.name) {
-                Some(id) => push_unique(&mut out, *id),
+                Some(&id) => {
+                    self.refer(r, self.regions.span(&r.name));
+                    push_unique(&mut out, id);
+                }
                 None => {
                     let d = unknown("region", r, self.regions.names());
                     self.error(d);

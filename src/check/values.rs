@@ -61,7 +61,10 @@ impl Checker<'_> {
                 AttrType::Number { dimension, min, max }
             }
             _ => match self.types.get(ty_name) {
-                Some(TypeSym::Enum(e)) => AttrType::Enum(*e),
+                Some(&TypeSym::Enum(e)) => {
+                    self.refer(&a.ty, self.types.span(ty_name));
+                    AttrType::Enum(e)
+                }
                 Some(other) => {
                     let sort = other.sort();
                     self.error(
@@ -104,7 +107,11 @@ impl Checker<'_> {
         let (found, scale) = match &n.unit {
             None => (String::new(), 1.0),
             Some(u) => match self.units.get(&u.name) {
-                Some(info) => (info.dimension.clone(), info.scale),
+                Some(info) => {
+                    let found = (info.dimension.clone(), info.scale);
+                    self.refer(u, self.units.span(&u.name));
+                    found
+                }
                 None => {
                     let d = Diagnostic::error(codes::UNKNOWN_UNIT, u.span, format!("unknown unit `{}`", u.name))
                         .with_label("no `unit` declares this suffix");
@@ -135,7 +142,11 @@ impl Checker<'_> {
             (AttrType::Enum(e), ValueLit::Name(n)) => {
                 let def = &self.d.enums[e.index()];
                 match def.variants.iter().position(|x| *x == n.name) {
-                    Some(i) => Some(Value::Enum(*e, i as u32)),
+                    Some(i) => {
+                        let decl = self.variant_spans.get(e.index()).and_then(|v| v.get(i)).copied();
+                        self.refer(n, decl);
+                        Some(Value::Enum(*e, i as u32))
+                    }
                     None => {
                         let d = Diagnostic::error(
                             codes::UNKNOWN_VARIANT,

@@ -79,7 +79,12 @@ pub fn run(args: CheckArgs) -> ExitCode {
         let name = args.stdin_filename.unwrap_or_else(|| PathBuf::from("<stdin>"));
         compiled.push(match crate::source::read_bounded(std::io::stdin(), &name.to_string_lossy()) {
             Ok(text) => compile_text_with(&name, &text, Some(limits)),
-            Err(r) => Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() },
+            Err(r) => Compiled {
+                domain: None,
+                diagnostics: vec![r.diagnostic(None)],
+                files: Vec::new(),
+                references: Vec::new(),
+            },
         });
         files.push(name);
     }

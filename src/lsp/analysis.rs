@@ -43,7 +43,7 @@ impl Analysis {
             .enumerate()
             .map(|(i, (f, tree))| Source { file: i as u32, name: &f.name, text: &f.text, tree })
             .collect();
-        let index = Index::build(&sources);
+        let index = Index::build(&sources, &compiled.references);
         Analysis { compiled, trees, index }
     }
 

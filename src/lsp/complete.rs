@@ -10,6 +10,7 @@ use lsp_types::{CompletionItem, CompletionItemKind};
 use super::analysis::Analysis;
 use super::index::{Index, Sort};
 use crate::check::STDLIB;
+use crate::syntax::grammar::{Block, block_keywords};
 use crate::syntax::lexer::{self, Token, TokenKind};
 
 /// Completions at byte `offset` of the document `text` (file 0 of `a`).
@@ -296,29 +297,14 @@ fn block_owner<'t>(sig: &[Token], text: &'t str) -> Option<&'t str> {
     None
 }
 
-fn keywords(block: Option<&str>) -> Vec<CompletionItem> {
-    let words: &[&str] = match block {
-        None => crate::syntax::grammar::ITEM_KEYWORDS,
-        Some("concept" | "modifier") => {
-            &["description", "category", "add", "set", "probe", "scenic", "prompt", "shape", "target", "move"]
-        }
-        Some("rule") => &["when", "expect", "elements", "safe"],
-        Some("rules") => &["rule"],
-        Some("question") => &["text", "option"],
-        Some("camera") => &["at", "look_at", "fov", "size"],
-        Some("region") => &["x", "y", "z", "scenic"],
-        Some("kind") => &["shape"],
-        Some("shape" | "look" | "stage") => &["box", "cylinder", "capsule", "sphere", "plane", "cone"],
-        _ => &[],
+/// The keywords that start a statement in the block opened by `opener` (the file's items
+/// outside any block); none in a block of names and values (`enum`, `add … {`).
+fn keywords(opener: Option<&str>) -> Vec<CompletionItem> {
+    let words = match opener {
+        None => block_keywords(Block::File),
+        Some(w) => Block::opened_by(w).map_or(&[][..], block_keywords),
     };
-    words
-        .iter()
-        .filter(|w| {
-            lexer::is_keyword(w)
-                || matches!(**w, "x" | "y" | "z" | "box" | "cylinder" | "capsule" | "sphere" | "plane" | "cone")
-        })
-        .map(|w| item(w, CompletionItemKind::KEYWORD, ""))
-        .collect()
+    words.iter().map(|w| item(w, CompletionItemKind::KEYWORD, "")).collect()
 }
 
 /// After `OWNER.`: world attributes, `self`'s attributes, an `exists` variable's attributes, a

@@ -1,15 +1,17 @@
 //! Every named thing of a compilation and every place it is named: what hover, go to
 //! definition, find references, completion and semantic tokens read.
 //!
-//! Built from the syntax trees of all files a document loads (its `use`d modules and the
-//! embedded stdlib included), with the language's scoping: item names are global across the
-//! loaded files; attributes belong to a kind (and are inherited) or to the world; variants to an
-//! enum; options to a question; entities to the concept that adds them; `exists` variables to
-//! their expression. A name that does not resolve is simply not indexed — the checker reports
-//! it.
+//! The symbols come from the syntax trees of all files a document loads (its `use`d modules and
+//! the embedded stdlib included): items, attributes (of a kind or of the world), variants of an
+//! enum, options of a question, entities a concept adds, `exists` variables. Where each name is
+//! used comes from the checker, which records every name it resolves
+//! ([`crate::check::Compiled::references`]): there is one resolver, so the editor and
+//! `revelio check` never disagree on what a name means. A name that does not resolve is simply
+//! not indexed — the checker reports it.
 
 use std::collections::HashMap;
 
+use crate::check::Reference;
 use crate::ir::Span;
 use crate::syntax::ast::*;
 
@@ -94,8 +96,6 @@ pub struct Index {
     /// Every occurrence, declarations included, sorted by file and position.
     pub occurrences: Vec<(Span, usize)>,
     globals: HashMap<(Space, String), usize>,
-    variants: HashMap<(usize, String), usize>,
-    options: HashMap<(usize, String), usize>,
     /// Own attributes of a kind (or of the world, under `usize::MAX`), in order.
     attrs: HashMap<usize, Vec<usize>>,
     /// Parent kinds and tags of a kind or tag.
@@ -146,20 +146,19 @@ fn snippet(text: &str, s: Span, max: usize) -> String {
 }
 
 impl Index {
-    pub fn build(sources: &[Source]) -> Index {
+    /// The symbols the syntax trees declare, and the occurrences the checker resolved
+    /// (`references`, from [`crate::check::Compiled`]): names are resolved once, by the checker.
+    pub fn build(sources: &[Source], references: &[Reference]) -> Index {
         let mut ix = Index::default();
         for s in sources {
             ix.declare_file(s);
         }
-        // Parents and attribute types first: references anywhere may go through them.
         for s in sources {
             for item in &s.tree.items {
-                ix.link_item(item);
+                ix.declare_locals(s, item);
             }
         }
-        for s in sources {
-            ix.resolve_file(s);
-        }
+        ix.link(sources, references);
         ix.occurrences.sort_by_key(|(s, _)| (s.file, s.start, s.end));
         ix.occurrences.dedup();
         ix
@@ -252,11 +251,6 @@ impl Index {
         out
     }
 
-    /// The attributes called `name` of any of `kinds`.
-    fn attr_in(&self, kinds: &[usize], name: &str) -> Option<usize> {
-        kinds.iter().flat_map(|&k| self.attrs_of_kind(k)).find(|&a| self.symbols[a].name == name)
-    }
-
     // ------------------------------------------------------------------ declarations
 
     fn add(&mut self, sort: Sort, name: &Ident, full: Span, text: &str) -> usize {
@@ -303,7 +297,6 @@ impl Index {
                     let vid = self.add(Sort::Variant, v, v.span, text);
                     self.symbols[vid].parent = Some(id);
                     self.symbols[vid].snippet = format!("{}.{}", name.name, v.name);
-                    self.variants.entry((id, v.name.clone())).or_insert(vid);
                 }
                 id
             }
@@ -340,7 +333,6 @@ impl Index {
                         self.symbols[oid].parent = Some(id);
                         self.symbols[oid].snippet = format!("{}.{}", name.name, o.name);
                         self.symbols[oid].notes.push(t.value.clone());
-                        self.options.entry((id, o.name.clone())).or_insert(oid);
                     }
                 }
                 id
@@ -369,362 +361,138 @@ impl Index {
 
     // ------------------------------------------------------------------ references
 
-    fn refer(&mut self, span: Span, id: Option<usize>) -> Option<usize> {
-        if let Some(id) = id {
-            self.occurrences.push((span, id));
-        }
-        id
-    }
-
-    fn refer_global(&mut self, name: &Ident, sorts: &[Sort]) -> Option<usize> {
-        let id = self.global(sorts, &name.name);
-        self.refer(name.span, id)
-    }
-
-    fn resolve_file(&mut self, s: &Source) {
-        for item in &s.tree.items {
-            self.resolve_item(s, item);
-        }
-    }
-
-    fn resolve_item(&mut self, s: &Source, item: &Item) {
-        const KT: &[Sort] = &[Sort::Kind, Sort::Tag];
-        match &item.kind {
-            ItemKind::Use(target) => {
-                let (name, span) = match target {
-                    UseTarget::Std(m) => (format!("std/{}.rev", m.name), m.span),
-                    UseTarget::File(p) => (crate::check::join_relative(s.name, &p.value), p.span),
-                };
-                let module = self.all(&[Sort::Module]).find(|(_, m)| m.name == name).map(|(i, _)| i);
-                self.refer(span, module);
-            }
-            ItemKind::Unit { scale, .. } => self.num(scale),
-            ItemKind::Kind { name, attrs, shapes, stands_in, .. } => {
-                let me = self.global(KT, &name.name);
-                for region in stands_in.iter().flatten() {
-                    self.refer_global(region, &[Sort::Region]);
-                }
-                self.attr_values(attrs);
-                for parts in shapes {
-                    self.parts(parts, me);
-                }
-            }
-            ItemKind::World { attrs } => self.attr_values(attrs),
-            ItemKind::Look { kind, parts } => {
-                let k = self.refer_global(kind, KT);
-                self.parts(parts, k);
-            }
-            ItemKind::Region { stmts, .. } => {
-                for st in stmts {
-                    if let RegionStmt::Axis { value, .. } = st {
-                        self.value(value, None);
-                    }
-                }
-            }
-            ItemKind::Preset { for_variant, params, .. } => {
-                if let Some(p) = for_variant
-                    && let [en, v] = p.parts.as_slice()
-                    && let Some(e) = self.refer_global(en, &[Sort::Enum])
-                {
-                    let vid = self.variants.get(&(e, v.name.clone())).copied();
-                    self.refer(v.span, vid);
-                }
-                for (_, n) in params {
-                    self.num(n);
-                }
-            }
-            ItemKind::Visible { target, params } => {
-                if let Some(t) = target {
-                    self.refer_global(t, &[Sort::Kind, Sort::Tag, Sort::Concept, Sort::Modifier]);
-                }
-                for (_, n) in params {
-                    self.num(n);
-                }
-            }
-            ItemKind::Camera { stmts } => {
-                for st in stmts {
-                    match st {
-                        CameraStmt::At(v, _) | CameraStmt::LookAt(v, _) => v.iter().for_each(|n| self.num(n)),
-                        CameraStmt::Fov(n) => self.num(n),
-                        CameraStmt::Size { .. } => {}
-                    }
-                }
-            }
-            ItemKind::Stage { opts, parts, .. } => {
-                for o in opts {
-                    match o {
-                        StageOpt::At(v, _) => v.iter().for_each(|n| self.num(n)),
-                        StageOpt::Repeat { step, .. } => step.iter().for_each(|n| self.num(n)),
-                        StageOpt::When(e, _) => self.expr(e, &mut Vec::new(), None),
-                    }
-                }
-                self.parts(parts, None);
-            }
-            ItemKind::Concept { name, stmts, .. } => self.concept(s, name, stmts),
-            ItemKind::Constraint { members, .. } => {
-                for m in members {
-                    if let Member::Name(n) = m {
-                        self.refer_global(n, &[Sort::Concept, Sort::Modifier]);
-                    }
-                }
-            }
-            ItemKind::Rules { rules, .. } => {
-                for r in rules {
-                    for st in &r.stmts {
-                        match st {
-                            RuleStmt::When(e, _) => self.expr(e, &mut Vec::new(), None),
-                            RuleStmt::Expect(p) => self.expect(p, r),
-                            RuleStmt::Elements(names, _) => {
-                                for n in names {
-                                    self.refer_global(n, &[Sort::Concept, Sort::Modifier]);
-                                }
-                            }
-                            RuleStmt::Safe(_) => {}
-                        }
-                    }
+    /// Where a condition binds a variable (`exists v: …`): a symbol for each, so that the
+    /// checker's references to it have somewhere to point.
+    fn declare_vars(&mut self, e: &Expr) {
+        match &e.kind {
+            ExprKind::Not(x) => self.declare_vars(x),
+            ExprKind::And(xs) | ExprKind::Or(xs) => xs.iter().for_each(|x| self.declare_vars(x)),
+            ExprKind::Exists { var, filter, cond } => {
+                let full = Span { end: filter.last().map_or(var.span.end, |f| f.span.end), ..var.span };
+                let id = self.add(Sort::Var, var, full, "");
+                let names: Vec<&str> = filter.iter().map(|f| f.name.as_str()).collect();
+                self.symbols[id].snippet = format!("exists {}: {}", var.name, names.join(" | "));
+                if let Some(c) = cond {
+                    self.declare_vars(c);
                 }
             }
             _ => {}
         }
     }
 
-    /// Parents of kinds and tags, and the enums attribute types name.
-    fn link_item(&mut self, item: &Item) {
-        const KT: &[Sort] = &[Sort::Kind, Sort::Tag];
-        if let ItemKind::Tag { name, parents } | ItemKind::Kind { name, parents, .. } = &item.kind {
-            let me = self.global(KT, &name.name);
-            let ps: Vec<usize> = parents.iter().filter_map(|p| self.refer_global(p, KT)).collect();
-            if let Some(me) = me.filter(|&m| self.symbols[m].decl == name.span) {
-                self.parents.insert(me, ps);
-            }
-        }
-        if let ItemKind::Kind { attrs, .. } | ItemKind::World { attrs } = &item.kind {
-            for a in attrs {
-                let en = self.refer_global(&a.ty, &[Sort::Enum]);
-                if let (Some(e), Some(id)) = (en, self.attr_id_at(a.name.span)) {
-                    self.attr_enum.insert(id, e);
-                }
-            }
-        }
-    }
-
-    /// Bounds and defaults of attribute declarations.
-    fn attr_values(&mut self, attrs: &[AttrDecl]) {
-        for a in attrs {
-            if let Some((lo, hi)) = &a.bounds {
-                self.num(lo);
-                self.num(hi);
-            }
-            let id = self.attr_id_at(a.name.span);
-            self.value(&a.default, id);
-        }
-    }
-
-    fn attr_id_at(&self, span: Span) -> Option<usize> {
-        self.symbols.iter().position(|s| s.decl == span && matches!(s.sort, Sort::Attr | Sort::WorldAttr))
-    }
-
-    fn num(&mut self, n: &Num) {
-        if let Some(u) = &n.unit {
-            self.refer_global(u, &[Sort::Unit]);
-        }
-    }
-
-    /// A value given to attribute `attr`: a variant of its enum, or a number with a unit.
-    fn value(&mut self, v: &ValueLit, attr: Option<usize>) {
-        match v {
-            ValueLit::Num(n) => self.num(n),
-            ValueLit::Range(a, b) => {
-                self.num(a);
-                self.num(b);
-            }
-            ValueLit::Bool(..) => {}
-            ValueLit::Name(name) => {
-                let id = match attr.and_then(|a| self.enum_of_attr(a)) {
-                    Some(e) => self.variants.get(&(e, name.name.clone())).copied(),
-                    // The attribute is unknown: a variant of that name, if only one enum has it.
-                    None => {
-                        let mut found = self.variants.iter().filter(|((_, n), _)| *n == name.name).map(|(_, &v)| v);
-                        match (found.next(), found.next()) {
-                            (Some(v), None) => Some(v),
-                            _ => None,
-                        }
-                    }
-                };
-                self.refer(name.span, id);
-            }
-        }
-    }
-
-    fn concept(&mut self, s: &Source, concept: &Ident, stmts: &[ConceptStmt]) {
-        let me = self.global(&[Sort::Concept, Sort::Modifier], &concept.name);
-        // Entities added so far, with their kind; a modifier's target kinds.
-        let mut entities: Vec<(String, usize, Option<usize>)> = Vec::new();
-        let mut targets: Option<Vec<usize>> = None;
-        let mut world_target = false;
-        for st in stmts {
-            match st {
-                ConceptStmt::Add { name, kind, region, relation, attrs, span } => {
+    /// The entities a concept adds, and the variables its conditions bind.
+    fn declare_locals(&mut self, s: &Source, item: &Item) {
+        if let ItemKind::Concept { name, stmts, .. } = &item.kind {
+            let me = self.global(&[Sort::Concept, Sort::Modifier], &name.name);
+            for st in stmts {
+                if let ConceptStmt::Add { name, span, .. } = st {
                     let id = self.add(Sort::Entity, name, *span, s.text);
                     self.symbols[id].parent = me;
-                    let k = self.refer_global(kind, &[Sort::Kind, Sort::Tag]);
-                    self.refer_global(region, &[Sort::Region]);
-                    if let Some((rel, target)) = relation {
-                        self.refer_global(rel, &[Sort::Relation]);
-                        let e = entities.iter().find(|(n, _, _)| *n == target.name).map(|(_, e, _)| *e);
-                        self.refer(target.span, e);
-                    }
-                    let kinds = k.map(|k| self.kinds_matching(&[k])).unwrap_or_default();
-                    for (n, v) in attrs {
-                        let a = self.attr_in(&kinds, &n.name);
-                        self.refer(n.span, a);
-                        self.value(v, a);
-                    }
-                    entities.push((name.name.clone(), id, k));
                 }
-                ConceptStmt::Set { path, value, .. } => {
-                    let attr = match path.parts.as_slice() {
-                        [w, a] if w.name == "world" => {
-                            let id = self.world_attr(&a.name);
-                            self.refer(a.span, id)
-                        }
-                        [a] if world_target => {
-                            let id = self.world_attr(&a.name);
-                            self.refer(a.span, id)
-                        }
-                        [a] => {
-                            let kinds = targets.clone().unwrap_or_default();
-                            let id = self.attr_in(&kinds, &a.name);
-                            self.refer(a.span, id)
-                        }
-                        _ => None,
-                    };
-                    self.value(value, attr);
-                }
-                ConceptStmt::Target { world, filter, .. } => {
-                    world_target = world.is_some();
-                    let ids: Vec<usize> =
-                        filter.iter().filter_map(|f| self.refer_global(f, &[Sort::Kind, Sort::Tag])).collect();
-                    targets = Some(self.kinds_matching(&ids));
-                }
-                ConceptStmt::Move { region, .. } => {
-                    self.refer_global(region, &[Sort::Region]);
-                }
-                ConceptStmt::Shape(parts) => self.parts(parts, None),
-                _ => {}
             }
+        }
+        for e in conditions(item) {
+            self.declare_vars(e);
         }
     }
 
-    fn world_attr(&self, name: &str) -> Option<usize> {
-        self.world_attrs().into_iter().find(|&a| self.symbols[a].name == name)
+    /// The checker's references as occurrences, and what hover and completion derive from
+    /// them: the parents of kinds and tags, the enum an attribute's type names, and the option
+    /// each rule expects.
+    fn link(&mut self, sources: &[Source], references: &[Reference]) {
+        let mut by_decl: HashMap<Span, usize> = HashMap::new();
+        for (id, sym) in self.symbols.iter().enumerate() {
+            by_decl.entry(sym.decl).or_insert(id);
+            // The checker names an attribute by its whole declaration.
+            if matches!(sym.sort, Sort::Attr | Sort::WorldAttr) {
+                by_decl.entry(sym.full).or_insert(id);
+            }
+        }
+        let mut by_use: HashMap<Span, usize> = HashMap::new();
+        for r in references {
+            if let Some(&id) = by_decl.get(&r.decl) {
+                self.occurrences.push((r.at, id));
+                by_use.insert(r.at, id);
+            }
+        }
+        let of = |name: &Ident| by_use.get(&name.span).copied();
+        for s in sources {
+            for item in &s.tree.items {
+                if let ItemKind::Tag { name, parents } | ItemKind::Kind { name, parents, .. } = &item.kind {
+                    let me = by_decl.get(&name.span).copied();
+                    let ps: Vec<usize> = parents.iter().filter_map(of).collect();
+                    if let Some(me) = me {
+                        self.parents.insert(me, ps);
+                    }
+                }
+                if let ItemKind::Kind { attrs, .. } | ItemKind::World { attrs } = &item.kind {
+                    for a in attrs {
+                        let en = of(&a.ty).filter(|&e| self.symbols[e].sort == Sort::Enum);
+                        if let (Some(e), Some(&id)) = (en, by_decl.get(&a.name.span)) {
+                            self.attr_enum.insert(id, e);
+                        }
+                    }
+                }
+                if let ItemKind::Rules { rules, .. } = &item.kind {
+                    for r in rules {
+                        for st in &r.stmts {
+                            if let RuleStmt::Expect(p) = st
+                                && let [q, o] = p.parts.as_slice()
+                                && let (Some(oid), Some(&rid)) = (of(o), by_decl.get(&r.name.span))
+                            {
+                                let text = self.symbols[oid].notes.first().cloned().unwrap_or_default();
+                                self.symbols[rid].notes.push(format!("expects `{}.{}`: {text}", q.name, o.name));
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
+}
 
-    fn parts(&mut self, parts: &Parts, kind: Option<usize>) {
+/// The conditions of an item: `when` of rules, stage items and shape parts.
+fn conditions(item: &Item) -> Vec<&Expr> {
+    fn parts_conditions<'a>(parts: &'a Parts, out: &mut Vec<&'a Expr>) {
         for part in &parts.parts {
             for p in &part.props {
-                match p {
-                    PartProp::Size(v, _) | PartProp::At(v, _) => v.iter().for_each(|n| self.num(n)),
-                    PartProp::Yaw(n) | PartProp::Roll(n) | PartProp::Pitch(n) => self.num(n),
-                    PartProp::When(e, _) => self.expr(e, &mut Vec::new(), kind),
-                    PartProp::Color(..) | PartProp::Material(_) => {}
+                if let PartProp::When(e, _) = p {
+                    out.push(e);
                 }
             }
         }
     }
-
-    fn expect(&mut self, p: &Path, rule: &RuleDecl) {
-        let [q, o] = p.parts.as_slice() else { return };
-        let Some(qid) = self.refer_global(q, &[Sort::Question]) else { return };
-        let oid = self.options.get(&(qid, o.name.clone())).copied();
-        self.refer(o.span, oid);
-        if let (Some(oid), Some(rid)) = (oid, self.global(&[Sort::Rule], &rule.name.name)) {
-            let text = self.symbols[oid].notes.first().cloned().unwrap_or_default();
-            self.symbols[rid].notes.push(format!("expects `{}.{}`: {text}", q.name, o.name));
+    let mut out = Vec::new();
+    match &item.kind {
+        ItemKind::Kind { shapes, .. } => shapes.iter().for_each(|p| parts_conditions(p, &mut out)),
+        ItemKind::Look { parts, .. } => parts_conditions(parts, &mut out),
+        ItemKind::Stage { opts, parts, .. } => {
+            for o in opts {
+                if let StageOpt::When(e, _) = o {
+                    out.push(e);
+                }
+            }
+            parts_conditions(parts, &mut out);
         }
-    }
-
-    /// Resolve the names of an expression; `vars` are the `exists` variables in scope (name,
-    /// symbol, kinds they range over), `self_kind` the kind a look or shape draws.
-    fn expr(&mut self, e: &Expr, vars: &mut Vec<(String, usize, Vec<usize>)>, self_kind: Option<usize>) {
-        match &e.kind {
-            ExprKind::Bool(_) => {}
-            ExprKind::Not(x) => self.expr(x, vars, self_kind),
-            ExprKind::And(xs) | ExprKind::Or(xs) => xs.iter().for_each(|x| self.expr(x, vars, self_kind)),
-            ExprKind::Has(c) => {
-                self.refer_global(c, &[Sort::Concept, Sort::Modifier]);
-            }
-            ExprKind::Exists { var, filter, cond } => {
-                let ids: Vec<usize> =
-                    filter.iter().filter_map(|f| self.refer_global(f, &[Sort::Kind, Sort::Tag])).collect();
-                let full = Span { end: filter.last().map_or(var.span.end, |f| f.span.end), ..var.span };
-                let id = self.add(Sort::Var, var, full, "");
-                let names: Vec<&str> = filter.iter().map(|f| f.name.as_str()).collect();
-                self.symbols[id].snippet = format!("exists {}: {}", var.name, names.join(" | "));
-                vars.push((var.name.clone(), id, self.kinds_matching(&ids)));
-                if let Some(c) = cond {
-                    self.expr(c, vars, self_kind);
-                }
-                vars.pop();
-            }
-            ExprKind::Count { filter, .. } => {
-                for f in filter {
-                    self.refer_global(f, &[Sort::Kind, Sort::Tag]);
+        ItemKind::Concept { stmts, .. } => {
+            for st in stmts {
+                if let ConceptStmt::Shape(parts) = st {
+                    parts_conditions(parts, &mut out);
                 }
             }
-            ExprKind::In { var, region } => {
-                let v = vars.iter().rev().find(|(n, _, _)| *n == var.name).map(|(_, id, _)| *id);
-                self.refer(var.span, v);
-                self.refer_global(region, &[Sort::Region]);
-            }
-            ExprKind::Cmp { path, value, .. } => {
-                let attr = self.path_attr(path, vars, self_kind);
-                self.value(value, attr);
-            }
-            ExprKind::CmpAttrs { left, right, .. } => {
-                self.path_attr(left, vars, self_kind);
-                self.path_attr(right, vars, self_kind);
-            }
-            ExprKind::Related { var, relation, to } => {
-                for v in [var, to] {
-                    if v.name != "ego" {
-                        let id = vars.iter().rev().find(|(n, _, _)| *n == v.name).map(|(_, id, _)| *id);
-                        self.refer(v.span, id);
+        }
+        ItemKind::Rules { rules, .. } => {
+            for r in rules {
+                for st in &r.stmts {
+                    if let RuleStmt::When(e, _) = st {
+                        out.push(e);
                     }
                 }
-                self.refer_global(relation, &[Sort::Relation]);
             }
         }
+        _ => {}
     }
-
-    /// Resolve `world.ATTR`, `self.ATTR` or `VAR.ATTR` in a condition; the attribute's symbol.
-    fn path_attr(
-        &mut self,
-        path: &Path,
-        vars: &[(String, usize, Vec<usize>)],
-        self_kind: Option<usize>,
-    ) -> Option<usize> {
-        match path.parts.as_slice() {
-            [w, a] if w.name == "world" => {
-                let id = self.world_attr(&a.name);
-                self.refer(a.span, id)
-            }
-            [s, a] if s.name == "self" => {
-                let kinds = self_kind.map(|k| self.kinds_matching(&[k])).unwrap_or_default();
-                let id = self.attr_in(&kinds, &a.name);
-                self.refer(a.span, id)
-            }
-            [v, a] => match vars.iter().rev().find(|(n, _, _)| *n == v.name).cloned() {
-                Some((_, vid, kinds)) => {
-                    self.refer(v.span, Some(vid));
-                    let id = self.attr_in(&kinds, &a.name);
-                    self.refer(a.span, id)
-                }
-                None => None,
-            },
-            _ => None,
-        }
-    }
+    out
 }
 
 fn space_of(sort: Sort) -> Option<Space> {

@@ -293,3 +293,87 @@ fn use_in_an_open_document_reads_only_what_check_would() {
     assert!(a.compiled.diagnostics.is_empty(), "{:?}", a.compiled.diagnostics);
     assert!(a.file_names().any(|n| n.ends_with("d/lib.rev")));
 }
+
+/// Every name in the stdlib, every shipped domain and the good corpus resolves: each word of
+/// each file is a keyword, a word with a fixed meaning, or a declaration or use the index has
+/// (so the checker, the one resolver, recorded it).
+#[test]
+fn every_identifier_of_the_shipped_files_resolves() {
+    use crate::syntax::ast::ItemKind;
+    use crate::syntax::lexer::{self, TokenKind};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let files = crate::syntax::rev_files(&["stdlib", "domains", "tests/corpus/good"]);
+    let in_subfolder = |f: &std::path::PathBuf| f.parent().and_then(|d| d.parent()) == Some(&root.join("domains"));
+    assert!(files.iter().any(in_subfolder), "domains/ is walked recursively");
+    assert!(files.len() >= 12, "{files:?}");
+    // Words whose meaning is fixed, not declared: built-in types and names, constraint
+    // functions, rule selections, materials, visibility and environment parameters.
+    const FIXED: &[&str] = &[
+        "ego",
+        "self",
+        "world",
+        "bool",
+        "number",
+        "exclusive",
+        "at_most",
+        "requires",
+        "forbids",
+        "priority",
+        "best_fit",
+        "x",
+        "y",
+        "z",
+        "box",
+        "cylinder",
+        "capsule",
+        "sphere",
+        "plane",
+        "cone",
+    ];
+    let mut problems = Vec::new();
+    let mut resolved = 0;
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        let a = Analysis::new(&f.to_string_lossy(), &text, &HashMap::new());
+        let errors: Vec<_> = a.compiled.diagnostics.iter().filter(|d| d.is_error()).collect();
+        assert!(errors.is_empty(), "{}: {errors:?}", f.display());
+        // Words a declaration gives a meaning without declaring a symbol.
+        let mut fixed: Vec<(u32, u32)> = Vec::new();
+        for item in &a.trees[0].items {
+            match &item.kind {
+                ItemKind::Domain(n) => fixed.push((n.span.start, n.span.end)),
+                ItemKind::Unit { dimension, .. } => fixed.push((dimension.span.start, dimension.span.end)),
+                ItemKind::Relation { placements: Some(ps), .. } => {
+                    fixed.extend(ps.iter().map(|p| (p.word.span.start, p.word.span.end)))
+                }
+                ItemKind::Preset { params, .. } | ItemKind::Visible { params, .. } => {
+                    fixed.extend(params.iter().map(|(p, _)| (p.span.start, p.span.end)))
+                }
+                ItemKind::Allow { code } => fixed.push((code.span.start, code.span.end)),
+                _ => {}
+            }
+        }
+        let dimensions: Vec<String> = a
+            .index
+            .all(&[Sort::Unit])
+            .filter_map(|(_, u)| u.notes.first()?.strip_prefix("measures ").map(String::from))
+            .collect();
+        for t in lexer::lex(&text).into_iter().filter(|t| t.kind == TokenKind::Ident) {
+            let word = t.text(&text);
+            let occurrence = a.index.at(0, t.start).is_some_and(|(s, _)| s.start == t.start && s.end == t.end);
+            if occurrence {
+                resolved += 1;
+            } else if !(lexer::is_keyword(word)
+                || FIXED.contains(&word)
+                || crate::ir::MATERIALS.contains(&word)
+                || dimensions.iter().any(|d| d == word)
+                || fixed.contains(&(t.start, t.end)))
+            {
+                let line = text[..t.start as usize].matches('\n').count() + 1;
+                problems.push(format!("{}:{line}: `{word}` does not resolve", f.display()));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    assert!(resolved > 1000, "{resolved}");
+}

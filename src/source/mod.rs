@@ -227,7 +227,7 @@ pub fn compile_text(path: &Path, text: &str, open: &dyn Fn(&Path) -> Option<Stri
 }
 
 fn refused_entry(r: Refused) -> Compiled {
-    Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new() }
+    Compiled { domain: None, diagnostics: vec![r.diagnostic(None)], files: Vec::new(), references: Vec::new() }
 }
 
 /// `path` made absolute (against the working folder) with `.` and `..` collapsed, without

@@ -12,6 +12,8 @@
 
 use logos::Logos;
 
+use super::grammar::ITEM_KEYWORDS;
+
 /// What a token is, lexically.
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum TokenKind {
@@ -112,31 +114,8 @@ impl Token {
     }
 }
 
-/// The keywords that open an item at the top level of a file.
-pub const ITEM_KEYWORDS: &[&str] = &[
-    "domain",
-    "use",
-    "unit",
-    "enum",
-    "tag",
-    "relation",
-    "kind",
-    "look",
-    "world",
-    "region",
-    "preset",
-    "camera",
-    "stage",
-    "concept",
-    "modifier",
-    "constraint",
-    "question",
-    "rules",
-    "allow",
-    "visible",
-];
-
-/// The keywords that open a statement inside an item's block.
+/// The keywords that open a statement inside a concept, question, `rules` or rule body (a test
+/// checks them, and that these lists hold every `kw_*` rule of the grammar once).
 pub const STATEMENT_KEYWORDS: &[&str] = &[
     "rule",
     "description",
@@ -158,7 +137,7 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
 ];
 
 /// The keywords that stand inside a statement.
-const INNER_KEYWORDS: &[&str] = &[
+pub(crate) const INNER_KEYWORDS: &[&str] = &[
     "std", "for", "at", "look_at", "fov", "size", "color", "material", "yaw", "roll", "pitch", "repeat", "step", "in",
     "not", "and", "or", "has", "exists", "count", "where", "true", "false",
 ];

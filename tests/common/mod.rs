@@ -109,3 +109,18 @@ pub fn python_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf
     std::fs::write(&stamp, &wanted).map_err(|e| format!("cannot write `{}`: {e}", stamp.display()))?;
     Ok(python)
 }
+
+/// Whether a missing real peer (a browser, an editor, a packager, an SDK, a system tool) fails
+/// the test instead of skipping it: `REVELIO_REQUIRE_PEERS=1`, which `.ci/run` sets so that CI
+/// cannot pass without running them.
+pub fn peers_required() -> bool {
+    std::env::var_os("REVELIO_REQUIRE_PEERS").is_some_and(|v| !v.is_empty() && v != "0")
+}
+
+/// A test's real peer is missing, for `reason`: with `REVELIO_REQUIRE_PEERS` set this panics
+/// with the reason; otherwise it prints a note and the caller returns (the test skips).
+#[track_caller]
+pub fn peer_missing(test: &str, reason: &str) {
+    assert!(!peers_required(), "{test}: {reason} (REVELIO_REQUIRE_PEERS is set, so a missing peer fails the test)");
+    eprintln!("note: skipping {test}: {reason}");
+}

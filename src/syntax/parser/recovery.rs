@@ -7,7 +7,7 @@ use pest::iterators::Pair;
 use super::Builder;
 use crate::diag::Diagnostic;
 use crate::diag::codes;
-use crate::syntax::grammar::{ITEM_KEYWORDS, RevParser, Rule, keyword_text};
+use crate::syntax::grammar::{Block, ITEM_KEYWORDS, RevParser, Rule, block_keywords, keyword_text};
 
 impl Builder<'_> {
     /// Report a recovery node: re-parse from its start with the rule it should have matched,
@@ -245,20 +245,18 @@ fn keyword_typo_help(d: Diagnostic, word: &str, expected: &[String]) -> Diagnost
 
 /// The keywords a statement of this rule may start with, quoted as in expected lists.
 fn statement_keywords(rule: Option<Rule>) -> Vec<String> {
-    let words: &[&str] = match rule {
-        None | Some(Rule::domain_item) => ITEM_KEYWORDS,
-        Some(Rule::concept_stmt) => {
-            &["description", "category", "add", "set", "probe", "scenic", "prompt", "shape", "target", "move"]
-        }
-        Some(Rule::rule_stmt) => &["when", "expect", "elements", "safe"],
-        Some(Rule::question_stmt) => &["text", "option"],
-        Some(Rule::camera_stmt) => &["at", "look_at", "fov", "size"],
-        Some(Rule::rule_item) => &["rule"],
-        Some(Rule::shape_part) => &["box", "cylinder", "capsule", "sphere", "plane", "cone"],
-        Some(Rule::region_stmt) => &["scenic"],
-        _ => &[],
+    let block = match rule {
+        None | Some(Rule::domain_item) => Block::File,
+        Some(Rule::concept_stmt) => Block::Concept,
+        Some(Rule::rule_stmt) => Block::Rule,
+        Some(Rule::question_stmt) => Block::Question,
+        Some(Rule::camera_stmt) => Block::Camera,
+        Some(Rule::rule_item) => Block::Rules,
+        Some(Rule::shape_part) => Block::Parts,
+        Some(Rule::region_stmt) => Block::Region,
+        _ => return Vec::new(),
     };
-    words.iter().map(|w| format!("`{w}`")).collect()
+    block_keywords(block).iter().map(|w| format!("`{w}`")).collect()
 }
 
 fn join_or(items: &[String]) -> String {
