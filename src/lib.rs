@@ -1,6 +1,6 @@
 //! Revelio: find interpretable failure modes of vision-language models.
 //!
-//! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
+//! Pipeline (see README "Architecture" and docs/architecture.md; `tests/layout.rs` keeps it a straight line):
 //! [`diag`], [`hash`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with recovery) →
 //! [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
 //! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`], [`source`] → [`render`] → [`vlm`] →
