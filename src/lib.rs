@@ -1,11 +1,12 @@
 //! Revelio: find interpretable failure modes of vision-language models.
 //!
-//! Pipeline (see README "Repository layout"; `tests/layout.rs` keeps it a straight line):
-//! [`diag`], [`hash`], [`date`] and [`outcome`] at the bottom → [`ir`] → [`syntax`] (pest, with
-//! recovery) → [`check`] (resolution, types) → [`anchor`] → [`lattice`] → [`oracle`] → [`lint`] /
-//! [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`], [`source`] → [`render`] →
-//! [`vlm`] → [`journal`] → [`run`] → [`analysis`] → [`report`] → [`fmt`] → [`lsp`] → [`cli`]. The
-//! core (`diag` … `search`) does no I/O; files, network and GPU live in `net`, `source`, `render`,
+//! Pipeline (see README "Architecture" and docs/architecture.md; `tests/layout.rs` keeps it a
+//! straight line): [`diag`], [`hash`], [`date`] and [`outcome`] at the bottom → [`ir`] →
+//! [`syntax`] (pest, with recovery) → [`check`] (resolution, types) → [`anchor`] → [`lattice`] →
+//! [`oracle`] → [`lint`] / [`sample`] → [`emit`] → [`search`] (pure algorithms) → [`net`],
+//! [`source`] → [`render`] → [`vlm`] → [`journal`] → [`run`] → [`analysis`] → [`report`] →
+//! [`fmt`] → [`lsp`] → [`cli`]. The core (`diag` … `search`) does no I/O; files, network and GPU
+//! live in `net`, `source`, `render`,
 //! `vlm`, `journal`, `run`, `report` and `cli`.
 
 pub mod analysis;
