@@ -724,7 +724,8 @@ fn the_example_config_builds_every_model_it_names() {
 async fn fault_injection_search_loses_nothing() {
     use revelio::lattice::Lattice;
     use revelio::run::observe::{DomainWorld, World};
-    use revelio::run::runner::{self, RunConfig};
+    use revelio::run::runner::{self};
+    use revelio::run::summary::RunConfig;
     use revelio::search::{Algo, Params};
 
     let (server, faulty) = faulty_server().await;

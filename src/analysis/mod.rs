@@ -25,7 +25,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use crate::journal::{Phase, Record};
 use crate::outcome::Outcome;
-use crate::run::runner::SetRow;
+use crate::run::summary::SetRow;
 
 /// Whether every concept of `small` is in `big`.
 pub fn is_subset(small: &[String], big: &[String]) -> bool {

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use crate::analysis::compare::{Rate, Row, RunFacts, row};
 use crate::diag::terminal_safe;
-use crate::run::runner;
+use crate::run::summary;
 
 #[derive(clap::Args, Debug)]
 pub struct CompareArgs {
@@ -28,7 +28,7 @@ pub struct CompareArgs {
 pub fn rows(dirs: &[PathBuf]) -> Result<Vec<Row>, crate::run::RunError> {
     dirs.iter()
         .map(|dir| {
-            let (config, s) = runner::load_run(dir)?;
+            let (config, s) = summary::load_run(dir)?;
             Ok(row(&RunFacts {
                 run: dir.display().to_string(),
                 domain: s.domain.clone(),

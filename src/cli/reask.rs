@@ -12,8 +12,10 @@ use crate::diag::TerminalSafe;
 use crate::ir::{ConceptSet, Domain};
 use crate::journal::Journal;
 use crate::run::observe::{DomainWorld, Observer, World};
-use crate::run::runner::{self, RunConfig, Summary};
+use crate::run::runner::{self};
 use crate::run::setup::{self, Parts, SetupError};
+use crate::run::summary;
+use crate::run::summary::{RunConfig, Summary};
 use crate::run::{RunError, Stop};
 use crate::search::SetStats;
 use crate::vlm::Model;
@@ -41,7 +43,7 @@ pub(crate) fn open_run(
     run: &RunFlags,
     quiet: bool,
 ) -> Result<OpenRun, ExitCode> {
-    let (config, summary) = runner::load_run(dir).map_err(|e| {
+    let (config, summary) = summary::load_run(dir).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
     })?;

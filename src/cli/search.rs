@@ -13,8 +13,10 @@ use crate::diag::{TerminalSafe, terminal_safe};
 use crate::lattice::Lattice;
 use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
-use crate::run::runner::{self, RunConfig, Setup, Summary};
+use crate::run::runner::{self, Setup};
 use crate::run::setup::{self, ModelSettings, Parts, SetupError};
+use crate::run::summary;
+use crate::run::summary::{RunConfig, Summary};
 use crate::search::gp::Kernel;
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
 
@@ -174,7 +176,7 @@ pub fn run(args: SearchArgs) -> ExitCode {
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
     // What an existing run folder recorded: its beam budget (so a raised `--budget` extends the
     // run rather than moving the GPTS phase boundary), its shrink budget and its model flags.
-    let previous = match runner::read_config(&out) {
+    let previous = match summary::read_config(&out) {
         Ok(p) => p,
         Err(e) => return fail(&e),
     };
@@ -399,9 +401,9 @@ pub fn print_summary(
     }
     writeln!(w, "spend: {}", s.spend.line())?;
     let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
-    let flat: Vec<&crate::run::runner::NotDistinctRow> = s.shrink.iter().flat_map(|sh| &sh.not_distinct).collect();
+    let flat: Vec<&crate::run::summary::NotDistinctRow> = s.shrink.iter().flat_map(|sh| &sh.not_distinct).collect();
     // Refuted and not-distinct failure modes are listed with their reason, not as loose ends.
-    let rest: Vec<&crate::run::runner::SetRow> = s
+    let rest: Vec<&crate::run::summary::SetRow> = s
         .failure_modes
         .iter()
         .filter(|r| r.core.is_none() && !refuted.contains(&&r.concepts))
@@ -504,7 +506,7 @@ mod tests {
 
     use super::*;
     use crate::outcome::Outcome;
-    use crate::run::runner::{CoreRow, SetRow, ShrinkSummary};
+    use crate::run::summary::{CoreRow, SetRow, ShrinkSummary};
     use crate::search::metrics::Metrics;
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
@@ -577,7 +579,7 @@ mod tests {
             max_samples: 20,
             new_sets: 9,
             refuted: vec![row(&["cone", "weather_foggy"], 4, 20)],
-            not_distinct: vec![crate::run::runner::NotDistinctRow {
+            not_distinct: vec![crate::run::summary::NotDistinctRow {
                 set: row(&["bus_stop", "cone"], 24, 40),
                 by: row(&["bus_stop"], 22, 40),
             }],

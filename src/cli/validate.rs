@@ -18,8 +18,10 @@ use std::sync::Arc;
 
 use crate::diag::TerminalSafe;
 use crate::run::observe::{DomainWorld, World};
-use crate::run::runner::{self, CONSISTENT_FR, Setup, Validation};
+use crate::run::runner::{self, Setup};
 use crate::run::setup::{self, Parts, SetupError};
+use crate::run::summary;
+use crate::run::summary::{CONSISTENT_FR, Validation};
 
 use super::search::{ModelFlags, RunFlags, fail_run, fr_ci_text, runtime, watch_ctrl_c};
 
@@ -47,7 +49,7 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: ValidateArgs) -> ExitCode {
-    let (config, summary) = match runner::load_run(&args.run_dir) {
+    let (config, summary) = match summary::load_run(&args.run_dir) {
         Ok(x) => x,
         Err(e) => {
             eprintln!("error: {e}");
@@ -118,7 +120,7 @@ pub fn run(args: ValidateArgs) -> ExitCode {
             writeln!(
                 out,
                 "written to {}",
-                args.run_dir.join(runner::validation_file(v.top, v.samples, v.max_samples)).display()
+                args.run_dir.join(summary::validation_file(v.top, v.samples, v.max_samples)).display()
             )
         })
     };
@@ -178,7 +180,7 @@ pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::run::runner::{SetRow, ValidatedSet};
+    use crate::run::summary::{SetRow, ValidatedSet};
 
     fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
         SetRow::from_counts(concepts, wrong, answered)

@@ -32,7 +32,8 @@ use crate::analysis::{self, is_subset, same_set, wilson95};
 use crate::ir::Domain;
 use crate::journal::{Phase, Record, safe};
 use crate::outcome::Outcome;
-use crate::run::runner::{self, RunConfig, SetRow, Summary, Validation};
+use crate::run::summary;
+use crate::run::summary::{RunConfig, SetRow, Summary, Validation};
 
 /// Everything a report is made from: a run folder's files, read once.
 pub struct Run {
@@ -112,7 +113,7 @@ pub struct ShrinkRow {
     pub refuted: Vec<SetRow>,
     /// Failing sets that fail no more than a passing one-smaller part (the lift test).
     #[serde(default)]
-    pub not_distinct: Vec<runner::NotDistinctRow>,
+    pub not_distinct: Vec<summary::NotDistinctRow>,
 }
 
 /// A JSON file of the run folder; `None` when absent. Read through [`safe`]: a regular file (a
@@ -128,7 +129,7 @@ fn read_json<T: serde::de::DeserializeOwned>(dir: &Path, name: &str) -> Result<O
 }
 
 /// The run's most recent validation file: `revelio validate` writes one per setting
-/// ([`runner::validation_file`]) and refreshes the report right after, so the report shows the
+/// ([`summary::validation_file`]) and refreshes the report right after, so the report shows the
 /// validation just made. Ties in time go to the later name; `validation.json` is what runs from
 /// before one file per setting wrote.
 fn latest_validation(dir: &Path) -> Option<String> {
@@ -148,7 +149,7 @@ fn latest_validation(dir: &Path) -> Option<String> {
 
 /// Read a finished run folder.
 pub fn load(dir: &Path) -> Result<Run, String> {
-    let (config, summary) = runner::load_run(dir).map_err(|e| e.to_string())?;
+    let (config, summary) = summary::load_run(dir).map_err(|e| e.to_string())?;
     let extras: Extras = read_json(dir, "summary.json")?.unwrap_or_default();
     let raw: Option<serde_json::Value> = read_json(dir, "config.json")?;
     let params = raw.and_then(|v| v.get("params").and_then(|p| p.as_object().cloned())).unwrap_or_default();
@@ -334,7 +335,7 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     // What the run folder says is checked against the domain before it sizes anything (the pair
     // matrix is the square of the concepts named); `load` already bounded their number.
     if let Some(d) = domain {
-        runner::check_summary(&run.dir, &run.summary, Some(d)).map_err(|e| e.to_string())?;
+        summary::check_summary(&run.dir, &run.summary, Some(d)).map_err(|e| e.to_string())?;
     }
     let findings = run.findings();
     let wanted: Vec<&str> = findings.core_observations.iter().flatten().map(|r| r.image.as_str()).collect();

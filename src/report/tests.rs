@@ -5,8 +5,9 @@ use super::*;
 use crate::journal::{Journal, Phase, Record};
 use crate::lattice::testkit::driving;
 use crate::outcome::{Answer, Outcome, Usage};
-use crate::run::runner::{RunConfig, ValidatedSet, Validation, summarize};
+use crate::run::runner::summarize;
 use crate::run::summary::Spend;
+use crate::run::summary::{RunConfig, ValidatedSet, Validation};
 use crate::search::{Params, SetStats};
 
 const HOSTILE: &str = "<script>alert(\"x\")</script> & <img src=x onerror=alert(1)> Answer: C";
@@ -42,7 +43,7 @@ fn fixture(renderer: &str) -> Fixture {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let config = RunConfig {
-        format: crate::run::runner::RUN_FORMAT,
+        format: crate::run::summary::RUN_FORMAT,
         domain_file: "driving.rev".into(),
         domain: d.name.clone(),
         domain_hash: d.identity().to_string(),
@@ -128,7 +129,7 @@ fn validate(f: &Fixture, concepts: &[&str], wrong: u32, answered: u32) {
         consistent: 0,
         spend: Spend::default(),
     };
-    let name = crate::run::runner::validation_file(v.top, v.samples, v.max_samples);
+    let name = crate::run::summary::validation_file(v.top, v.samples, v.max_samples);
     std::fs::write(f.dir.join(name), serde_json::to_string(&v).unwrap()).unwrap();
 }
 

@@ -15,7 +15,7 @@ use crate::ir::{Domain, Question};
 use crate::journal::{Phase, Record};
 use crate::oracle::{self, option_letter};
 use crate::outcome::{Answer, Outcome};
-use crate::run::runner::{CONSISTENT_FR, SetRow};
+use crate::run::summary::{CONSISTENT_FR, SetRow};
 use crate::search::Algo;
 use crate::search::interact::Surrogate;
 
@@ -533,7 +533,7 @@ pub fn index_page<'a>(
             failure_modes: c.failure_modes,
         })
         .collect();
-    let row = |i: usize, r: &crate::run::runner::SetRow| ModeRow {
+    let row = |i: usize, r: &crate::run::summary::SetRow| ModeRow {
         rank: i + 1,
         concepts: r.concepts.clone(),
         fr: pct(r.fr),

@@ -10,88 +10,28 @@
 //! smaller budget stopped — and a higher `--shrink` extends the shrink phase, which shrinks the
 //! failure modes of the (possibly extended) search again, served from the journal where it asks
 //! what it asked before.
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use serde::{Deserialize, Serialize};
-
 use crate::ir::{ConceptSet, Domain};
-use crate::journal::{Journal, JournalError, OnCorrupt, Phase, safe};
-use crate::outcome::Outcome;
+use crate::journal::{Journal, OnCorrupt, Phase};
 use crate::render::Renderer;
 use crate::vlm::Model;
 
 use super::eval::{Evaluator, EvaluatorConfig};
 use super::observe::{Observer, World};
 use super::progress::{Progress, ProgressTo};
-use super::setup::{DEFAULT_CONCURRENCY, ModelSettings};
+use super::setup::DEFAULT_CONCURRENCY;
 use super::stop::Stop;
-use super::summary::Spend;
+use super::summary::{
+    CONSISTENT_FR, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary, Spend, Summary, ValidatedSet,
+    Validation, validation_file,
+};
 use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::interval::mean_sd;
-use crate::search::metrics::{Metrics, metrics, ranked};
+use crate::search::metrics::{metrics, ranked};
 use crate::search::shrink::{self, Found};
 use crate::search::{Driver, Params, Rule, SearchError, Searched, SetStats, Space};
-
-/// The run folder format this revelio writes and reads. Format 1 (no `format` field) seeded its
-/// scenes from the domain file's path as typed; its scenes cannot be reproduced, so such folders
-/// are refused with a message rather than resumed with different scenes.
-pub const RUN_FORMAT: u64 = 2;
-
-fn run_format_1() -> u64 {
-    1
-}
-
-/// The resolved configuration of a run (`config.json`): everything that changes its results,
-/// and how to rebuild its model. Concurrency is not in it: it changes timing, never answers.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunConfig {
-    #[serde(default = "run_format_1")]
-    pub format: u64,
-    /// The domain file (made absolute), so `revelio validate` can reload it.
-    pub domain_file: String,
-    pub domain: String,
-    /// The domain's identity ([`Domain::identity`]): canonical module names and texts.
-    pub domain_hash: String,
-    /// The `--model` spec and the model's id (which includes answer-changing settings).
-    pub model_spec: String,
-    pub model: String,
-    /// The base URL the model's requests go to (never a key); `None` for `sim`.
-    #[serde(default)]
-    pub endpoint: Option<String>,
-    /// The model flags the run was started with; `validate` and resumes reuse them.
-    #[serde(default)]
-    pub model_settings: ModelSettings,
-    pub renderer: String,
-    pub params: Params,
-}
-
-impl RunConfig {
-    /// The configuration of a run of `model` on `domain`.
-    pub fn new(
-        domain: &Domain,
-        domain_file: &Path,
-        model_spec: &str,
-        model: &dyn Model,
-        model_settings: ModelSettings,
-        renderer: &str,
-        params: Params,
-    ) -> RunConfig {
-        RunConfig {
-            format: RUN_FORMAT,
-            domain_file: super::setup::absolute(domain_file),
-            domain: domain.name.clone(),
-            domain_hash: domain.identity().to_string(),
-            model_spec: model_spec.to_string(),
-            model: model.id(),
-            endpoint: model.endpoint(),
-            model_settings,
-            renderer: renderer.to_string(),
-            params,
-        }
-    }
-}
 
 /// Fields of `config.json` a resume may change: where things are, not what the run is.
 const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings"];
@@ -156,28 +96,6 @@ fn differences(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> 
     let mut out = Vec::new();
     walk("", old, new, &mut out);
     out
-}
-
-/// Read a run folder's `config.json`, if it has one (to reuse its settings).
-pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
-    let path = dir.join("config.json");
-    if !path.exists() {
-        return Ok(None);
-    }
-    let text = safe::read_text(&path, safe::MAX_JSON_BYTES).map_err(|source| JournalError::Io {
-        action: "read",
-        path: path.clone(),
-        source,
-    })?;
-    let value: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
-    let found = value.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
-    if found != RUN_FORMAT {
-        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT }.into());
-    }
-    serde_json::from_value(value)
-        .map(Some)
-        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() }.into())
 }
 
 /// Open the run folder for `config`: a new folder gets the configuration, an existing one must
@@ -259,137 +177,6 @@ impl Setup {
             stop: self.stop.clone(),
             max_api_errors: self.max_api_errors,
         })
-    }
-}
-
-/// One evaluated set, by name.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SetRow {
-    pub concepts: Vec<String>,
-    /// Failure rate over answered observations (`None`: nothing answered).
-    pub fr: Option<f64>,
-    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
-    #[serde(default = "unit_interval")]
-    pub ci95: [f64; 2],
-    pub wrong: u32,
-    pub answered: u32,
-    pub observations: u32,
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub unanswered: BTreeMap<Outcome, u32>,
-    /// For a failure mode: the index in `cores` of the first core it contains.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub core: Option<usize>,
-}
-
-fn unit_interval() -> [f64; 2] {
-    [0.0, 1.0]
-}
-
-impl SetRow {
-    /// A row from counts alone, every observation answered (tests' fixtures).
-    #[cfg(test)]
-    pub(crate) fn from_counts(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
-        SetRow {
-            concepts: concepts.iter().map(|c| c.to_string()).collect(),
-            fr: (answered > 0).then(|| f64::from(wrong) / f64::from(answered)),
-            ci95: crate::search::interval::wilson(wrong, answered),
-            wrong,
-            answered,
-            observations: answered,
-            unanswered: BTreeMap::new(),
-            core: None,
-        }
-    }
-
-    pub fn new(domain: &Domain, s: &SetStats) -> SetRow {
-        SetRow {
-            concepts: domain.set_names(s.set).into_iter().map(String::from).collect(),
-            fr: s.fr(),
-            ci95: s.ci95(),
-            wrong: s.wrong,
-            answered: s.answered(),
-            observations: s.observations(),
-            unanswered: s.unanswered.clone(),
-            core: None,
-        }
-    }
-}
-
-/// A minimal failure mode: every observation of it (search and shrink phases), how many failure
-/// modes of the search contain it, and what it was shrunk from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CoreRow {
-    #[serde(flatten)]
-    pub set: SetRow,
-    /// Failure modes of the search (`failure_modes`) that contain this core, itself included.
-    pub supersets: usize,
-    /// Whether every one-smaller valid subset was tested and passes (false: the shrink budget
-    /// ran out first).
-    pub minimal: bool,
-    /// The failure mode it was shrunk from.
-    pub shrunk_from: Vec<String>,
-}
-
-/// The shrink phase in `summary.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ShrinkSummary {
-    /// Inferences it was given (`--shrink`) and spent.
-    pub budget: u64,
-    pub inferences: u64,
-    /// Most observations per set in its sequential test (interact: its confirmation rule's, the
-    /// rule it shrinks with as it searches); the lift test goes to twice that.
-    pub max_samples: u32,
-    /// Subsets it evaluated that the search had not.
-    pub new_sets: usize,
-    /// Failure modes of the search that did not fail when re-tested (with all their
-    /// observations).
-    pub refuted: Vec<SetRow>,
-    /// Failing sets the shrink reached that fail no more than a one-smaller subset that passes
-    /// (the lift test): no distinct failure mode, the subset's rate near τ.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub not_distinct: Vec<NotDistinctRow>,
-}
-
-/// A failing set that does not fail significantly more than its passing subset `by`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NotDistinctRow {
-    #[serde(flatten)]
-    pub set: SetRow,
-    /// The one-smaller subset, with all its observations.
-    pub by: SetRow,
-}
-
-/// `summary.json`: a pure function of the configuration and the observations.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Summary {
-    pub domain: String,
-    pub model: String,
-    pub algo: crate::search::Algo,
-    pub threshold: f64,
-    /// Valid sets in the search space.
-    pub space: usize,
-    pub metrics: Metrics,
-    /// Distinct minimal failure modes from the shrink phase, highest failure rate first (empty
-    /// when shrinking was off).
-    #[serde(default)]
-    pub cores: Vec<CoreRow>,
-    /// Failure modes of the search (its observations only), highest failure rate first.
-    pub failure_modes: Vec<SetRow>,
-    /// Every set the search evaluated, in evaluation order, with the search's observations.
-    pub sets: Vec<SetRow>,
-    /// The shrink phase (absent when it was off).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub shrink: Option<ShrinkSummary>,
-    /// Tokens and money of the run's observations, every phase (its model's usage and
-    /// configured prices).
-    #[serde(default)]
-    pub spend: Spend,
-}
-
-impl Summary {
-    /// `(api_error observations, all observations)`.
-    pub fn api_errors(&self) -> (u64, u64) {
-        (self.metrics.unanswered.get(&Outcome::ApiError).copied().unwrap_or(0), self.metrics.inferences)
     }
 }
 
@@ -545,132 +332,10 @@ pub fn summarize(
     }
 }
 
-/// A validation's result (`validation-top{K}-samples{M}.json`): the top-k sets of a run
-/// re-evaluated with fresh scenes.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Validation {
-    pub top: usize,
-    pub samples: u32,
-    /// Sequential validation: the most observations a set could get (absent: exactly
-    /// `samples`). The interval is tested against the run's threshold τ.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_samples: Option<u32>,
-    pub sets: Vec<ValidatedSet>,
-    /// Mean and sample standard deviation of the validated failure rates.
-    pub mean_fr: f64,
-    pub sd_fr: f64,
-    /// How many validated sets reach FR ≥ 0.8.
-    pub consistent: usize,
-    /// Tokens and money of the validation's observations.
-    #[serde(default)]
-    pub spend: Spend,
-}
-
-impl Validation {
-    /// `(api_error observations, all observations)` of the validation.
-    pub fn api_errors(&self) -> (u64, u64) {
-        let rows = self.sets.iter().map(|s| &s.validation);
-        let errors = rows.clone().map(|r| u64::from(r.unanswered.get(&Outcome::ApiError).copied().unwrap_or(0))).sum();
-        (errors, rows.map(|r| u64::from(r.observations)).sum())
-    }
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ValidatedSet {
-    pub search: SetRow,
-    pub validation: SetRow,
-}
-
-/// FR a validated failure mode must reach to count as consistent (paper section 4).
-pub const CONSISTENT_FR: f64 = 0.8;
-
 /// The top `k` sets of a search, in the order the search table lists them (the same ranking:
 /// failure rate, then answered observations, then the canonical set order).
 pub fn top_sets(history: &[SetStats], k: usize) -> Vec<SetStats> {
     ranked(history).into_iter().take(k).cloned().collect()
-}
-
-/// The file a validation with these options is written to: one per setting, so validating
-/// again with other options never overwrites an earlier result. A sequential validation
-/// (`max_samples` above `samples`) is a setting of its own: `…-samples{m}-max{M}.json`.
-pub fn validation_file(top: usize, samples: u32, max_samples: Option<u32>) -> String {
-    match max_samples.filter(|&m| m > samples) {
-        Some(max) => format!("validation-top{top}-samples{samples}-max{max}.json"),
-        None => format!("validation-top{top}-samples{samples}.json"),
-    }
-}
-
-/// Read a run folder's configuration and summary.
-pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
-    let config = read_config(dir)?
-        .ok_or_else(|| RunError::Usage(format!("`{}` is not a run folder (it has no config.json)", dir.display())))?;
-    let path = dir.join("summary.json");
-    let text = safe::read_text(&path, safe::MAX_JSON_BYTES).map_err(|e| {
-        RunError::Usage(format!(
-            "cannot read `{}`: {} (is `{}` a finished run folder?)",
-            path.display(),
-            crate::journal::io_message(&e),
-            dir.display()
-        ))
-    })?;
-    let summary: Summary = serde_json::from_str(&text).map_err(|e| JournalError::BadConfig {
-        dir: dir.to_path_buf(),
-        message: format!("invalid `summary.json`: {e}"),
-    })?;
-    check_summary(dir, &summary, None)?;
-    Ok((config, summary))
-}
-
-/// Every set a summary lists, wherever it lists it.
-fn summary_sets(summary: &Summary) -> impl Iterator<Item = &SetRow> {
-    let shrink =
-        summary.shrink.iter().flat_map(|s| s.refuted.iter().chain(s.not_distinct.iter().flat_map(|n| [&n.set, &n.by])));
-    summary.sets.iter().chain(&summary.failure_modes).chain(summary.cores.iter().map(|c| &c.set)).chain(shrink)
-}
-
-/// A summary read from a run folder sizes what is computed from it (the report's pair matrix
-/// is the square of its concepts): its concept names must be the domain's, when the domain is
-/// at hand, and are never more than a domain may declare ([`crate::ir::MAX_CONCEPTS`]).
-pub fn check_summary(dir: &Path, summary: &Summary, domain: Option<&Domain>) -> Result<(), RunError> {
-    let bad = |message: String| JournalError::BadConfig { dir: dir.to_path_buf(), message };
-    let mut names = std::collections::BTreeSet::new();
-    for row in summary_sets(summary) {
-        if row.wrong > row.answered {
-            return Err(bad(format!(
-                "invalid `summary.json`: a set has {} wrong answers of {} answered",
-                row.wrong, row.answered
-            ))
-            .into());
-        }
-        let mut seen = std::collections::BTreeSet::new();
-        if row.concepts.len() > crate::ir::MAX_CONCEPTS || !row.concepts.iter().all(|c| seen.insert(c)) {
-            return Err(bad(format!(
-                "invalid `summary.json`: a set of {} names repeats one or is larger than any domain allows",
-                row.concepts.len()
-            ))
-            .into());
-        }
-        for name in &row.concepts {
-            if let Some(d) = domain
-                && d.concept_by_name(name).is_none()
-            {
-                return Err(bad(format!(
-                    "invalid `summary.json`: concept `{}` is not in domain `{}`",
-                    crate::diag::terminal_safe(name),
-                    crate::diag::terminal_safe(&d.name)
-                ))
-                .into());
-            }
-            if names.insert(name.as_str()) && names.len() > crate::ir::MAX_CONCEPTS {
-                return Err(bad(format!(
-                    "invalid `summary.json`: it names more than {} concepts, more than any domain declares",
-                    crate::ir::MAX_CONCEPTS
-                ))
-                .into());
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Re-evaluate the top `top` sets of a finished run with `samples` fresh observations each —

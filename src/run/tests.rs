@@ -2,7 +2,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::runner::{self, RunConfig, Setup};
+use super::runner::{self, Setup};
+use super::summary;
+use super::summary::RunConfig;
 use super::testkit::FakeWorld;
 use crate::ir::testkit::{lattice, numbered};
 use crate::outcome::Outcome;
@@ -418,9 +420,9 @@ fn validation_follows_the_search_table_and_keeps_every_setting() {
     let v = block_on(runner::validate(&s, &cfg, &r.summary, modes.len(), 3, None)).unwrap();
     let order: Vec<&Vec<String>> = v.sets.iter().map(|x| &x.search.concepts).collect();
     assert_eq!(order, modes.iter().map(|m| &m.concepts).collect::<Vec<_>>());
-    let first = std::fs::read(dir.path().join(runner::validation_file(modes.len(), 3, None))).unwrap();
+    let first = std::fs::read(dir.path().join(summary::validation_file(modes.len(), 3, None))).unwrap();
     block_on(runner::validate(&s, &cfg, &r.summary, 2, 6, None)).unwrap();
-    assert_eq!(std::fs::read(dir.path().join(runner::validation_file(modes.len(), 3, None))).unwrap(), first);
+    assert_eq!(std::fs::read(dir.path().join(summary::validation_file(modes.len(), 3, None))).unwrap(), first);
     assert!(dir.path().join("validation-top2-samples6.json").exists());
 }
 
