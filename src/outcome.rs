@@ -46,6 +46,23 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// The outcome's one name, as the journal, `summary.json`, the terminal, the CSV tables and
+    /// the docs spell it (`api_error`); the report shows it with spaces.
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Correct => "correct",
+            Outcome::Wrong => "wrong",
+            Outcome::Unparsed => "unparsed",
+            Outcome::Ambiguous => "ambiguous",
+            Outcome::Refusal => "refusal",
+            Outcome::Blocked => "blocked",
+            Outcome::Truncated => "truncated",
+            Outcome::ApiError => "api_error",
+            Outcome::ImageBlocked => "image_blocked",
+            Outcome::Invisible => "invisible",
+        }
+    }
+
     /// Whether a model was asked (and so the observation is a model call, paid or cached).
     pub fn asked_a_model(self) -> bool {
         !matches!(self, Outcome::ImageBlocked | Outcome::Invisible)
@@ -76,4 +93,28 @@ pub struct Usage {
     pub thinking_tokens: u64,
     /// Cost in US dollars from the model's configured prices (0 when unknown or cached).
     pub cost_usd: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_outcome_has_one_name_the_journal_spells_too() {
+        let all = [
+            Outcome::Correct,
+            Outcome::Wrong,
+            Outcome::Unparsed,
+            Outcome::Ambiguous,
+            Outcome::Refusal,
+            Outcome::Blocked,
+            Outcome::Truncated,
+            Outcome::ApiError,
+            Outcome::ImageBlocked,
+            Outcome::Invisible,
+        ];
+        for o in all {
+            assert_eq!(serde_json::to_value(o).unwrap(), serde_json::Value::from(o.name()), "{o:?}");
+        }
+    }
 }

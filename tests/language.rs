@@ -10,7 +10,8 @@
 use std::path::Path;
 
 use revelio::check::{self, Compiled};
-use revelio::cli::check::{Report, compile_path, line_col};
+use revelio::cli::check::{Report, line_col};
+use revelio::cli::common::compile_path;
 use revelio::diag::codes::CODES;
 use revelio::diag::{Diagnostic, Severity};
 

@@ -283,7 +283,7 @@ fn shipped_domains_pass_the_visibility_lint() {
     let r = renderer();
     let mut problems = Vec::new();
     for f in &files {
-        let compiled = revelio::cli::check::compile_path(f, false);
+        let compiled = revelio::cli::common::compile_path(f, false);
         let d = compiled.domain.unwrap_or_else(|| panic!("`{}` does not compile", f.display()));
         let plan = revelio::run::visible::Plan { scenes: 3, sample: None };
         let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();

@@ -34,7 +34,7 @@ pub struct AskArgs {
     #[arg(long, default_value = "builtin")]
     pub renderer: String,
     #[command(flatten)]
-    pub model_opts: super::search::ModelFlags,
+    pub model_opts: super::common::ModelFlags,
 }
 
 pub fn run(args: AskArgs) -> ExitCode {
@@ -202,7 +202,7 @@ mod tests {
             model: "openai:glm-4.6v-flash".into(),
             seed: 3,
             renderer: "none".into(),
-            model_opts: super::super::search::ModelFlags {
+            model_opts: super::super::common::ModelFlags {
                 base_url: Some(base),
                 cache_dir: Some(cache.to_path_buf()),
                 ..Default::default()

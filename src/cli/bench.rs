@@ -35,7 +35,7 @@ use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::{Profile, SimModel};
 
-use super::search::runtime;
+use super::common::runtime;
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -94,7 +94,7 @@ pub struct SearchBenchArgs {
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
     /// Algorithms to run, comma-separated [default: all]
-    #[arg(long, value_delimiter = ',', value_parser = super::search::algo_parser())]
+    #[arg(long, value_delimiter = ',', value_parser = super::common::algo_parser())]
     pub algos: Vec<Algo>,
     /// Interact: the surrogate (patterns, horseshoe, ridge, linear)
     #[arg(long, default_value = "patterns")]

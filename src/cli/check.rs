@@ -5,15 +5,15 @@
 //! subcommands use through [`super::load_domain`].
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource, SourceSpan};
 
+use super::common::{collect_rev_files, compile_path_with, compile_text_with, write_stdout};
 use crate::check::{self, Compiled};
 use crate::diag::{Diagnostic, Severity};
 use crate::ir::{SourceFile, Span};
-use crate::source::{file_kind, io_reason};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -155,12 +155,6 @@ fn render_lint(_: &Compiled, _: Plan) -> Result<Vec<Diagnostic>, String> {
     Err("`--render` needs the builtin renderer, and this build of revelio has none (built without the `render` feature)".into())
 }
 
-/// Print to stdout; a closed pipe (`revelio check … | head`) is not an error worth a panic.
-pub fn write_stdout(s: &str) {
-    use std::io::Write as _;
-    let _ = std::io::stdout().lock().write_all(s.as_bytes());
-}
-
 fn summary(files: usize, errors: usize, warnings: usize, allowed: usize) -> String {
     let plural = |n: usize, w: &str| if n == 1 { format!("1 {w}") } else { format!("{n} {w}s") };
     let mut s =
@@ -182,73 +176,6 @@ pub fn reports_of(c: &Compiled) -> Vec<Report<'_>> {
             r
         })
         .collect()
-}
-
-/// Compile one file from disk (`use "…"` paths are read relative to it, under the policy of
-/// [`crate::source`]). With `lints`, the lattice lints run on domain files that compiled without
-/// errors.
-pub fn compile_path(path: &Path, lints: bool) -> Compiled {
-    compile_path_with(path, lints.then(crate::lint::Limits::default))
-}
-
-/// [`compile_path`] with the lattice lints' limits (none: no lints), showing their progress.
-pub fn compile_path_with(path: &Path, lints: Option<crate::lint::Limits>) -> Compiled {
-    with_lints(crate::source::compile_file(path), lints)
-}
-
-/// Compile `text` as the file `path` (standard input named by `--stdin-filename`): its
-/// `use "…"` paths are read from disk relative to it, under the policy of [`crate::source`];
-/// lints as [`compile_path_with`].
-pub fn compile_text_with(path: &Path, text: &str, lints: Option<crate::lint::Limits>) -> Compiled {
-    with_lints(crate::source::compile_text(path, text, &|_| None), lints)
-}
-
-/// `compiled` with the lattice lints' diagnostics added (none: as it is), showing their progress.
-fn with_lints(mut compiled: Compiled, lints: Option<crate::lint::Limits>) -> Compiled {
-    if let (Some(domain), Some(limits)) = (compiled.domain.as_ref().filter(|d| !d.name.is_empty()), lints) {
-        let mut work = super::progress::Work::new();
-        compiled.diagnostics.extend(crate::lint::lint_domain_with(domain, limits, &mut |w, d, t| work.report(w, d, t)));
-        check::sort_diagnostics(&mut compiled.diagnostics);
-    }
-    compiled
-}
-
-/// The `.rev` files named by `paths`, folders searched recursively, sorted within a folder.
-pub fn collect_rev_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
-    let mut out = Vec::new();
-    for p in paths {
-        match std::fs::metadata(p) {
-            Ok(m) if m.is_dir() => {
-                walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
-            }
-            Ok(m) if m.is_file() => out.push(p.clone()),
-            Ok(m) => return Err(format!("`{}` is {}, not a `.rev` file or a folder", p.display(), file_kind(&m))),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(format!("`{}` does not exist", p.display()));
-            }
-            Err(e) => return Err(format!("cannot read `{}`: {}", p.display(), io_reason(&e))),
-        }
-    }
-    Ok(out)
-}
-
-/// The `.rev` files below `dir`. Links to folders are not followed (a link to `..` would never
-/// end); links to files are listed, and [`crate::source`] judges where they lead.
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    let mut entries = Vec::new();
-    for e in std::fs::read_dir(dir)? {
-        let e = e?;
-        entries.push((e.path(), e.file_type()?.is_dir()));
-    }
-    entries.sort();
-    for (path, is_dir) in entries {
-        if is_dir {
-            walk(&path, out)?;
-        } else if path.extension().is_some_and(|x| x == "rev") {
-            out.push(path);
-        }
-    }
-    Ok(())
 }
 
 /// A diagnostic with the source files it points into, ready to render.
@@ -479,6 +406,8 @@ pub fn render_human(compiled: &Compiled, theme: &GraphicalTheme) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cli::common::compile_path;
+    use std::path::Path;
 
     fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
         let p = dir.join(name);

@@ -31,9 +31,9 @@ pub fn run(args: DescribeArgs) -> ExitCode {
         Err(code) => return code,
     };
     if args.json {
-        super::check::write_stdout(&format!("{}\n", to_json(&domain)));
+        super::common::write_stdout(&format!("{}\n", to_json(&domain)));
     } else {
-        super::check::write_stdout(&summary(&domain));
+        super::common::write_stdout(&summary(&domain));
     }
     ExitCode::SUCCESS
 }

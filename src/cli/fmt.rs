@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use super::check::{Report, collect_rev_files, write_stdout};
+use super::check::Report;
+use super::common::{collect_rev_files, write_stdout};
 use crate::ir::SourceFile;
 
 #[derive(clap::Args, Debug)]

@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 pub mod ask;
 pub mod bench;
 pub mod check;
+pub mod common;
 pub mod compare;
 pub mod describe;
 pub mod emit;
@@ -103,7 +104,7 @@ pub fn main() -> ExitCode {
 /// human output; on errors the subcommand should exit with the returned code (1).
 pub fn load_domain(path: &std::path::Path) -> Result<crate::ir::Domain, ExitCode> {
     // No lattice lints here: they enumerate the lattice, which is `check`'s job.
-    let compiled = check::compile_path(path, false);
+    let compiled = common::compile_path(path, false);
     let theme = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         miette::GraphicalTheme::unicode()
     } else {

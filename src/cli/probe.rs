@@ -13,10 +13,11 @@ use crate::analysis::probe::{ProbeReport, Thresholds};
 use crate::analysis::reask::{self, Reask};
 use crate::ir::ConceptSet;
 use crate::run::RunError;
+use crate::search::interval::pct;
 use crate::vlm::Model;
 
+use super::common::{ModelFlags, RunFlags, fail_run};
 use super::reask::{open_run, probe_order};
-use super::search::{ModelFlags, RunFlags, fail_run};
 
 #[derive(clap::Args, Debug)]
 pub struct ProbeArgs {
@@ -78,10 +79,6 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         Ok(report) => open.finish(&args.run_dir, "probe.json", &report, args.json, |w| print_probe(w, &report)),
         Err(code) => code,
     }
-}
-
-fn pct(f: Option<f64>) -> String {
-    f.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
 }
 
 pub fn print_probe(w: &mut impl Write, r: &ProbeReport) -> std::io::Result<()> {

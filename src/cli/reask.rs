@@ -20,7 +20,7 @@ use crate::run::{RunError, Stop};
 use crate::search::SetStats;
 use crate::vlm::Model;
 
-use super::search::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
+use super::common::{ModelFlags, RunFlags, fail_run, runtime, watch_ctrl_c};
 
 /// A finished run opened for more observations: its configuration, summary, domain, the
 /// pipeline and the journal (locked).

@@ -9,16 +9,18 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use crate::diag::{TerminalSafe, terminal_safe};
+use crate::diag::TerminalSafe;
 use crate::lattice::Lattice;
 use crate::run::RunError;
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, Setup};
-use crate::run::setup::{self, ModelSettings, Parts, SetupError};
+use crate::run::setup::{self, Parts, SetupError};
 use crate::run::summary;
 use crate::run::summary::{RunConfig, Summary};
 use crate::search::gp::Kernel;
 use crate::search::{Algo, DEFAULT_LAMBDA, Params};
+
+use super::common::{ModelFlags, RunFlags, algo_parser, fail_run, fr_ci_text, kernel_parser, runtime, watch_ctrl_c};
 
 #[derive(clap::Args, Debug)]
 pub struct SearchArgs {
@@ -90,79 +92,6 @@ pub struct SearchArgs {
     /// Print the summary as JSON
     #[arg(long)]
     pub json: bool,
-}
-
-/// Flags that shape how a run calls the model (shared with `validate`).
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct RunFlags {
-    /// Model calls (and observations) in flight at once [default: the model config's
-    /// `concurrency`, else 16]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
-    pub concurrency: Option<u32>,
-    /// Stop the run after this many model calls in a row fail (0: never)
-    #[arg(long, default_value_t = crate::run::MAX_API_ERRORS)]
-    pub max_api_errors: u32,
-    /// Move complete journal lines that do not parse into `journal.corrupt` beside the journal
-    /// and go on (without it, such a line stops the command and the journal is left as it is)
-    #[arg(long)]
-    pub set_aside_corrupt: bool,
-}
-
-impl RunFlags {
-    /// What a corrupt journal line does.
-    pub fn on_corrupt(&self) -> crate::journal::OnCorrupt {
-        if self.set_aside_corrupt { crate::journal::OnCorrupt::SetAside } else { crate::journal::OnCorrupt::Refuse }
-    }
-}
-
-/// Flags that configure the model and image-generation clients (shared with `validate`, `probe`,
-/// `transfer` and `ask`). On an existing run folder only `--thinking` is taken from its
-/// `config.json` when not given: where keys go is never read from a run folder
-/// ([`ModelSettings::resume`]).
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct ModelFlags {
-    /// Override the model provider's endpoint (the model only; never the renderer's)
-    #[arg(long)]
-    pub base_url: Option<String>,
-    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
-    /// `OPENAI_BASE_URL`)
-    #[arg(long)]
-    pub renderer_base_url: Option<String>,
-    /// Per-model settings (TOML)
-    #[arg(long)]
-    pub model_config: Option<PathBuf>,
-    /// Allow plain `http://` base URLs for a server other than this machine (a model server on
-    /// your own network); never for a provider's own host. The key goes out unencrypted
-    #[arg(long)]
-    pub allow_http: bool,
-    /// Thinking level: minimal, low, medium, high
-    #[arg(long)]
-    pub thinking: Option<String>,
-    /// The reply and image cache shared by all runs [default: $XDG_CACHE_HOME/revelio, else
-    /// ~/.cache/revelio]
-    #[arg(long, value_name = "DIR")]
-    pub cache_dir: Option<PathBuf>,
-    /// Do not use the reply and image cache
-    #[arg(long)]
-    pub no_cache: bool,
-}
-
-impl ModelFlags {
-    /// The model settings these flags give (to be completed from a run folder's record).
-    pub fn settings(&self) -> ModelSettings {
-        ModelSettings {
-            base_url: self.base_url.clone(),
-            renderer_base_url: self.renderer_base_url.clone(),
-            model_config: self.model_config.as_deref().map(setup::absolute),
-            thinking: self.thinking.clone(),
-            allow_http: self.allow_http,
-        }
-    }
-
-    /// The cache root these flags choose (`None`: no cache).
-    pub fn cache(&self) -> Option<PathBuf> {
-        setup::cache_root(self.cache_dir.as_deref(), self.no_cache)
-    }
 }
 
 pub fn run(args: SearchArgs) -> ExitCode {
@@ -310,49 +239,6 @@ fn fail(e: &RunError) -> ExitCode {
     ExitCode::from(e.exit_code())
 }
 
-/// Report a run that ended early; a stopped run says how to go on.
-pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
-    // A run error may quote what a run folder holds (names, paths, a provider's reply).
-    eprintln!("error: {}", terminal_safe(&e.to_string()));
-    if e.resumable() {
-        eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
-    }
-    ExitCode::from(e.exit_code())
-}
-
-/// First Ctrl-C: stop starting model calls, journal the ones in flight, exit 130. Second: exit
-/// 130 at once (the journal is safe at any byte).
-pub(crate) fn watch_ctrl_c(rt: &tokio::runtime::Runtime, stop: &crate::run::Stop) {
-    let _guard = rt.enter();
-    stop.on_ctrl_c(|| std::process::exit(130));
-}
-
-/// `--algo`: the search algorithms by name, listed in `--help`.
-pub(crate) fn kernel_parser() -> impl clap::builder::TypedValueParser<Value = Kernel> {
-    use clap::builder::TypedValueParser as _;
-    clap::builder::PossibleValuesParser::new(Kernel::ALL.map(Kernel::name))
-        .map(|name| name.parse::<Kernel>().expect("the parser only lets listed names through"))
-}
-
-pub(crate) fn algo_parser() -> impl clap::builder::TypedValueParser<Value = Algo> {
-    use clap::builder::TypedValueParser as _;
-    clap::builder::PossibleValuesParser::new(Algo::ALL.map(Algo::name))
-        .map(|name| name.parse::<Algo>().expect("the parser only lets listed names through"))
-}
-
-pub(crate) fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("a tokio runtime starts")
-}
-
-fn fr_text(fr: Option<f64>) -> String {
-    fr.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
-}
-
-/// `FR [lo–hi]`, e.g. ` 80% [38–96]`: the failure rate and its 95 % interval, in percent.
-pub(crate) fn fr_ci_text(fr: Option<f64>, ci: [f64; 2]) -> String {
-    format!("{:>4} [{:.0}–{:.0}]", fr_text(fr), 100.0 * ci[0], 100.0 * ci[1])
-}
-
 /// The human summary: metrics, then the distinct cores (with their supersets) and the failure
 /// modes no core explains.
 pub fn print_summary(
@@ -381,7 +267,7 @@ pub fn print_summary(
         m.pfm, m.mfr, m.failure_modes, s.threshold
     )?;
     if !m.unanswered.is_empty() {
-        let parts: Vec<String> = m.unanswered.iter().map(|(o, n)| format!("{n} {}", outcome_name(*o))).collect();
+        let parts: Vec<String> = m.unanswered.iter().map(|(o, n)| format!("{n} {}", o.name())).collect();
         writeln!(w, "not answered (excluded from FR): {}", parts.join(", "))?;
     }
     if let Some(sh) = &s.shrink {
@@ -492,10 +378,6 @@ pub fn print_summary(
         out.display(),
         out.display()
     )
-}
-
-pub(crate) fn outcome_name(o: crate::outcome::Outcome) -> String {
-    serde_json::to_value(o).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
 
 #[cfg(test)]

@@ -19,10 +19,11 @@ use crate::ir::ConceptSet;
 use crate::lattice::Lattice;
 use crate::run::runner;
 use crate::run::setup;
+use crate::search::interval::pct;
 use crate::vlm::Model;
 
+use super::common::{ModelFlags, RunFlags, fail_run};
 use super::reask::{open_run, top_sets};
-use super::search::{ModelFlags, RunFlags, fail_run};
 
 #[derive(clap::Args, Debug)]
 pub struct TransferArgs {
@@ -138,10 +139,6 @@ pub fn run(args: TransferArgs) -> ExitCode {
         spend,
     };
     open.finish(&args.run_dir, "transfer.json", &report, args.json, |w| print_transfer(w, &report.transfer))
-}
-
-fn pct(f: Option<f64>) -> String {
-    f.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
 }
 
 pub fn print_transfer(w: &mut impl Write, t: &Transfer) -> std::io::Result<()> {

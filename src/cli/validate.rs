@@ -22,8 +22,9 @@ use crate::run::runner::{self, Setup};
 use crate::run::setup::{self, Parts, SetupError};
 use crate::run::summary;
 use crate::run::summary::{CONSISTENT_FR, Validation};
+use crate::search::interval::pct;
 
-use super::search::{ModelFlags, RunFlags, fail_run, fr_ci_text, runtime, watch_ctrl_c};
+use super::common::{ModelFlags, RunFlags, fail_run, fr_ci_text, runtime, watch_ctrl_c};
 
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
@@ -141,10 +142,6 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         }
         None => ExitCode::SUCCESS,
     }
-}
-
-fn pct(f: Option<f64>) -> String {
-    f.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
 }
 
 pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<()> {

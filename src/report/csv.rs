@@ -3,7 +3,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{Findings, Run, outcome_name};
+use super::{Findings, Run};
 use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::Transfer;
 use crate::analysis::wilson95;
@@ -70,7 +70,7 @@ pub fn sets(run: &Run) -> String {
         .split(',')
         .map(String::from)
         .collect();
-    head.extend(outcomes.iter().map(|o| outcome_name(*o).replace(' ', "_")));
+    head.extend(outcomes.iter().map(|o| o.name().to_string()));
     let mut out = String::new();
     line(&mut out, &head);
     for (i, r) in s.sets.iter().enumerate() {

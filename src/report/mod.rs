@@ -389,8 +389,9 @@ pub fn phase_name(p: Phase) -> String {
     snake(p)
 }
 
+/// An outcome as the report shows it: its name with spaces (`api error`).
 pub fn outcome_name(o: Outcome) -> String {
-    snake(o).replace('_', " ")
+    o.name().replace('_', " ")
 }
 
 #[cfg(test)]

@@ -6,12 +6,13 @@ use std::collections::BTreeMap;
 use std::fmt::{self, Write};
 
 use super::files::ImageRef;
-use super::view::{CoreView, IndexPage, ModeRow, ObsView, VisibilityView, index_page, interval, pct};
+use super::view::{CoreView, IndexPage, ModeRow, ObsView, VisibilityView, index_page, interval};
 use super::{Findings, Run};
 use crate::analysis::probe::{Mechanism, ProbeReport};
 use crate::analysis::transfer::{Transfer, TransferReport, pooled_counts};
 use crate::analysis::wilson95;
 use crate::ir::Domain;
+use crate::search::interval::pct;
 
 pub fn render(
     run: &Run,

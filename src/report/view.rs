@@ -18,6 +18,7 @@ use crate::outcome::{Answer, Outcome};
 use crate::run::summary::{CONSISTENT_FR, SetRow};
 use crate::search::Algo;
 use crate::search::interact::Surrogate;
+use crate::search::interval::pct;
 
 /// Replies longer than this many characters show a preview and the full text on demand.
 const PREVIEW_CHARS: usize = 180;
@@ -147,10 +148,6 @@ pub struct VisibilityView {
     /// Cores whose scenes were redrawn or withheld: anchor, concepts, counts.
     pub cores: Vec<(String, String, SceneVisibility)>,
     pub concepts: Vec<crate::analysis::ConceptVisibility>,
-}
-
-pub(super) fn pct(f: Option<f64>) -> String {
-    f.map_or_else(|| "–".into(), |f| format!("{:.0}%", 100.0 * f))
 }
 
 pub(super) fn interval(c: Option<(f64, f64)>) -> String {

@@ -8,6 +8,12 @@
 //! and the sequential test ([`super::sequential`]) never contradicts the paper's classification.
 //! No continuity correction.
 
+/// A rate as a person reads it: `62%`, or `–` where there is none (no answered observation).
+/// The one spelling of a percentage in the terminal tables and the report.
+pub fn pct(f: Option<f64>) -> String {
+    f.map_or_else(|| "–".into(), |f| format!("{:.0}%", 100.0 * f))
+}
+
 /// The standard normal quantile for a two-sided 95 % interval (Φ⁻¹(0.975)).
 pub const Z95: f64 = 1.959_963_984_540_054;
 

@@ -11,7 +11,7 @@ pub fn root() -> PathBuf {
 /// A `.rev` file of the checkout (`domains/driving.rev`), compiled from disk as the CLI does, so
 /// the files it `use`s load too.
 pub fn compile_shipped(path: &str) -> revelio::ir::Domain {
-    let c = revelio::cli::check::compile_path(&root().join(path), false);
+    let c = revelio::cli::common::compile_path(&root().join(path), false);
     c.domain.unwrap_or_else(|| panic!("`{path}` does not compile: {:?}", c.diagnostics))
 }
 

@@ -1,0 +1,204 @@
+//! What the commands share: the model and run flags, the Tokio runtime and Ctrl-C handling, how
+//! a run that ended early is reported, compiling a domain from a path, and writing to standard
+//! output. One home for each, so `search`, `validate`, `probe`, `transfer`, `ask`, `bench` and
+//! the rest cannot drift apart.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use crate::check::{self, Compiled};
+use crate::diag::terminal_safe;
+use crate::run::RunError;
+use crate::run::setup::{self, ModelSettings};
+use crate::search::Algo;
+use crate::search::gp::Kernel;
+use crate::source::{file_kind, io_reason};
+
+/// Flags that shape how a run calls the model (shared with `validate`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RunFlags {
+    /// Model calls (and observations) in flight at once [default: the model config's
+    /// `concurrency`, else 16]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub concurrency: Option<u32>,
+    /// Stop the run after this many model calls in a row fail (0: never)
+    #[arg(long, default_value_t = crate::run::MAX_API_ERRORS)]
+    pub max_api_errors: u32,
+    /// Move complete journal lines that do not parse into `journal.corrupt` beside the journal
+    /// and go on (without it, such a line stops the command and the journal is left as it is)
+    #[arg(long)]
+    pub set_aside_corrupt: bool,
+}
+
+impl RunFlags {
+    /// What a corrupt journal line does.
+    pub fn on_corrupt(&self) -> crate::journal::OnCorrupt {
+        if self.set_aside_corrupt { crate::journal::OnCorrupt::SetAside } else { crate::journal::OnCorrupt::Refuse }
+    }
+}
+
+/// Flags that configure the model and image-generation clients (shared with `validate`, `probe`,
+/// `transfer` and `ask`). On an existing run folder only `--thinking` is taken from its
+/// `config.json` when not given: where keys go is never read from a run folder
+/// ([`ModelSettings::resume`]).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ModelFlags {
+    /// Override the model provider's endpoint (the model only; never the renderer's)
+    #[arg(long)]
+    pub base_url: Option<String>,
+    /// Override the image-generation provider's endpoint (else `GEMINI_BASE_URL` or
+    /// `OPENAI_BASE_URL`)
+    #[arg(long)]
+    pub renderer_base_url: Option<String>,
+    /// Per-model settings (TOML)
+    #[arg(long)]
+    pub model_config: Option<PathBuf>,
+    /// Allow plain `http://` base URLs for a server other than this machine (a model server on
+    /// your own network); never for a provider's own host. The key goes out unencrypted
+    #[arg(long)]
+    pub allow_http: bool,
+    /// Thinking level: minimal, low, medium, high
+    #[arg(long)]
+    pub thinking: Option<String>,
+    /// The reply and image cache shared by all runs [default: $XDG_CACHE_HOME/revelio, else
+    /// ~/.cache/revelio]
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+    /// Do not use the reply and image cache
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl ModelFlags {
+    /// The model settings these flags give (to be completed from a run folder's record).
+    pub fn settings(&self) -> ModelSettings {
+        ModelSettings {
+            base_url: self.base_url.clone(),
+            renderer_base_url: self.renderer_base_url.clone(),
+            model_config: self.model_config.as_deref().map(setup::absolute),
+            thinking: self.thinking.clone(),
+            allow_http: self.allow_http,
+        }
+    }
+
+    /// The cache root these flags choose (`None`: no cache).
+    pub fn cache(&self) -> Option<PathBuf> {
+        setup::cache_root(self.cache_dir.as_deref(), self.no_cache)
+    }
+}
+
+/// Report a run that ended early; a stopped run says how to go on.
+pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
+    // A run error may quote what a run folder holds (names, paths, a provider's reply).
+    eprintln!("error: {}", terminal_safe(&e.to_string()));
+    if e.resumable() {
+        eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
+    }
+    ExitCode::from(e.exit_code())
+}
+
+/// First Ctrl-C: stop starting model calls, journal the ones in flight, exit 130. Second: exit
+/// 130 at once (the journal is safe at any byte).
+pub(crate) fn watch_ctrl_c(rt: &tokio::runtime::Runtime, stop: &crate::run::Stop) {
+    let _guard = rt.enter();
+    stop.on_ctrl_c(|| std::process::exit(130));
+}
+
+/// `--algo`: the search algorithms by name, listed in `--help`.
+pub(crate) fn kernel_parser() -> impl clap::builder::TypedValueParser<Value = Kernel> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Kernel::ALL.map(Kernel::name))
+        .map(|name| name.parse::<Kernel>().expect("the parser only lets listed names through"))
+}
+
+pub(crate) fn algo_parser() -> impl clap::builder::TypedValueParser<Value = Algo> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Algo::ALL.map(Algo::name))
+        .map(|name| name.parse::<Algo>().expect("the parser only lets listed names through"))
+}
+
+pub(crate) fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("a tokio runtime starts")
+}
+
+fn fr_text(fr: Option<f64>) -> String {
+    fr.map_or_else(|| "-".into(), |f| format!("{:.0}%", 100.0 * f))
+}
+
+/// `FR [lo–hi]`, e.g. ` 80% [38–96]`: the failure rate and its 95 % interval, in percent.
+pub(crate) fn fr_ci_text(fr: Option<f64>, ci: [f64; 2]) -> String {
+    format!("{:>4} [{:.0}–{:.0}]", fr_text(fr), 100.0 * ci[0], 100.0 * ci[1])
+}
+
+/// Print to stdout; a closed pipe (`revelio check … | head`) is not an error worth a panic.
+pub fn write_stdout(s: &str) {
+    use std::io::Write as _;
+    let _ = std::io::stdout().lock().write_all(s.as_bytes());
+}
+
+/// Compile one file from disk (`use "…"` paths are read relative to it, under the policy of
+/// [`crate::source`]). With `lints`, the lattice lints run on domain files that compiled without
+/// errors.
+pub fn compile_path(path: &Path, lints: bool) -> Compiled {
+    compile_path_with(path, lints.then(crate::lint::Limits::default))
+}
+
+/// [`compile_path`] with the lattice lints' limits (none: no lints), showing their progress.
+pub fn compile_path_with(path: &Path, lints: Option<crate::lint::Limits>) -> Compiled {
+    with_lints(crate::source::compile_file(path), lints)
+}
+
+/// Compile `text` as the file `path` (standard input named by `--stdin-filename`): its
+/// `use "…"` paths are read from disk relative to it, under the policy of [`crate::source`];
+/// lints as [`compile_path_with`].
+pub fn compile_text_with(path: &Path, text: &str, lints: Option<crate::lint::Limits>) -> Compiled {
+    with_lints(crate::source::compile_text(path, text, &|_| None), lints)
+}
+
+/// `compiled` with the lattice lints' diagnostics added (none: as it is), showing their progress.
+fn with_lints(mut compiled: Compiled, lints: Option<crate::lint::Limits>) -> Compiled {
+    if let (Some(domain), Some(limits)) = (compiled.domain.as_ref().filter(|d| !d.name.is_empty()), lints) {
+        let mut work = super::progress::Work::new();
+        compiled.diagnostics.extend(crate::lint::lint_domain_with(domain, limits, &mut |w, d, t| work.report(w, d, t)));
+        check::sort_diagnostics(&mut compiled.diagnostics);
+    }
+    compiled
+}
+
+/// The `.rev` files named by `paths`, folders searched recursively, sorted within a folder.
+pub fn collect_rev_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let mut out = Vec::new();
+    for p in paths {
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => {
+                walk(p, &mut out).map_err(|e| format!("cannot read folder `{}`: {}", p.display(), io_reason(&e)))?;
+            }
+            Ok(m) if m.is_file() => out.push(p.clone()),
+            Ok(m) => return Err(format!("`{}` is {}, not a `.rev` file or a folder", p.display(), file_kind(&m))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(format!("`{}` does not exist", p.display()));
+            }
+            Err(e) => return Err(format!("cannot read `{}`: {}", p.display(), io_reason(&e))),
+        }
+    }
+    Ok(out)
+}
+
+/// The `.rev` files below `dir`. Links to folders are not followed (a link to `..` would never
+/// end); links to files are listed, and [`crate::source`] judges where they lead.
+fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    let mut entries = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let e = e?;
+        entries.push((e.path(), e.file_type()?.is_dir()));
+    }
+    entries.sort();
+    for (path, is_dir) in entries {
+        if is_dir {
+            walk(&path, out)?;
+        } else if path.extension().is_some_and(|x| x == "rev") {
+            out.push(path);
+        }
+    }
+    Ok(())
+}
