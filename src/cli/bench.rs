@@ -29,13 +29,12 @@ use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, Setup};
 use crate::run::setup::ModelSettings;
 use crate::run::summary::RunConfig;
-use crate::search::interact::{Supersets, Surrogate};
 use crate::search::interval::{mean_ci95, mean_sd};
 use crate::search::{Algo, Params, SetStats, Space};
 use crate::vlm::Model;
 use crate::vlm::sim::{Profile, SimModel};
 
-use super::common::runtime;
+use super::common::{SearchFlags, runtime};
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -73,10 +72,8 @@ pub struct SearchBenchArgs {
     /// Seeds per algorithm (0..K)
     #[arg(long, default_value_t = 5)]
     pub seeds: u64,
-    #[arg(long, default_value_t = 1000)]
-    pub budget: u64,
-    #[arg(long, default_value_t = 5)]
-    pub samples: u32,
+    #[command(flatten)]
+    pub search: SearchFlags,
     /// Also run every algorithm with sequential sampling up to M observations per set, at the
     /// same budget
     #[arg(long, value_name = "M")]
@@ -84,24 +81,11 @@ pub struct SearchBenchArgs {
     /// Shrink each run's failure modes to cores with this many extra inferences (0: off)
     #[arg(long, value_name = "B", default_value_t = 0)]
     pub shrink: u64,
-    #[arg(long, default_value_t = 0.6)]
-    pub threshold: f64,
-    /// Beam diversity weight λ (beam and the beam phase of GPTS)
-    #[arg(long, default_value_t = crate::search::DEFAULT_LAMBDA)]
-    pub lambda: f64,
-    #[arg(long, default_value_t = 5)]
-    pub beam_width: usize,
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
     /// Algorithms to run, comma-separated [default: all]
     #[arg(long, value_delimiter = ',', value_parser = super::common::algo_parser())]
     pub algos: Vec<Algo>,
-    /// Interact: the surrogate (patterns, horseshoe, ridge, linear)
-    #[arg(long, default_value = "patterns")]
-    pub surrogate: Surrogate,
-    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
-    #[arg(long, default_value = "fallback")]
-    pub supersets: Supersets,
     /// Ablation: run every algorithm at each value of one parameter (beam_width, beam_budget,
     /// samples, threshold, lambda; or GPTS at each GP kernel: kernel=dot,rbf), e.g.
     /// `beam_width=1,5,10`; prints a table and writes an SVG plot
@@ -269,32 +253,21 @@ fn search(args: SearchBenchArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let base = Params {
-        budget: args.budget,
-        samples: args.samples,
-        threshold: args.threshold,
-        lambda: args.lambda,
-        beam_width: args.beam_width,
-        beam_budget: args.budget / 2,
-        shrink: args.shrink,
-        surrogate: args.surrogate,
-        supersets: args.supersets,
-        ..Params::default()
-    };
+    let base = Params { shrink: args.shrink, ..args.search.params() };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
     if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
     let mut modes = vec![base.clone()];
-    if args.max_samples.is_some_and(|m| m > args.samples) {
+    if args.max_samples.is_some_and(|m| m > args.search.samples) {
         modes.push(sequential);
     }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = Lattice::enumerate(&domain, base.max_size);
     let (space, _) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     let tmp = std::env::temp_dir().join(format!("revelio-bench-{}", std::process::id()));
-    let planted = profile.planted(args.threshold, |s| space.contains(s));
+    let planted = profile.planted(args.search.threshold, |s| space.contains(s));
     let truth = profile.clone();
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
@@ -374,7 +347,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         serde_json::to_writer_pretty(&mut w, &results).map_err(std::io::Error::from).and_then(|_| writeln!(w))
     } else {
         print(&mut w, &args, &results, planted.len())
-            .and_then(|()| print_planted(&mut w, &results, args.samples, base.budget + base.shrink))
+            .and_then(|()| print_planted(&mut w, &results, args.search.samples, base.budget + base.shrink))
     };
     match written {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
@@ -405,11 +378,11 @@ pub(crate) fn bench_one(
     let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
-    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.threshold)).map(|s| s.set).collect();
+    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.search.threshold)).map(|s| s.set).collect();
     let cores: Vec<_> = if r.summary.shrink.is_some() {
         r.found.cores.iter().map(|c| c.stats.set).collect()
     } else {
-        crate::search::shrink::minimal_failures(&r.history, space, args.threshold)
+        crate::search::shrink::minimal_failures(&r.history, space, args.search.threshold)
     };
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
     let per_mode: Vec<(bool, bool)> =
@@ -420,11 +393,11 @@ pub(crate) fn bench_one(
         mfr: m.mfr,
         div: m.div,
         failure_modes: modes.len() as f64,
-        false_modes: (modes.len() - true_modes(truth, &modes, args.threshold)) as f64,
-        precision: precision(truth, &modes, args.threshold),
-        recovered: recovered(&r.history, planted, args.threshold),
+        false_modes: (modes.len() - true_modes(truth, &modes, args.search.threshold)) as f64,
+        precision: precision(truth, &modes, args.search.threshold),
+        recovered: recovered(&r.history, planted, args.search.threshold),
         cores: cores.len() as f64,
-        core_precision: precision(truth, &cores, args.threshold),
+        core_precision: precision(truth, &cores, args.search.threshold),
         // Every core failed when it was confirmed (the shrink keeps failing subsets only).
         core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
         exact: share(per_mode.iter().filter(|m| m.1).count()),
@@ -463,11 +436,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         w,
         "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
         args.seeds,
-        args.budget,
-        args.samples,
-        args.threshold,
-        args.lambda,
-        args.beam_width,
+        args.search.budget,
+        args.search.samples,
+        args.search.threshold,
+        args.search.lambda,
+        args.search.beam_width,
         args.profile.display()
     )?;
     writeln!(
@@ -500,7 +473,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         "exact %"
     )?;
     for r in results {
-        let name = label(r, args.samples);
+        let name = label(r, args.search.samples);
         writeln!(
             w,
             "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
@@ -519,7 +492,8 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             r.us_per_inference.mean
         )?;
     }
-    let pfm = |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.samples).map(|r| r.pfm.mean);
+    let pfm =
+        |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.search.samples).map(|r| r.pfm.mean);
     if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
         let ratios: Vec<String> = Algo::ALL
             .iter()

@@ -10,8 +10,9 @@ use crate::check::{self, Compiled};
 use crate::diag::terminal_safe;
 use crate::run::RunError;
 use crate::run::setup::{self, ModelSettings};
-use crate::search::Algo;
 use crate::search::gp::Kernel;
+use crate::search::interact::{Supersets, Surrogate};
+use crate::search::{Algo, Params};
 use crate::source::{file_kind, io_reason};
 
 /// Flags that shape how a run calls the model (shared with `validate`).
@@ -201,4 +202,68 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The search parameters `search` and `bench search` share: one declaration, one set of
+/// defaults (each command adds its own: the algorithm and seed of one run, or the algorithms
+/// and seeds of a benchmark).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SearchFlags {
+    /// Inference budget (sets evaluated = budget / samples); raise it on an existing run folder
+    /// to extend the run
+    #[arg(long, default_value_t = 1000)]
+    pub budget: u64,
+    /// Observations per concept set (m)
+    #[arg(long, default_value_t = 5)]
+    pub samples: u32,
+    /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
+    #[arg(long, default_value_t = 0.6)]
+    pub threshold: f64,
+    /// Beam width (beam and the beam phase of GPTS)
+    #[arg(long, default_value_t = 5)]
+    pub beam_width: usize,
+    /// Beam depth (beam and the beam phase of GPTS)
+    #[arg(long, default_value_t = 5)]
+    pub max_depth: usize,
+    /// Beam diversity weight λ in FR − λ·max Jaccard
+    #[arg(long, default_value_t = crate::search::DEFAULT_LAMBDA)]
+    pub lambda: f64,
+    /// GPTS and interact: sets picked per round, evaluated in parallel
+    #[arg(long, default_value_t = 1)]
+    pub batch: usize,
+    /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the
+    /// paper's kernel ablation)
+    #[arg(long, default_value = "dot", value_parser = kernel_parser())]
+    pub kernel: Kernel,
+    /// Largest concept set searched
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
+    pub max_size: usize,
+    /// Interact: the surrogate (patterns, horseshoe, ridge, linear)
+    #[arg(long, default_value = "patterns")]
+    pub surrogate: Surrogate,
+    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
+    #[arg(long, default_value = "fallback")]
+    pub supersets: Supersets,
+}
+
+impl SearchFlags {
+    /// The parameters these flags set; GPTS's beam phase gets half the budget unless a command
+    /// says otherwise.
+    pub fn params(&self) -> Params {
+        Params {
+            budget: self.budget,
+            samples: self.samples,
+            threshold: self.threshold,
+            beam_width: self.beam_width,
+            max_depth: self.max_depth,
+            lambda: self.lambda,
+            beam_budget: self.budget / 2,
+            batch: self.batch,
+            kernel: self.kernel,
+            max_size: self.max_size,
+            surrogate: self.surrogate,
+            supersets: self.supersets,
+            ..Params::default()
+        }
+    }
 }

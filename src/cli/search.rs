@@ -18,9 +18,9 @@ use crate::run::setup::{self, Parts, SetupError};
 use crate::run::summary;
 use crate::run::summary::{RunConfig, Summary};
 use crate::search::gp::Kernel;
-use crate::search::{Algo, DEFAULT_LAMBDA, Params};
+use crate::search::{Algo, Params};
 
-use super::common::{ModelFlags, RunFlags, algo_parser, fail_run, fr_ci_text, kernel_parser, runtime, watch_ctrl_c};
+use super::common::{ModelFlags, RunFlags, SearchFlags, algo_parser, fail_run, fr_ci_text, runtime, watch_ctrl_c};
 
 #[derive(clap::Args, Debug)]
 pub struct SearchArgs {
@@ -33,13 +33,8 @@ pub struct SearchArgs {
     /// once as its core; it spends the shrink budget as it goes)
     #[arg(long, default_value = "gpts", value_parser = algo_parser())]
     pub algo: Algo,
-    /// Inference budget (sets evaluated = budget / samples); raise it on an existing run folder
-    /// to extend the run
-    #[arg(long, default_value_t = 1000)]
-    pub budget: u64,
-    /// Observations per concept set (m)
-    #[arg(long, default_value_t = 5)]
-    pub samples: u32,
+    #[command(flatten)]
+    pub search: SearchFlags,
     /// Sequential sampling: a set whose 95 % interval still straddles τ after m observations
     /// gets more, a batch at a time, up to M [default: m, the paper's fixed count]
     #[arg(long, value_name = "M")]
@@ -48,31 +43,11 @@ pub struct SearchArgs {
     /// budget; 0 turns it off [default: budget / 4; on a resumed run at least the recorded value]
     #[arg(long, value_name = "B")]
     pub shrink: Option<u64>,
-    /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
-    #[arg(long, default_value_t = 0.6)]
-    pub threshold: f64,
-    #[arg(long, default_value_t = 5)]
-    pub beam_width: usize,
-    #[arg(long, default_value_t = 5)]
-    pub max_depth: usize,
-    /// Beam diversity weight λ in FR − λ·max Jaccard
-    #[arg(long, default_value_t = DEFAULT_LAMBDA)]
-    pub lambda: f64,
     /// GPTS: inferences for the beam phase [default: budget / 2; on a resumed run, the recorded value]
     #[arg(long)]
     pub beam_budget: Option<u64>,
-    /// GPTS: Thompson draws per round, evaluated in parallel
-    #[arg(long, default_value_t = 1)]
-    pub batch: usize,
-    /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the
-    /// paper's kernel ablation)
-    #[arg(long, default_value = "dot", value_parser = kernel_parser())]
-    pub kernel: Kernel,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Largest concept set searched
-    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
-    pub max_size: usize,
     /// Most valid concept sets searched over; a larger lattice is refused with the ways out
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
     pub max_sets: u64,
@@ -111,27 +86,18 @@ pub fn run(args: SearchArgs) -> ExitCode {
     };
     let params = Params {
         algo: args.algo,
-        budget: args.budget,
-        samples: args.samples,
-        threshold: args.threshold,
-        beam_width: args.beam_width,
-        max_depth: args.max_depth,
-        lambda: args.lambda,
         beam_budget: args
             .beam_budget
             .or(previous.as_ref().map(|p| p.params.beam_budget))
-            .unwrap_or(args.budget / 2)
-            .min(args.budget),
-        batch: args.batch,
-        kernel: args.kernel,
+            .unwrap_or(args.search.budget / 2)
+            .min(args.search.budget),
         seed: args.seed,
-        max_size: args.max_size,
         max_samples: args.max_samples,
         // Never below the recorded one, so that raising `--budget` alone extends a run.
         shrink: args.shrink.unwrap_or_else(|| {
-            Params::default_shrink(args.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
+            Params::default_shrink(args.search.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
         }),
-        ..Params::default()
+        ..args.search.params()
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");

@@ -114,7 +114,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, sweep: &Sweep, points: &[Po
         "sweep of {} over {} seeds × budget {} against `{}`, renderer none",
         sweep.param.name(),
         args.seeds,
-        args.budget,
+        args.search.budget,
         args.profile.display()
     )?;
     writeln!(w, "{:>12}  {:<8}  {:>13}  {:>13}  {:>11}", sweep.param.name(), "algo", "PFM %", "MFR %", "Div")?;
