@@ -6,11 +6,20 @@
 //! - files: `use` of `/proc/self/environ`, `/dev/zero`, a FIFO, `..`, links out of the tree,
 //!   also from standard input (`check -`); a 10 MB comment, in a file or on standard input; one
 //!   file by two spellings; `check` on a FIFO;
-//! - keys: every (model provider × image provider) pair, each key only at its own host;
+//! - keys: every (model provider × image provider) pair, each key only at its own host; a
+//!   tampered run folder's `config.json` never chooses an endpoint (a capture server sees
+//!   nothing); a 307 to a second port is never followed; userinfo and plain `http://` to a
+//!   provider's host refused;
+//! - run folders: links for `lock`, `journal.jsonl` and `report` never written through; FIFOs
+//!   and `/dev/zero` never read; a summary of 40 000 concept names refused; a corrupt journal
+//!   line stops the command (or is set aside on request); names with escape sequences printed
+//!   escaped by `compare` and `report`;
 //! - replies: an endless chunked body, a stalled body, a body that trickles, a 50 MB reply, a
 //!   3 MB answer that the journal keeps only a prefix of, escape sequences in replies and errors;
 //! - domains: 128 unconstrained concepts refused quickly by `check`, `lattice` and `search`;
-//!   10 000 rules checked;
+//!   10 000 rules checked; 3 000 nested levels refused by `check`, `fmt` and the language
+//!   server (R0003); 40 nested `exists` refused before any evaluation (R0034); a `repeat` of
+//!   4 000 000 000 refused by `check` (R0035);
 //! - configuration: `extra` replacing `messages`/`stream`, `latency_ms` of `i64::MAX`,
 //!   `--batch` of `usize::MAX`.
 
