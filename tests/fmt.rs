@@ -324,3 +324,14 @@ fn check_reads_an_unsaved_buffer_from_stdin() {
     assert!(out.contains("\"file\":\"<stdin>\""), "{out}");
     assert_eq!(revelio(&["check", "--stdin-filename", name, name], "").0, 2, "a name needs `-`");
 }
+
+#[test]
+fn fmt_check_diff_prints_what_formatting_would_change() {
+    let messy = "// a domain\ntag T\nkind K{a:bool=true}\n\n\n\nkind L {}\n";
+    let (code, out, err) = revelio(&["fmt", "--check", "--diff", "-"], messy);
+    assert_eq!(code, 1, "{err}");
+    insta::assert_snapshot!("fmt_check_diff", out);
+    assert_eq!(revelio(&["fmt", "--check", "--diff", "-"], "tag T\n"), (0, String::new(), String::new()));
+    let (code, _, err) = revelio(&["fmt", "--diff", "-"], messy);
+    assert_eq!(code, 2, "--diff needs --check: {err}");
+}

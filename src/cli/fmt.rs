@@ -1,7 +1,8 @@
-//! `revelio fmt [--check] [PATH…]`: rewrite `.rev` files in the canonical layout (folders are
-//! searched recursively; no PATH means the current folder). `-` formats standard input to
-//! standard output. With `--check` nothing is written: the files that are not formatted are
-//! listed and the exit code is 1.
+//! `revelio fmt [--check [--diff]] [PATH…]`: rewrite `.rev` files in the canonical layout
+//! (folders are searched recursively; no PATH means the current folder). `-` formats standard
+//! input to standard output. With `--check` nothing is written: the files that are not
+//! formatted are listed (with `--diff`, shown as a unified diff of what `revelio fmt` would
+//! change) and the exit code is 1.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -19,6 +20,10 @@ pub struct FmtArgs {
     /// Write nothing; list the files that are not formatted and exit with 1 if there are any
     #[arg(long)]
     pub check: bool,
+    /// With `--check`: print what formatting would change, as a unified diff (`git apply`
+    /// reads it), instead of the file names
+    #[arg(long, requires = "check")]
+    pub diff: bool,
 }
 
 pub fn run(args: FmtArgs) -> ExitCode {
@@ -27,7 +32,7 @@ pub fn run(args: FmtArgs) -> ExitCode {
             eprintln!("error: `-` (standard input) cannot be combined with other paths");
             return ExitCode::from(2);
         }
-        return stdin(args.check);
+        return stdin(args.check, args.diff);
     }
     let paths = if args.paths.is_empty() { vec![PathBuf::from(".")] } else { args.paths };
     let files = match collect_rev_files(&paths) {
@@ -39,7 +44,7 @@ pub fn run(args: FmtArgs) -> ExitCode {
     };
     let (mut changed, mut failed) = (0, 0);
     for f in &files {
-        match file(f, args.check) {
+        match file(f, args.check, args.diff) {
             Ok(true) => changed += 1,
             Ok(false) => {}
             Err(()) => failed += 1,
@@ -57,7 +62,7 @@ pub fn run(args: FmtArgs) -> ExitCode {
 }
 
 /// Format one file; `Ok(true)` when it was (or, with `check`, would be) changed.
-fn file(path: &Path, check: bool) -> Result<bool, ()> {
+fn file(path: &Path, check: bool, diff: bool) -> Result<bool, ()> {
     let name = path.display().to_string();
     // Under the bounds `check` reads with: a FIFO named `*.rev` in a folder is not opened, and
     // a file past the size limit is refused, not read whole.
@@ -66,7 +71,9 @@ fn file(path: &Path, check: bool) -> Result<bool, ()> {
     if formatted == text {
         return Ok(false);
     }
-    if check {
+    if diff {
+        write_stdout(&crate::fmt::diff::unified(&name, &text, &formatted));
+    } else if check {
         println!("{name}");
     } else {
         std::fs::write(path, &formatted).map_err(|e| {
@@ -76,7 +83,7 @@ fn file(path: &Path, check: bool) -> Result<bool, ()> {
     Ok(true)
 }
 
-fn stdin(check: bool) -> ExitCode {
+fn stdin(check: bool, diff: bool) -> ExitCode {
     let text = match crate::source::read_bounded(std::io::stdin(), "<stdin>") {
         Ok(t) => t,
         Err(r) => {
@@ -87,6 +94,9 @@ fn stdin(check: bool) -> ExitCode {
     let Ok(formatted) = format_or_report("<stdin>", &text) else { return ExitCode::from(1) };
     if check {
         if formatted != text {
+            if diff {
+                write_stdout(&crate::fmt::diff::unified("<stdin>", &text, &formatted));
+            }
             eprintln!("standard input is not formatted; run `revelio fmt -` to fix");
             return ExitCode::from(1);
         }

@@ -16,6 +16,7 @@
 //! before `}`. Lines are not broken inside a statement: a long `when` or `elements` line stays
 //! long. A file with syntax errors is not formatted (its structure is not known).
 
+pub mod diff;
 mod layout;
 mod printer;
 

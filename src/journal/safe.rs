@@ -46,19 +46,21 @@ fn not_regular(meta: &Metadata) -> Option<io::Error> {
     (!meta.is_file()).then(|| refused(format!("it is {}, not a regular file", crate::source::file_kind(meta))))
 }
 
+/// Refuse `path` if it names anything but a regular file (a missing one is fine), judged
+/// without following a link.
+fn refuse_odd(path: &Path) -> io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(meta) => not_regular(&meta).map_or(Ok(()), Err),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
 /// Judge the name before opening (opening a FIFO may block; the link's message is clearer than
 /// the OS's), then open with [`guarded`] flags and judge the handle again (the name may have
 /// changed in between).
 fn open_regular(path: &Path, opts: &mut OpenOptions) -> io::Result<File> {
-    match std::fs::symlink_metadata(path) {
-        Ok(meta) => {
-            if let Some(e) = not_regular(&meta) {
-                return Err(e);
-            }
-        }
-        Err(e) if e.kind() == io::ErrorKind::NotFound => {}
-        Err(e) => return Err(e),
-    }
+    refuse_odd(path)?;
     let file = guarded(opts).open(path).map_err(link_error)?;
     if let Some(e) = not_regular(&file.metadata()?) {
         return Err(e);
@@ -145,15 +147,7 @@ pub fn is_link(path: &Path) -> bool {
 /// link), then renamed over it. A link or anything but a regular file at `path` is refused
 /// rather than replaced.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    match std::fs::symlink_metadata(path) {
-        Ok(meta) => {
-            if let Some(e) = not_regular(&meta) {
-                return Err(e);
-            }
-        }
-        Err(e) if e.kind() == io::ErrorKind::NotFound => {}
-        Err(e) => return Err(e),
-    }
+    refuse_odd(path)?;
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
     let create = || guarded(OpenOptions::new().write(true).create_new(true)).open(&tmp);
     let mut file = match create() {
