@@ -28,9 +28,8 @@ pub fn unified(name: &str, old: &str, new: &str) -> String {
     }
     let a: Vec<&str> = old.split_inclusive('\n').collect();
     let b: Vec<&str> = new.split_inclusive('\n').collect();
-    let ops = edit_script(&a, &b).unwrap_or_else(|| {
-        (0..a.len()).map(Op::Delete).chain((0..b.len()).map(Op::Insert)).collect()
-    });
+    let ops = edit_script(&a, &b)
+        .unwrap_or_else(|| (0..a.len()).map(Op::Delete).chain((0..b.len()).map(Op::Insert)).collect());
     // Lines of each text before each op.
     let mut before = Vec::with_capacity(ops.len());
     let (mut x, mut y) = (0, 0);
@@ -158,6 +157,7 @@ mod tests {
         let a: Vec<&str> = old.split_inclusive('\n').collect();
         let mut out = String::new();
         let mut next = 0; // next line of `a` not yet copied
+        let mut last = b' ';
         let mut lines = diff.split_inclusive('\n').skip(2).peekable();
         while let Some(h) = lines.next() {
             let old_range = h.trim_start_matches("@@ -").split(' ').next().unwrap();
@@ -171,7 +171,8 @@ mod tests {
                 let l = *l;
                 lines.next();
                 let text = &l[1..];
-                match l.as_bytes()[0] {
+                let mark = l.as_bytes()[0];
+                match mark {
                     b' ' => {
                         assert_eq!(a[next].trim_end_matches('\n'), text.trim_end_matches('\n'), "context");
                         out.push_str(a[next]);
@@ -183,13 +184,15 @@ mod tests {
                     }
                     b'+' => out.push_str(text),
                     b'\\' => {
-                        // The line before had no newline: take it back off what was written.
-                        if out.ends_with('\n') {
+                        // The added line before had no newline: take back the one the diff
+                        // format gave it (a context line was copied from `a` as it is).
+                        if last == b'+' {
                             out.pop();
                         }
                     }
                     _ => panic!("bad diff line {l:?}"),
                 }
+                last = mark;
             }
         }
         a[next..].iter().for_each(|l| out.push_str(l));
