@@ -157,3 +157,30 @@ fn lint_corpus() {
         assert_eq!(got, expected, "{name}");
     }
 }
+
+/// A concept the domain does not declare, given on the command line, is an input error (exit 1)
+/// with the checker's "did you mean", for every command that takes concept names.
+#[test]
+fn unknown_concepts_on_the_command_line_are_input_errors_with_a_suggestion() {
+    let file = common::root().join("domains/driving.rev");
+    let file = file.to_str().unwrap();
+    let commands: [&[&str]; 4] = [
+        &["oracle", file, "debris_farr"],
+        &["emit", "scene", file, "debris_farr"],
+        &["ask", file, "debris_farr", "--model", "sim:examples/sim/driving_paper.toml", "--renderer", "none"],
+        &["render", file, "debris_farr", "-o", "unused.png"],
+    ];
+    for args in commands {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
+            .args(args)
+            .current_dir(common::root())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("unknown concept `debris_farr` in domain `driving`; did you mean `debris_far`?"),
+            "{args:?}: {err}"
+        );
+    }
+}

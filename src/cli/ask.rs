@@ -3,7 +3,7 @@
 //! verdict. The quickest check that a model, its key and its settings work.
 //!
 //! Exit codes: 0 when the model replied (whatever the verdict), 1 when the call, the domain or
-//! the scene failed, 2 for usage errors (unknown concepts, bad flags).
+//! the scene failed or a concept the domain does not declare, 2 for usage errors (bad flags).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -45,8 +45,9 @@ pub fn run(args: AskArgs) -> ExitCode {
     let set = match domain.parse_set(&args.concepts) {
         Ok(s) => s,
         Err(e) => {
+            // A concept the domain lacks is an input error (1), with the checker's "did you mean".
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return ExitCode::from(1);
         }
     };
     let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {

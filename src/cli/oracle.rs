@@ -28,8 +28,9 @@ pub fn run(args: OracleArgs) -> ExitCode {
     let set = match domain.parse_set(&args.concepts) {
         Ok(s) => s,
         Err(msg) => {
+            // A concept the domain lacks is an input error (1), with the checker's "did you mean".
             eprintln!("error: {msg}");
-            return ExitCode::from(2);
+            return ExitCode::from(1);
         }
     };
     let verdict = match oracle::evaluate(&domain, set) {

@@ -70,6 +70,11 @@ pub fn run(args: RenderArgs) -> ExitCode {
         Ok(d) => d,
         Err(code) => return code,
     };
+    // A concept the domain lacks is an input error (1), not a usage error like a bad `--grid`.
+    if let (false, Err(e)) = (args.all, domain.parse_set(&args.concepts)) {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
     let jobs = match plan(&domain, &args) {
         Ok(j) => j,
         Err(e) => {
