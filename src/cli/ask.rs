@@ -132,7 +132,10 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
 fn save(path: &std::path::Path, png: Option<&[u8]>) -> Result<(), (u8, String)> {
     let png = png.ok_or_else(|| (1, "no image was rendered, so there is nothing to `--save`".to_string()))?;
     if crate::journal::safe::is_link(path) {
-        return Err((1, format!("cannot write `{}`: it is a symbolic link, and `--save` writes through none", path.display())));
+        return Err((
+            1,
+            format!("cannot write `{}`: it is a symbolic link, and `--save` writes through none", path.display()),
+        ));
     }
     crate::journal::safe::write_atomic(path, png).map_err(|e| (1, format!("cannot write `{}`: {e}", path.display())))
 }

@@ -187,7 +187,7 @@ impl Profile {
     /// base error.
     pub fn error_for(&self, set: ConceptSet) -> f64 {
         self.winner(set).map_or(self.base_error, |m| {
-                let extra = set.len().saturating_sub(m.concepts.len()) as i32;
+            let extra = set.len().saturating_sub(m.concepts.len()) as i32;
             self.base_error + (m.error - self.base_error) * (1.0 - self.dilution).powi(extra)
         })
     }
