@@ -1,6 +1,7 @@
 //! `revelio ask FILE CONCEPT... --model M`: render one scene of a concept set, ask the model
 //! once, and show the question, the reply, the parsed option, the expected option and the
-//! verdict. The quickest check that a model, its key and its settings work.
+//! verdict. The quickest check that a model, its key and its settings work. `--save FILE` keeps
+//! the image, so an author can look at what the model was shown.
 //!
 //! Exit codes: 0 when the model replied (whatever the verdict), 1 when the call, the domain or
 //! the scene failed or a concept the domain does not declare, 2 for usage errors (bad flags).
@@ -33,6 +34,10 @@ pub struct AskArgs {
     /// `builtin`, `none`, `imagegen:gemini:MODEL` or `imagegen:openai:MODEL`.
     #[arg(long, default_value = "builtin")]
     pub renderer: String,
+    /// Write the rendered image (PNG) to this file, also when the scene is not shown because an
+    /// entity is not visible; a symbolic link there is refused, not followed.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
     #[command(flatten)]
     pub model_opts: super::common::ModelFlags,
 }
@@ -72,6 +77,9 @@ pub fn run(args: AskArgs) -> ExitCode {
 /// One observation through the pipeline a search uses (no journal); the report, or the exit
 /// code and message.
 async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String, (u8, String)> {
+    if args.save.is_some() && args.renderer == "none" {
+        return Err((2, "`--save` writes the image shown, and `--renderer none` renders none".into()));
+    }
     let verdict = crate::oracle::evaluate(domain, set).map_err(|e| (1, e.to_string()))?;
     let cache = args.model_opts.cache();
     let Parts { model, renderer, .. } =
@@ -80,7 +88,18 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let observer = Observer::new(Arc::new(domain.clone()), Arc::new(DomainWorld::new(domain)), renderer);
     let task = observer.task(set).map_err(|e| (1, e.to_string()))?;
     let key = ObsKey { phase: Phase::Search, set, index: 0 };
-    let o = observer.observe_task(model.as_ref(), key, args.seed, &task, None).await.map_err(|e| (1, e.to_string()))?;
+    // `Observer::observe_task` by hand (there is no journal): the image is saved before the
+    // model is asked, so a failed call still leaves it to look at.
+    let stimulus = observer.stimulus(set, args.seed).await.map_err(|e| (1, e.to_string()))?;
+    if let Some(path) = &args.save {
+        save(path, stimulus.image.as_deref().map(Vec::as_slice))?;
+    }
+    let query = observer.query(&stimulus, &task);
+    let reply = match (&stimulus.blocked, &stimulus.invisible) {
+        (None, None) => Some(model.ask(&query).await),
+        _ => None,
+    };
+    let o = observer.record(key, &stimulus, &task, &query, reply);
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     let prompt_text = prompt::build(&task.question, &task.options);
     match o.reply {
@@ -108,6 +127,18 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         }
         Some(reply) => Ok(report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule)),
     }
+}
+
+/// Write the PNG to `path`, never through a symbolic link (it may point anywhere).
+fn save(path: &std::path::Path, png: Option<&[u8]>) -> Result<(), (u8, String)> {
+    let png = png.ok_or_else(|| (1, "no image was rendered, so there is nothing to `--save`".to_string()))?;
+    if crate::journal::safe::is_link(path) {
+        return Err((
+            1,
+            format!("cannot write `{}`: it is a symbolic link, and `--save` writes through none", path.display()),
+        ));
+    }
+    crate::journal::safe::write_atomic(path, png).map_err(|e| (1, format!("cannot write `{}`: {e}", path.display())))
 }
 
 fn option_label(i: u32, options: &[String]) -> String {
@@ -179,6 +210,39 @@ mod tests {
         ));
     }
 
+    #[cfg(unix)]
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn save_writes_the_image_shown_and_never_through_a_link() {
+        let domain = crate::cli::load_domain(std::path::Path::new("domains/driving.rev")).unwrap();
+        let set = domain.parse_set(&["debris_far"]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = args(String::new(), dir.path());
+        a.model = "sim:examples/sim/driving_paper.toml".into();
+        a.model_opts.base_url = None;
+        a.renderer = "builtin".into();
+        let png = dir.path().join("shown.png");
+        a.save = Some(png.clone());
+        let out = ask(&domain, set, &a).await.unwrap();
+        assert!(out.contains("verdict"), "{out}");
+        assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+        // A link at the name is refused, and what it points to is untouched.
+        let target = dir.path().join("keep.txt");
+        std::fs::write(&target, "keep").unwrap();
+        let link = dir.path().join("link.png");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        a.save = Some(link);
+        let (code, e) = ask(&domain, set, &a).await.unwrap_err();
+        assert_eq!(code, 1);
+        assert!(e.contains("link.png") && e.contains("symbolic link"), "{e}");
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+        // Without a renderer there is no image to save.
+        a.renderer = "none".into();
+        a.save = Some(dir.path().join("none.png"));
+        let (code, e) = ask(&domain, set, &a).await.unwrap_err();
+        assert_eq!((code, e.as_str()), (2, "`--save` writes the image shown, and `--renderer none` renders none"));
+        assert!(!dir.path().join("none.png").exists());
+    }
+
     /// Echoes the request headers back, so a leak of the key would show in the reply.
     struct Echo(u16);
 
@@ -203,6 +267,7 @@ mod tests {
             model: "openai:glm-4.6v-flash".into(),
             seed: 3,
             renderer: "none".into(),
+            save: None,
             model_opts: super::super::common::ModelFlags {
                 base_url: Some(base),
                 cache_dir: Some(cache.to_path_buf()),

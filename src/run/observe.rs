@@ -54,6 +54,9 @@ pub struct ObsKey {
 pub struct Task {
     pub question: String,
     pub options: Vec<String>,
+    /// The options' identifiers (`stop`, `yes`), in the same order: a sim profile's planted
+    /// `answer` names one.
+    pub option_names: Vec<String>,
     pub expected: u32,
 }
 
@@ -86,6 +89,7 @@ impl World for DomainWorld {
         Ok(Task {
             question: q.text.clone(),
             options: q.options.iter().map(|o| o.text.clone()).collect(),
+            option_names: q.options.iter().map(|o| o.name.clone()).collect(),
             expected: v.expected,
         })
     }
@@ -239,6 +243,7 @@ impl Observer {
                 set: stimulus.set,
                 concepts: self.domain.set_names(stimulus.set).into_iter().map(String::from).collect(),
                 expected: task.expected,
+                option_names: task.option_names.clone(),
                 key: stimulus.seed,
                 statements: Vec::new(),
             }),

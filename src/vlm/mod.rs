@@ -33,6 +33,9 @@ pub struct Truth {
     pub concepts: Vec<String>,
     /// Index of the expected option.
     pub expected: u32,
+    /// The options' identifiers in the domain (`stop`, `yes`), in the order of the query's
+    /// options: a sim profile's planted `answer` names one.
+    pub option_names: Vec<String>,
     /// A deterministic per-observation key (run seed, set, observation index mixed), so a
     /// simulated answer is the same on a resumed run.
     pub key: u64,

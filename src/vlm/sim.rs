@@ -14,6 +14,7 @@
 //! [[mode]]
 //! concepts = ["debris_far", "town_town02"]  # matches a set that holds all of them
 //! error = 0.9
+//! answer = "go"       # optional: the wrong option it gives (an option name of the domain)
 //! [recognition]       # chance the model recognises a concept (default 1.0)
 //! debris_far = 0.1
 //! ```
@@ -28,6 +29,13 @@
 //! model's attention, so a mode's effect fades in crowded scenes (real models' random 4–5-concept
 //! sets fail far less often than the pairs and triples a guided search finds; paper Table 2 and
 //! appendix F). The default 0 keeps a mode's error in every superset.
+//!
+//! A wrong answer is a uniformly chosen wrong option, unless the winning mode plants one with
+//! `answer` ("says go instead of slow"): then it is that option. Where the planted option is the
+//! expected one for a set (or the set's question has no such option), the set still errs with
+//! the same chance, by a uniformly chosen other option: a set's error rate is always
+//! [`Profile::error_for`], which the benchmarks take as the ground truth. Without `answer` the
+//! random draws are exactly those of a profile that never had it.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -64,6 +72,8 @@ struct ProfileFile {
 struct ModeFile {
     concepts: Vec<String>,
     error: f64,
+    #[serde(default)]
+    answer: Option<String>,
 }
 
 /// The longest artificial delay a profile may ask for: real APIs answer within a minute, and a
@@ -71,11 +81,12 @@ struct ModeFile {
 pub const MAX_LATENCY_MS: u64 = 60_000;
 
 /// A planted failure mode: sets holding all of `concepts` are answered wrongly with chance
-/// `error`.
+/// `error`, with the option named `answer` where it is given and wrong for the set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mode {
     pub concepts: ConceptSet,
     pub error: f64,
+    pub answer: Option<String>,
 }
 
 /// A checked sim profile.
@@ -125,7 +136,20 @@ impl Profile {
             for name in &m.concepts {
                 set = set.union(domain.parse_set(&[name]).map_err(|e| format!("invalid sim profile `{origin}`: {e}"))?);
             }
-            modes.push(Mode { concepts: set, error: rate("error", m.error)? });
+            if let Some(a) = &m.answer {
+                let mut names: Vec<&str> =
+                    domain.questions.iter().flat_map(|q| q.options.iter().map(|o| o.name.as_str())).collect();
+                names.sort_unstable();
+                names.dedup();
+                if !names.contains(&a.as_str()) {
+                    let known = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+                    return Err(format!(
+                        "invalid sim profile `{origin}`: mode {} answers `{a}`, which is no option of the domain's questions (options: {known})",
+                        i + 1
+                    ));
+                }
+            }
+            modes.push(Mode { concepts: set, error: rate("error", m.error)?, answer: m.answer.clone() });
         }
         let mut recognition = std::collections::BTreeMap::new();
         for (name, &r) in &file.recognition {
@@ -162,14 +186,19 @@ impl Profile {
     /// concepts; ties go to the highest error), diluted by the set's other concepts, else the
     /// base error.
     pub fn error_for(&self, set: ConceptSet) -> f64 {
+        self.winner(set).map_or(self.base_error, |m| {
+            let extra = set.len().saturating_sub(m.concepts.len()) as i32;
+            self.base_error + (m.error - self.base_error) * (1.0 - self.dilution).powi(extra)
+        })
+    }
+
+    /// The mode that decides a set's answers: the most specific matching one (most concepts;
+    /// ties go to the highest error, then to the last listed).
+    pub fn winner(&self, set: ConceptSet) -> Option<&Mode> {
         self.modes
             .iter()
             .filter(|m| m.concepts.is_subset_of(set))
             .max_by(|a, b| a.concepts.len().cmp(&b.concepts.len()).then(a.error.total_cmp(&b.error)))
-            .map_or(self.base_error, |m| {
-                let extra = set.len().saturating_sub(m.concepts.len()) as i32;
-                self.base_error + (m.error - self.base_error) * (1.0 - self.dilution).powi(extra)
-            })
     }
 }
 
@@ -198,7 +227,16 @@ impl SimModel {
             ("I am not able to tell from this image which option applies.".to_string(), Answer::Unparsed)
         } else {
             let wrong = n > 1 && rng.random_bool(self.profile.error_for(truth.set));
-            let pick = if wrong {
+            let planted = self
+                .profile
+                .winner(truth.set)
+                .and_then(|m| m.answer.as_deref())
+                .and_then(|a| truth.option_names.iter().position(|o| o == a))
+                .map(|i| i as u32)
+                .filter(|&i| i != truth.expected && i < n);
+            let pick = if let (true, Some(i)) = (wrong, planted) {
+                i
+            } else if wrong {
                 // A uniformly chosen wrong option: draw among the n-1 others and skip the expected.
                 let k = rng.random_range(0..n - 1);
                 if k >= truth.expected { k + 1 } else { k }
@@ -281,7 +319,14 @@ pub(crate) mod tests {
             image_hash: String::new(),
             prompt: "Q?".into(),
             options: vec!["stop".into(), "slow".into(), "go".into()],
-            truth: Some(Truth { set, concepts: vec![], expected, key, statements: vec![] }),
+            truth: Some(Truth {
+                set,
+                concepts: vec![],
+                expected,
+                option_names: vec!["stop".into(), "slow".into(), "go".into()],
+                key,
+                statements: vec![],
+            }),
         }
     }
 
@@ -385,6 +430,59 @@ error = 0.7
         // No mode and no base error: always right.
         let other = d.parse_set(&["b"]).unwrap();
         assert!((0..200).all(|k| m.answer(&query(other, 2, k)).answer == Answer::Option(2)));
+    }
+
+    /// A domain with the driving question's options, for profiles that plant an answer.
+    fn options_domain(names: &[&str]) -> Domain {
+        let mut d = names_domain(names);
+        let options = ["stop", "slow", "go"]
+            .iter()
+            .map(|o| crate::ir::AnswerOption { name: (*o).into(), text: format!("answer {o}") })
+            .collect();
+        d.questions.push(crate::ir::Question {
+            name: "drive".into(),
+            text: "Q?".into(),
+            options,
+            span: Default::default(),
+        });
+        d
+    }
+
+    #[test]
+    fn a_planted_answer_is_the_wrong_option_given() {
+        let d = options_domain(&["a", "b"]);
+        let text = "name = \"t\"\n[[mode]]\nconcepts = [\"a\"]\nerror = 0.8\nanswer = \"go\"\n";
+        let m = SimModel { profile: Profile::parse(text, "p", &d).unwrap() };
+        assert_eq!(m.profile.modes[0].answer.as_deref(), Some("go"));
+        let set = d.parse_set(&["a"]).unwrap();
+        let answers: Vec<Answer> = (0..2000).map(|k| m.answer(&query(set, 1, k)).answer).collect();
+        let wrong = answers.iter().filter(|&&a| a != Answer::Option(1)).count();
+        assert!((1500..1700).contains(&wrong), "{wrong}");
+        assert!(answers.iter().all(|&a| a == Answer::Option(1) || a == Answer::Option(2)), "wrong is always `go`");
+        // Where `go` is the expected answer the set errs as often, by the other options.
+        let wrong: Vec<Answer> =
+            (0..2000).map(|k| m.answer(&query(set, 2, k)).answer).filter(|&a| a != Answer::Option(2)).collect();
+        assert!((1500..1700).contains(&wrong.len()), "{}", wrong.len());
+        assert!(wrong.contains(&Answer::Option(0)) && wrong.contains(&Answer::Option(1)));
+        // Without `answer` the replies are those of the same profile before `answer` existed.
+        let plain = SimModel {
+            profile: Profile::parse("name = \"t\"\n[[mode]]\nconcepts = [\"a\"]\nerror = 0.8\n", "p", &d).unwrap(),
+        };
+        let spread: Vec<Answer> = (0..2000).map(|k| plain.answer(&query(set, 1, k)).answer).collect();
+        assert!(spread.contains(&Answer::Option(0)) && spread.contains(&Answer::Option(2)));
+        let right = |v: &[Answer]| v.iter().map(|&a| a == Answer::Option(1)).collect::<Vec<_>>();
+        assert_eq!(right(&spread), right(&answers), "the same draws decide right or wrong");
+    }
+
+    #[test]
+    fn an_unknown_planted_answer_is_refused() {
+        let d = options_domain(&["a"]);
+        let text = "name = \"t\"\n[[mode]]\nconcepts = [\"a\"]\nerror = 0.8\nanswer = \"brake\"\n";
+        let e = Profile::parse(text, "p.toml", &d).unwrap_err();
+        assert_eq!(
+            e,
+            "invalid sim profile `p.toml`: mode 1 answers `brake`, which is no option of the domain's questions (options: `go`, `slow`, `stop`)"
+        );
     }
 
     #[test]
