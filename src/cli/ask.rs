@@ -88,18 +88,20 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let observer = Observer::new(Arc::new(domain.clone()), Arc::new(DomainWorld::new(domain)), renderer);
     let task = observer.task(set).map_err(|e| (1, e.to_string()))?;
     let key = ObsKey { phase: Phase::Search, set, index: 0 };
-    // `Observer::observe_task` by hand (there is no journal): the image is saved before the
-    // model is asked, so a failed call still leaves it to look at.
-    let stimulus = observer.stimulus(set, args.seed).await.map_err(|e| (1, e.to_string()))?;
-    if let Some(path) = &args.save {
-        save(path, stimulus.image.as_deref().map(Vec::as_slice))?;
-    }
-    let query = observer.query(&stimulus, &task);
-    let reply = match (&stimulus.blocked, &stimulus.invisible) {
-        (None, None) => Some(model.ask(&query).await),
-        _ => None,
+    // The image is written before the model is asked, so a failed call still leaves it.
+    let saved = std::sync::atomic::AtomicBool::new(false);
+    let save = |png: &[u8]| {
+        saved.store(true, std::sync::atomic::Ordering::Relaxed);
+        save(args.save.as_deref().unwrap_or(std::path::Path::new("")), png)
     };
-    let o = observer.record(key, &stimulus, &task, &query, reply);
+    let hook: Option<crate::run::observe::OnImage<'_>> = args.save.as_ref().map(|_| &save as _);
+    let o = observer
+        .observe_task(model.as_ref(), key, args.seed, &task, None, hook)
+        .await
+        .map_err(|e| (1, e.to_string()))?;
+    if args.save.is_some() && !saved.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err((1, "no image was rendered, so there is nothing to `--save`".to_string()));
+    }
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     let prompt_text = prompt::build(&task.question, &task.options);
     match o.reply {
@@ -130,15 +132,14 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
 }
 
 /// Write the PNG to `path`, never through a symbolic link (it may point anywhere).
-fn save(path: &std::path::Path, png: Option<&[u8]>) -> Result<(), (u8, String)> {
-    let png = png.ok_or_else(|| (1, "no image was rendered, so there is nothing to `--save`".to_string()))?;
+fn save(path: &std::path::Path, png: &[u8]) -> Result<(), String> {
     if crate::journal::safe::is_link(path) {
-        return Err((
-            1,
-            format!("cannot write `{}`: it is a symbolic link, and `--save` writes through none", path.display()),
+        return Err(format!(
+            "cannot write `{}`: it is a symbolic link, and `--save` writes through none",
+            path.display()
         ));
     }
-    crate::journal::safe::write_atomic(path, png).map_err(|e| (1, format!("cannot write `{}`: {e}", path.display())))
+    crate::journal::safe::write_atomic(path, png).map_err(|e| format!("cannot write `{}`: {e}", path.display()))
 }
 
 fn option_label(i: u32, options: &[String]) -> String {

@@ -237,7 +237,7 @@ impl Evaluator {
                     if stop.requested() || watch.stop.requested() || halt.load(Ordering::SeqCst) {
                         return Ok(None);
                     }
-                    let o = observer.observe_task(model.as_ref(), key, seed, &task, Some(&journal)).await?;
+                    let o = observer.observe_task(model.as_ref(), key, seed, &task, Some(&journal), None).await?;
                     watch.record(o.outcome, &o.record.raw);
                     Ok(Some((i, slot, o)))
                 });

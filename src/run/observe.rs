@@ -147,7 +147,14 @@ pub enum ObserveError {
     Render { set: String, message: String },
     #[error(transparent)]
     Journal(#[from] JournalError),
+    /// The caller's hook on the image shown failed (`ask --save` could not write it).
+    #[error("{0}")]
+    Shown(String),
 }
+
+/// What a caller does with the image an observation shows, before the model is asked (so a
+/// failed call still leaves it): `revelio ask --save` writes it to a file.
+pub type OnImage<'a> = &'a (dyn Fn(&[u8]) -> Result<(), String> + Sync);
 
 /// The observation pipeline of one domain, renderer included.
 pub struct Observer {
@@ -301,7 +308,7 @@ impl Observer {
         journal: Option<&Journal>,
     ) -> Result<Observation, ObserveError> {
         let task = self.task(key.set)?;
-        self.observe_task(model, key, seed, &task, journal).await
+        self.observe_task(model, key, seed, &task, journal, None).await
     }
 
     /// [`Observer::observe`] with the task already looked up (a set's observations share it).
@@ -312,10 +319,14 @@ impl Observer {
         seed: u64,
         task: &Task,
         journal: Option<&Journal>,
+        on_image: Option<OnImage<'_>>,
     ) -> Result<Observation, ObserveError> {
         let stimulus = self.stimulus(key.set, seed).await?;
         if let (Some(j), Some(png)) = (journal, &stimulus.image) {
             j.store_image(png)?;
+        }
+        if let (Some(hook), Some(png)) = (on_image, &stimulus.image) {
+            hook(png).map_err(ObserveError::Shown)?;
         }
         let query = self.query(&stimulus, task);
         let reply = match (&stimulus.blocked, &stimulus.invisible) {
