@@ -94,7 +94,12 @@ pub(crate) struct Checker<'a> {
 }
 
 /// Lower the gathered items. `entry` is the file whose `domain` line names the domain.
-pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<Diagnostic>, Vec<Reference>) {
+/// `std_files`: the files that are the stdlib, whose looks are vocabulary a domain may leave unused.
+pub(crate) fn lower(
+    entry: u32,
+    items: &[(u32, &Item)],
+    std_files: &[u32],
+) -> (Option<Domain>, Vec<Diagnostic>, Vec<Reference>) {
     let mut c = Checker::new();
     c.domain_line(entry, items);
     c.declare(items);
@@ -116,8 +121,10 @@ pub(crate) fn lower(entry: u32, items: &[(u32, &Item)]) -> (Option<Domain>, Vec<
     }
     c.lower_camera(entry, items);
     c.lower_looks(items);
+    let has_look = c.inherit_looks();
     c.lower_stage(items);
     c.lower_concepts(items);
+    c.lint_looks(&has_look, std_files);
     c.lower_visibility(items);
     c.check_relations();
     c.lower_constraints(items);

@@ -189,7 +189,9 @@ pub fn compile_entry(
     let items: Vec<(u32, &ast::Item)> =
         order.iter().flat_map(|&f| parsed[f as usize].items.iter().map(move |i| (f, i))).collect();
     let syntax_ok = !diagnostics.iter().any(Diagnostic::is_error);
-    let (domain, lowered, names) = lower::lower(entry, &items);
+    let std_files: Vec<u32> =
+        files.iter().enumerate().filter(|(_, f)| f.name.starts_with("std/")).map(|(i, _)| i as u32).collect();
+    let (domain, lowered, names) = lower::lower(entry, &items, &std_files);
     diagnostics.extend(lowered);
     references.extend(names);
     let mut domain = domain.filter(|_| syntax_ok && !diagnostics.iter().any(Diagnostic::is_error));
@@ -508,5 +510,22 @@ mod tests {
         assert!(d.kinds[child.index()].has_tag(collidable), "tags are transitive");
         assert_eq!(d.kinds[ped.index()].shape.len(), 2);
         assert_eq!(d.files[0].name, "small_driving.rev");
+    }
+
+    #[test]
+    fn a_sub_kind_without_a_look_draws_its_nearest_ancestors() {
+        let text = include_str!("../../tests/corpus/good/inherited_look.rev");
+        let d = match compile_source("inherited_look.rev", text) {
+            Ok(d) => d,
+            Err(diags) => panic!("{diags:#?}"),
+        };
+        let shape = |name: &str| &d.kinds[d.kind_by_name(name).unwrap().index()].shape;
+        assert_eq!(shape("Truck").len(), 2);
+        assert_eq!(shape("Forklift"), shape("Truck"), "one level down");
+        assert_eq!(shape("ReachTruck"), shape("Truck"), "two levels down");
+        assert_eq!(shape("Pallet").len(), 1, "an own look is kept");
+        // The conditional part names the attribute, so it reads the child's own `loaded`.
+        let Some(ir::Expr::Cmp { var, attr, .. }) = &shape("Forklift")[1].when else { panic!("no condition") };
+        assert_eq!((var.as_deref(), attr.as_str()), (Some("self"), "loaded"));
     }
 }

@@ -54,6 +54,134 @@ impl Checker<'_> {
         }
     }
 
+    /// A kind without its own look takes its nearest ancestor kind's (tags have no looks): parent
+    /// kinds are searched level by level, and two different looks equally near are an error,
+    /// as for `visible`. Shape parts name attributes, not positions, so a copy reads the child's
+    /// own attributes. Returns which kinds now have a look, own or inherited.
+    pub(crate) fn inherit_looks(&mut self) -> Vec<bool> {
+        let n = self.d.kinds.len();
+        let own: Vec<bool> = self.look_spans.iter().map(Option::is_some).collect();
+        let mut has = own.clone();
+        for k in 0..n {
+            if own[k] {
+                continue;
+            }
+            let mut level = self.kind_parents[k].clone();
+            let mut visited = level.clone();
+            while !level.is_empty() {
+                let hits: Vec<KindId> = level.iter().copied().filter(|p| own[p.index()]).collect();
+                if let Some(&first) = hits.first() {
+                    let shape = self.d.kinds[first.index()].shape.clone();
+                    match hits.iter().find(|p| self.d.kinds[p.index()].shape != shape) {
+                        None => {
+                            self.d.kinds[k].shape = shape;
+                            has[k] = true;
+                        }
+                        Some(&other) => {
+                            let kind = &self.d.kinds[k];
+                            let (a, b) = (&self.d.kinds[first.index()], &self.d.kinds[other.index()]);
+                            let mut d = Diagnostic::error(
+                                codes::AMBIGUOUS_INHERITANCE,
+                                kind.span,
+                                format!(
+                                    "kind `{}` inherits two different looks, from `{}` and `{}`",
+                                    kind.name, a.name, b.name
+                                ),
+                            )
+                            .with_label("equally near to both");
+                            if let Some((span, _)) = self.look_spans[first.index()] {
+                                d = d.with_related(span, "one look");
+                            }
+                            if let Some((span, _)) = self.look_spans[other.index()] {
+                                d = d.with_related(span, "the other");
+                            }
+                            let d = d.with_help(format!("say which applies with `look {} {{ … }}`", kind.name));
+                            // The kind still counts as drawn: the error is the one to fix.
+                            has[k] = true;
+                            self.error(d);
+                        }
+                    }
+                    break;
+                }
+                let mut next = Vec::new();
+                for p in &level {
+                    for q in self.kind_parents[p.index()].clone() {
+                        if !visited.contains(&q) {
+                            visited.push(q);
+                            next.push(q);
+                        }
+                    }
+                }
+                level = next;
+            }
+        }
+        has
+    }
+
+    /// Warn about a kind some concept places that still draws nothing, and about a look that
+    /// nothing placed ever wears: no concept adds its kind nor any kind below it, and it is no
+    /// scenery (`Extra`, which the sampler places). Only a domain is linted: a module checked
+    /// alone is a part whose concepts or looks may live elsewhere. Looks in the stdlib are
+    /// vocabulary a domain may leave unused.
+    pub(crate) fn lint_looks(&mut self, has_look: &[bool], std_files: &[u32]) {
+        if self.d.name.is_empty() {
+            return;
+        }
+        let n = self.d.kinds.len();
+        let mut placed: Vec<Option<Span>> = vec![None; n];
+        for c in &self.d.concepts {
+            for e in &c.effects {
+                if let Effect::Add { kind, span, .. } = e
+                    && placed[kind.index()].is_none()
+                {
+                    placed[kind.index()] = Some(*span);
+                }
+            }
+        }
+        // The sampler's scenery tag (`sample::EXTRA_TAG`, named here as the check sits below it).
+        let extra = self.d.tags.iter().position(|t| t.name == "Extra").map(|t| TagId(t as u32));
+        // A kind is worn if it, or a kind below it, is placed or is scenery.
+        let mut worn = vec![false; n];
+        for k in (0..n).filter(|&k| placed[k].is_some() || extra.is_some_and(|t| self.d.kinds[k].has_tag(t))) {
+            let mut stack = vec![k];
+            while let Some(j) = stack.pop() {
+                if !worn[j] {
+                    worn[j] = true;
+                    stack.extend(self.kind_parents[j].iter().map(|p| p.index()));
+                }
+            }
+        }
+        for k in 0..n {
+            let name = self.d.kinds[k].name.clone();
+            if let Some(add) = placed[k]
+                && !has_look[k]
+            {
+                let d = Diagnostic::warning(
+                    codes::DRAWS_NOTHING,
+                    self.d.kinds[k].span,
+                    format!("kind `{name}` is placed but draws nothing: it has no look, own or inherited"),
+                )
+                .with_label("no `shape { … }`, no `look`, and no ancestor kind with one")
+                .with_related(add, "placed here")
+                .with_help(format!("give it a look with `look {name} {{ … }}`, or on a kind it descends from"));
+                self.error(d);
+            }
+            if let Some((span, source)) = self.look_spans[k]
+                && !worn[k]
+                && !std_files.contains(&span.file)
+            {
+                let d = Diagnostic::warning(
+                    codes::DRAWS_NOTHING,
+                    span,
+                    format!("the look of kind `{name}` is never drawn: no concept places `{name}` or a kind below it"),
+                )
+                .with_label(format!("unused {source}"))
+                .with_help(format!("add `{name}` in a concept, or remove the look"));
+                self.error(d);
+            }
+        }
+    }
+
     pub(crate) fn lower_stage(&mut self, items: &[(u32, &Item)]) {
         let (mut stage_parts, mut reported) = (0u64, false);
         for (_, item) in items {

@@ -34,13 +34,14 @@ codes! {
     UNKNOWN_VARIANT = "R0024", "unknown-variant", "a value that is no variant of the attribute's enum";
     UNKNOWN_UNIT = "R0025", "unknown-unit", "a number with a unit suffix that no `unit` declares";
     CYCLE = "R0026", "inheritance-cycle", "a tag or kind that is its own ancestor";
-    AMBIGUOUS_INHERITANCE = "R0027", "ambiguous-inheritance", "a kind that inherits two different `visible` overrides from equally near parents";
+    AMBIGUOUS_INHERITANCE = "R0027", "ambiguous-inheritance", "a kind that inherits two different `visible` overrides, or two different looks, from equally near parents";
     TYPE_MISMATCH = "R0030", "type-mismatch", "a value of the wrong type (number for a bool, range where one number is needed, …)";
     DIMENSION_MISMATCH = "R0031", "dimension-mismatch", "a number whose unit measures the wrong dimension";
     OUT_OF_RANGE = "R0032", "out-of-range", "a value outside the attribute's `in MIN..MAX` bounds";
     EMPTY_RANGE = "R0033", "empty-range", "a range `a..b` with `a > b`";
     TOO_MANY_QUANTIFIERS = "R0034", "too-many-quantifiers", "a condition that nests more than 3 `exists` (a shape condition's `self` counts as one)";
     COUNT_TOO_LARGE = "R0035", "count-too-large", "a count past its bound: `repeat` over 1 000, over 4 096 stage parts with repeats, over 256 parts in one block, over 128 entities added";
+    DRAWS_NOTHING = "R0036", "draws-nothing", "(warning) a kind that a concept places but that has no look, own or inherited, or a `look` on a kind that nothing places";
     MISPLACED_STATEMENT = "R0040", "misplaced-statement", "a statement where it means nothing (`move` in a concept, `add` in a modifier, …)";
     MISSING_STATEMENT = "R0041", "missing-statement", "a required statement is missing (a modifier's `target`, a rule's `expect`, a shape part's `size`, …)";
     DUPLICATE_STATEMENT = "R0042", "duplicate-statement", "a statement or setting given twice where only one counts";
