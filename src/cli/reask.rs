@@ -75,13 +75,8 @@ pub(crate) fn open_run(
         eprintln!("error: {e}");
         ExitCode::from(1)
     })?;
-    if journal.set_aside > 0 {
-        eprintln!(
-            "note: moved {} corrupt line(s) of `{}` into `{}`",
-            journal.set_aside,
-            dir.join("journal.jsonl").display(),
-            dir.join(crate::journal::CORRUPT_FILE).display()
-        );
+    if let Some(note) = journal.set_aside_note() {
+        eprintln!("{note}");
     }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let domain = Arc::new(domain);

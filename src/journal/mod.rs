@@ -195,6 +195,18 @@ impl Journal {
         Journal::open_with(dir, OnCorrupt::Refuse)
     }
 
+    /// What a user is told when opening set corrupt lines aside (`None`: none were).
+    pub fn set_aside_note(&self) -> Option<String> {
+        (self.set_aside > 0).then(|| {
+            format!(
+                "note: moved {} corrupt line(s) of `{}` into `{}`",
+                self.set_aside,
+                self.dir.join("journal.jsonl").display(),
+                self.dir.join(CORRUPT_FILE).display()
+            )
+        })
+    }
+
     /// [`Journal::open`], with `corrupt` deciding what a complete line that does not parse does.
     pub fn open_with(dir: &Path, corrupt: OnCorrupt) -> Result<Journal, JournalError> {
         let config_path = dir.join("config.json");

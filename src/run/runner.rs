@@ -102,13 +102,8 @@ fn differences(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> 
 /// match it (a raised budget is written back).
 fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Journal>, RunError> {
     let journal = Journal::open_with(out, corrupt)?;
-    if journal.set_aside > 0 {
-        eprintln!(
-            "note: moved {} corrupt line(s) of `{}` into `{}`",
-            journal.set_aside,
-            out.join("journal.jsonl").display(),
-            out.join(crate::journal::CORRUPT_FILE).display()
-        );
+    if let Some(note) = journal.set_aside_note() {
+        eprintln!("{note}");
     }
     let write = match journal.config() {
         None => true,
