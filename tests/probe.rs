@@ -71,6 +71,7 @@ async fn served(spec: &str, route: &str, body: Value) -> (MockServer, Arc<dyn Mo
         cache_dir: None,
         concurrency: None,
         allow_http: false,
+        batch: None,
     };
     (server, build_api_model(spec, &opts).unwrap())
 }

@@ -97,6 +97,7 @@ fn model(spec: &str, server: &MockServer, extra: &str, thinking: Option<&str>, c
         cache_dir: Some(dir.path().join("cache")),
         concurrency: None,
         allow_http: false,
+        batch: None,
     };
     Setup { model: build_api_model(spec, &opts).unwrap(), dir }
 }

@@ -25,6 +25,13 @@ pub struct RunFlags {
     /// Stop the run after this many model calls in a row fail (0: never)
     #[arg(long, default_value_t = crate::run::MAX_API_ERRORS)]
     pub max_api_errors: u32,
+    /// Ask through the provider's batch API (OpenAI Batch, Anthropic Message Batches, Gemini
+    /// batch mode) at half price: answers come within hours, not seconds. `openai:`,
+    /// `anthropic:` and `gemini:` models; `--concurrency` is then the most requests per batch
+    /// [default: 1000]. Batches are journaled in the run folder (`batches.jsonl`): a killed
+    /// command run again waits for its pending batch instead of paying twice
+    #[arg(long)]
+    pub batch_api: bool,
     /// Move complete journal lines that do not parse into `journal.corrupt` beside the journal
     /// and go on (without it, such a line stops the command and the journal is left as it is)
     #[arg(long)]
@@ -79,6 +86,7 @@ impl ModelFlags {
             model_config: self.model_config.as_deref().map(setup::absolute),
             thinking: self.thinking.clone(),
             allow_http: self.allow_http,
+            batch: None,
         }
     }
 

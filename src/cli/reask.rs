@@ -55,7 +55,8 @@ pub(crate) fn open_run(
     if domain.identity().to_string() != config.domain_hash {
         return Err(setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: dir.into() }));
     }
-    let settings = model_opts.settings().resume(&config.model_settings, names).map_err(setup_error)?;
+    let mut settings = model_opts.settings().resume(&config.model_settings, names).map_err(setup_error)?;
+    settings.batch = run.batch_api.then(|| dir.to_path_buf());
     let cache = model_opts.cache();
     let Parts { model, renderer, concurrency } = setup::build_parts(
         &domain,

@@ -107,17 +107,25 @@ pub fn run(args: SearchArgs) -> ExitCode {
         eprintln!("error: invalid `--kernel`: the GP kernel is GPTS's; `--algo {}` has no GP", params.algo.name());
         return ExitCode::from(2);
     }
+    if args.run.batch_api && params.algo != Algo::Random {
+        eprintln!(
+            "error: `--batch-api` needs `--algo random`: `--algo {}` picks each set from the answers to the last, which a batch gives hours later",
+            params.algo.name()
+        );
+        return ExitCode::from(2);
+    }
     let setup_error = |e: SetupError| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
     };
-    let settings = match &previous {
+    let mut settings = match &previous {
         Some(p) => match args.model_opts.settings().resume(&p.model_settings, setup::FLAGS) {
             Ok(s) => s,
             Err(e) => return setup_error(e),
         },
         None => args.model_opts.settings(),
     };
+    settings.batch = args.run.batch_api.then(|| out.clone());
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer, concurrency } =

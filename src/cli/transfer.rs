@@ -87,7 +87,8 @@ pub fn run(args: TransferArgs) -> ExitCode {
         Err(code) => return code,
     };
     let cache = args.model_opts.cache();
-    let settings = args.model_opts.settings();
+    let mut settings = args.model_opts.settings();
+    settings.batch = args.run.batch_api.then(|| args.run_dir.clone());
     let mut models: Vec<Arc<dyn Model>> = vec![open.model.clone()];
     for spec in &args.models {
         match setup::build_parts(&open.domain, spec, "none", &settings, cache.as_deref(), None) {

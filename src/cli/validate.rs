@@ -68,10 +68,11 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     if domain.identity().to_string() != config.domain_hash {
         return setup_error(SetupError::DomainChanged { file: config.domain_file.clone(), dir: args.run_dir.clone() });
     }
-    let settings = match args.model_opts.settings().resume(&config.model_settings, setup::FLAGS) {
+    let mut settings = match args.model_opts.settings().resume(&config.model_settings, setup::FLAGS) {
         Ok(s) => s,
         Err(e) => return setup_error(e),
     };
+    settings.batch = args.run.batch_api.then(|| args.run_dir.clone());
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer, concurrency } = match setup::build_parts(

@@ -167,6 +167,17 @@ impl Transport {
         build: impl Fn() -> Result<Request, String>,
         judge: impl Fn(Response) -> Verdict<T>,
     ) -> Called<T> {
+        self.call_as(reqwest::Method::POST, build, judge).await
+    }
+
+    /// [`Transport::call`] with another method (`GET` for a batch's status and results; the
+    /// body is then empty).
+    pub async fn call_as<T>(
+        &self,
+        method: reqwest::Method,
+        build: impl Fn() -> Result<Request, String>,
+        judge: impl Fn(Response) -> Verdict<T>,
+    ) -> Called<T> {
         let mut started: Option<Instant> = None;
         let mut attempt = 0;
         loop {
@@ -188,7 +199,7 @@ impl Transport {
                     Err(e) => return self.end(Err(e), attempt, started),
                 };
                 let timeout = self.limits.timeout.min(left);
-                match tokio::time::timeout(timeout, self.send(req)).await {
+                match tokio::time::timeout(timeout, self.send(method.clone(), req)).await {
                     Err(_) => Verdict::Retry {
                         reason: format!("timed out after {:.1} s", timeout.as_secs_f64()),
                         after: None,
@@ -225,8 +236,11 @@ impl Transport {
         Called { result, attempts: attempts.max(1), latency: started.map_or(Duration::ZERO, |s| s.elapsed()) }
     }
 
-    async fn send(&self, req: Request) -> Result<Response, Failed> {
-        let mut rb = self.client.post(&req.url).body(req.body);
+    async fn send(&self, method: reqwest::Method, req: Request) -> Result<Response, Failed> {
+        let mut rb = self.client.request(method, &req.url);
+        if !req.body.is_empty() {
+            rb = rb.body(req.body);
+        }
         for (k, v) in &req.headers {
             rb = rb.header(k.as_str(), v.as_str());
         }

@@ -50,6 +50,10 @@ pub struct ModelSettings {
     /// from a run folder.
     #[serde(skip)]
     pub allow_http: bool,
+    /// `--batch-api`: the run folder whose `batches.jsonl` journals the batches. A choice of the
+    /// command, never recorded: the batch API answers as the live one does.
+    #[serde(skip)]
+    pub batch: Option<PathBuf>,
 }
 
 /// How a command spells the flags that choose a model's destinations, for the messages that ask
@@ -200,6 +204,7 @@ pub fn build_parts(
         no_cache: cache.is_none(),
         cache_dir: cache.map(|c| c.join("replies")),
         concurrency,
+        batch: settings.batch.clone(),
     };
     let model = build_model(model_spec, domain, &options).map_err(SetupError::Model)?;
     let renderer = build_renderer(
@@ -241,6 +246,7 @@ mod tests {
             model_config: Some("/theirs/models.toml".into()),
             thinking: Some("low".into()),
             allow_http: false,
+            batch: None,
         }
     }
 

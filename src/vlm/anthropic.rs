@@ -29,6 +29,7 @@ pub const PROVIDER: Provider = Provider {
 };
 
 pub struct Anthropic {
+    base: String,
     url: String,
     model: String,
     /// Required on Anthropic's host; a proxy behind `--base-url` may not need one.
@@ -82,6 +83,7 @@ pub fn build(
     thinking_fields(spec, &settings)?;
     let base = endpoint.base;
     let proto = Anthropic {
+        base: base.clone(),
         url: format!("{base}/v1/messages"),
         model: model.to_string(),
         key: endpoint.key,
@@ -103,6 +105,20 @@ pub fn read_blocks(blocks: &[Value]) -> (String, Option<String>) {
         }
     }
     (text, Some(thinking).filter(|t| !t.trim().is_empty()))
+}
+
+impl Anthropic {
+    /// The base URL every request of this model goes to, the batch API's included.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
+    /// The version and credential headers of a request to [`Anthropic::base`].
+    pub fn auth(&self) -> Vec<(String, String)> {
+        let mut h = vec![("anthropic-version".to_string(), VERSION.to_string())];
+        h.extend(self.key.iter().map(|k| ("x-api-key".to_string(), k.0.clone())));
+        h
+    }
 }
 
 impl Protocol for Anthropic {
@@ -180,6 +196,7 @@ mod tests {
 
     fn proto() -> Anthropic {
         Anthropic {
+            base: "http://x".into(),
             url: "http://x/v1/messages".into(),
             model: "m".into(),
             key: Some(Secret("k".into())),

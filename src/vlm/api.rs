@@ -196,64 +196,97 @@ impl<P: Protocol> ApiModel<P> {
         Ok(ApiModel { id, proto, transport, settings, cache, ledger: Arc::new(Ledger::default()), base_url })
     }
 
+    /// The provider's wire format.
+    pub fn proto(&self) -> &P {
+        &self.proto
+    }
+
+    /// The resolved model settings.
+    pub fn settings(&self) -> &Resolved {
+        &self.settings
+    }
+
+    /// The query's image encoded as the model config asks (`None` without an image).
+    pub fn encode(&self, q: &Query) -> Result<Option<Encoded>, String> {
+        let Some(bytes) = &q.image else { return Ok(None) };
+        let s = &self.settings;
+        image::encode(bytes, s.image_format, s.image_max_side, s.jpeg_quality).map(Some)
+    }
+
+    /// The model config's prices (a batch call pays [`Prices::batch`] of them).
+    pub fn prices(&self) -> Prices {
+        Prices {
+            input_per_mtok: self.settings.price_input_per_mtok,
+            output_per_mtok: self.settings.price_output_per_mtok,
+        }
+    }
+
     async fn ask_uncached(&self, q: &Query) -> Reply {
-        let image = match &q.image {
-            None => None,
-            Some(bytes) => {
-                let s = &self.settings;
-                match image::encode(bytes, s.image_format, s.image_max_side, s.jpeg_quality) {
-                    Ok(e) => Some(e),
-                    Err(e) => return error_reply(e, 0, Duration::ZERO),
-                }
-            }
+        let image = match self.encode(q) {
+            Ok(i) => i,
+            Err(e) => return error_reply(e, 0, Duration::ZERO),
         };
         let called =
             self.transport.call(|| self.proto.request(&q.prompt, image.as_ref()), |r| judge(&self.proto, r)).await;
         match called.result {
             Err(e) => error_reply(e, called.attempts, called.latency),
-            Ok(p) => {
-                let prices = Prices {
-                    input_per_mtok: self.settings.price_input_per_mtok,
-                    output_per_mtok: self.settings.price_output_per_mtok,
-                };
-                let usage = Usage {
-                    input_tokens: p.input_tokens,
-                    output_tokens: p.output_tokens,
-                    thinking_tokens: p.thinking_tokens,
-                    cost_usd: prices.cost(p.input_tokens, p.output_tokens),
-                };
-                let (text, inline) = parse::split_thinking(&p.text);
-                let thinking = match (p.thinking, inline) {
-                    (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
-                    (a, b) => a.or(b),
-                };
-                let (raw, answer) = match p.stop {
-                    Stop::Complete => {
-                        let a = parse::parse(&text, &q.options);
-                        (text, a)
-                    }
-                    Stop::Truncated => (text, Answer::Truncated),
-                    Stop::Blocked(why) if text.is_empty() => {
-                        (format!("blocked by the provider: {why}"), Answer::Blocked)
-                    }
-                    Stop::Blocked(_) => (text, Answer::Blocked),
-                    Stop::Refusal(msg) => (if text.is_empty() { msg } else { text }, Answer::Refusal),
-                };
-                Reply {
-                    raw,
-                    thinking,
-                    answer,
-                    usage,
-                    latency_ms: called.latency.as_millis() as u64,
-                    cached: false,
-                    attempts: called.attempts,
-                }
-            }
+            Ok(p) => reply_from(q, p, self.prices(), called.latency, called.attempts),
         }
+    }
+
+    /// A reply from the reply cache, booked as cached (`None`: not cached, or no cache).
+    pub fn cached(&self, q: &Query) -> Option<Reply> {
+        let c = self.cache.as_ref()?;
+        let hit = c.get(&c.key(&q.image_hash, &q.prompt))?;
+        self.ledger.record(&hit.usage, true, false);
+        Some(hit)
+    }
+
+    /// Keep a fresh reply: its texts scrubbed of credentials and bounded, booked, cached.
+    pub fn keep(&self, q: &Query, mut reply: Reply) -> Reply {
+        let secrets = self.proto.secrets();
+        // Parsed already: from here on the text is only kept (journal, cache), so a bounded
+        // prefix of it.
+        reply.raw = bound_text(redact(std::mem::take(&mut reply.raw), &secrets));
+        reply.thinking = reply.thinking.map(|t| bound_text(redact(t, &secrets)));
+        self.ledger.record(&reply.usage, false, reply.answer == Answer::ApiError);
+        if let Some(c) = &self.cache
+            && let Err(e) = c.put(&c.key(&q.image_hash, &q.prompt), &reply)
+        {
+            warn_once(&e);
+        }
+        reply
     }
 }
 
-fn error_reply(message: String, attempts: u32, latency: Duration) -> Reply {
+/// The reply to `q` a provider's parsed response makes, priced at `prices`.
+pub fn reply_from(q: &Query, p: Parsed, prices: Prices, latency: Duration, attempts: u32) -> Reply {
+    let usage = Usage {
+        input_tokens: p.input_tokens,
+        output_tokens: p.output_tokens,
+        thinking_tokens: p.thinking_tokens,
+        cost_usd: prices.cost(p.input_tokens, p.output_tokens),
+    };
+    let (text, inline) = parse::split_thinking(&p.text);
+    let thinking = match (p.thinking, inline) {
+        (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
+        (a, b) => a.or(b),
+    };
+    let (raw, answer) = match p.stop {
+        Stop::Complete => {
+            let a = parse::parse(&text, &q.options);
+            (text, a)
+        }
+        Stop::Truncated => (text, Answer::Truncated),
+        Stop::Blocked(why) if text.is_empty() => (format!("blocked by the provider: {why}"), Answer::Blocked),
+        Stop::Blocked(_) => (text, Answer::Blocked),
+        Stop::Refusal(msg) => (if text.is_empty() { msg } else { text }, Answer::Refusal),
+    };
+    Reply { raw, thinking, answer, usage, latency_ms: latency.as_millis() as u64, cached: false, attempts }
+}
+
+/// The reply of a call that got no answer: an `api_error` carrying the message.
+pub fn error_reply(message: String, attempts: u32, latency: Duration) -> Reply {
     Reply {
         raw: message,
         thinking: None,
@@ -272,26 +305,11 @@ impl<P: Protocol> Model for ApiModel<P> {
 
     fn ask<'a>(&'a self, query: &'a Query) -> BoxFuture<'a, Reply> {
         Box::pin(async move {
-            let key = self.cache.as_ref().map(|c| c.key(&query.image_hash, &query.prompt));
-            if let (Some(c), Some(k)) = (&self.cache, &key)
-                && let Some(hit) = c.get(k)
-            {
-                self.ledger.record(&hit.usage, true, false);
+            if let Some(hit) = self.cached(query) {
                 return hit;
             }
-            let mut reply = self.ask_uncached(query).await;
-            let secrets = self.proto.secrets();
-            // Parsed already: from here on the text is only kept (journal, cache), so a bounded
-            // prefix of it.
-            reply.raw = bound_text(redact(std::mem::take(&mut reply.raw), &secrets));
-            reply.thinking = reply.thinking.map(|t| bound_text(redact(t, &secrets)));
-            self.ledger.record(&reply.usage, false, reply.answer == Answer::ApiError);
-            if let (Some(c), Some(k)) = (&self.cache, &key)
-                && let Err(e) = c.put(k, &reply)
-            {
-                warn_once(&e);
-            }
-            reply
+            let reply = self.ask_uncached(query).await;
+            self.keep(query, reply)
         })
     }
 
@@ -309,7 +327,7 @@ impl<P: Protocol> Model for ApiModel<P> {
 }
 
 /// A URL without user name, password, query or fragment: safe to record in a run folder.
-fn public_url(url: &str) -> String {
+pub fn public_url(url: &str) -> String {
     match reqwest::Url::parse(url) {
         Ok(mut u) => {
             let _ = u.set_username("");

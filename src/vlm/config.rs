@@ -72,6 +72,12 @@ pub struct Settings {
     pub retry_backoff_s: Option<f64>,
     pub price_input_per_mtok: Option<f64>,
     pub price_output_per_mtok: Option<f64>,
+    /// `--batch-api`: the first wait between two looks at a pending batch (doubles up to 20
+    /// times this, at most 10 minutes).
+    pub batch_poll_s: Option<f64>,
+    /// `--batch-api`: how long requests are collected after the last one arrived before they go
+    /// out as one batch.
+    pub batch_collect_s: Option<f64>,
     /// Extra top-level JSON fields merged into the request body (like the SDKs' `extra_body`),
     /// e.g. `extra = { chat_template_kwargs = { enable_thinking = false } }` for vLLM.
     pub extra: Option<toml::Table>,
@@ -107,6 +113,8 @@ pub struct Resolved {
     pub retry_backoff: Duration,
     pub price_input_per_mtok: f64,
     pub price_output_per_mtok: f64,
+    pub batch_poll: Duration,
+    pub batch_collect: Duration,
     pub extra: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
@@ -131,6 +139,8 @@ impl Settings {
             retry_backoff_s: over.retry_backoff_s.or(self.retry_backoff_s),
             price_input_per_mtok: over.price_input_per_mtok.or(self.price_input_per_mtok),
             price_output_per_mtok: over.price_output_per_mtok.or(self.price_output_per_mtok),
+            batch_poll_s: over.batch_poll_s.or(self.batch_poll_s),
+            batch_collect_s: over.batch_collect_s.or(self.batch_collect_s),
             extra: over.extra.or(self.extra),
         }
     }
@@ -211,6 +221,8 @@ impl Settings {
             retry_backoff: positive("retry_backoff_s", self.retry_backoff_s, 0.5)?,
             price_input_per_mtok: self.price_input_per_mtok.unwrap_or(0.0),
             price_output_per_mtok: self.price_output_per_mtok.unwrap_or(0.0),
+            batch_poll: positive("batch_poll_s", self.batch_poll_s, 30.0)?,
+            batch_collect: positive("batch_collect_s", self.batch_collect_s, 2.0)?,
             extra,
         })
     }

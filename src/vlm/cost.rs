@@ -14,7 +14,19 @@ pub struct Prices {
     pub output_per_mtok: f64,
 }
 
+/// What a batch API charges of the live price: OpenAI Batch, Anthropic Message Batches and
+/// Gemini batch mode all bill half the standard rate for input and output tokens.
+pub const BATCH_DISCOUNT: f64 = 0.5;
+
 impl Prices {
+    /// The prices of the same model called through its provider's batch API.
+    pub fn batch(self) -> Prices {
+        Prices {
+            input_per_mtok: self.input_per_mtok * BATCH_DISCOUNT,
+            output_per_mtok: self.output_per_mtok * BATCH_DISCOUNT,
+        }
+    }
+
     pub fn cost(&self, input_tokens: u64, output_tokens: u64) -> f64 {
         (input_tokens as f64 * self.input_per_mtok + output_tokens as f64 * self.output_per_mtok) / 1e6
     }
@@ -85,6 +97,7 @@ mod tests {
         let p = Prices { input_per_mtok: 3.0, output_per_mtok: 15.0 };
         assert!((p.cost(1_000, 200) - 0.006).abs() < 1e-12);
         assert_eq!(Prices::default().cost(10, 10), 0.0);
+        assert!((p.batch().cost(1_000, 200) - 0.003).abs() < 1e-12);
     }
 
     #[test]

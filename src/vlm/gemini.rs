@@ -36,6 +36,8 @@ pub const PROVIDER: Provider = Provider {
 };
 
 pub struct Gemini {
+    base: String,
+    model: String,
     url: String,
     key: Option<Secret>,
     settings: Resolved,
@@ -60,8 +62,31 @@ pub fn build(
             ));
         }
     }
-    let proto = Gemini { url: endpoint(&ep.base, model), key: ep.key, settings: settings.clone() };
+    let proto = Gemini {
+        base: ep.base.clone(),
+        model: model.strip_prefix("models/").unwrap_or(model).to_string(),
+        url: endpoint(&ep.base, model),
+        key: ep.key,
+        settings: settings.clone(),
+    };
     ApiModel::new(spec, &PROVIDER.host, &ep.base, proto, settings, cache)
+}
+
+impl Gemini {
+    /// The base URL every request of this model goes to, the batch API's included.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
+    /// The model name, without a `models/` prefix.
+    pub fn model(&self) -> &str {
+        &self.model
+    }
+
+    /// The headers of a request to [`Gemini::base`] (the key among them).
+    pub fn auth(&self) -> Vec<(String, String)> {
+        headers(self.key.as_ref())
+    }
 }
 
 impl Protocol for Gemini {
@@ -142,6 +167,8 @@ mod tests {
 
     fn proto() -> Gemini {
         Gemini {
+            base: "http://x".into(),
+            model: "g".into(),
             url: endpoint("http://x", "g"),
             key: None,
             settings: crate::vlm::config::settings_for("gemini:g", None, None).unwrap(),

@@ -103,6 +103,8 @@ pub mod anthropic;
 #[cfg(feature = "net")]
 pub mod api;
 #[cfg(feature = "net")]
+pub mod batch;
+#[cfg(feature = "net")]
 pub mod bedrock;
 pub mod cache;
 pub mod config;

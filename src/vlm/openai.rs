@@ -35,6 +35,7 @@ pub const PROVIDER: Provider = Provider {
 const EFFORTS: &[&str] = &["none", "minimal", "low", "medium", "high", "xhigh", "max"];
 
 pub struct OpenAi {
+    base: String,
     url: String,
     model: String,
     key: Option<Secret>,
@@ -80,6 +81,7 @@ pub fn build(
     let base = endpoint.base;
     let official = base.starts_with("https://api.openai.com");
     let proto = OpenAi {
+        base: base.clone(),
         url: format!("{base}/chat/completions"),
         model: model.to_string(),
         key: endpoint.key,
@@ -87,6 +89,18 @@ pub fn build(
         settings: settings.clone(),
     };
     ApiModel::new(spec, &PROVIDER.host, &base, proto, settings, cache)
+}
+
+impl OpenAi {
+    /// The base URL (`…/v1`) every request of this model goes to, the batch API's included.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
+    /// The credential headers of a request to [`OpenAi::base`].
+    pub fn auth(&self) -> Vec<(String, String)> {
+        self.key.iter().map(|k| ("authorization".to_string(), format!("Bearer {}", k.0))).collect()
+    }
 }
 
 impl Protocol for OpenAi {
@@ -175,6 +189,7 @@ mod tests {
     fn proto() -> OpenAi {
         let settings = crate::vlm::config::settings_for("openai:m", None, None).unwrap();
         OpenAi {
+            base: "http://x/v1".into(),
             url: "http://x/v1/chat/completions".into(),
             model: "m".into(),
             key: None,

@@ -26,6 +26,9 @@ pub struct ModelOptions {
     pub no_cache: bool,
     /// Where the response cache lives (the shared user cache by default).
     pub cache_dir: Option<PathBuf>,
+    /// `--batch-api`: ask through the provider's batch API, journaling the batches in this run
+    /// folder (`batches.jsonl`).
+    pub batch: Option<PathBuf>,
     /// `--concurrency`: overrides the model config's `concurrency` (one setting for the run's
     /// observations and the provider's request gate).
     pub concurrency: Option<usize>,
@@ -36,6 +39,7 @@ pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<A
         format!("invalid model `{spec}`: expected PROVIDER:NAME, e.g. `sim:examples/sim/driving_fog.toml`")
     })?;
     match provider {
+        // A simulated model answers at once and costs nothing: `--batch-api` changes nothing.
         "sim" => crate::vlm::sim::load(std::path::Path::new(rest), domain),
         "openai" | "anthropic" | "gemini" | "bedrock" => build_api_model(spec, opts),
         other => Err(format!(
@@ -63,6 +67,31 @@ pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>
     }
     let base = crate::net::EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http };
     let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
+    if let Some(dir) = &opts.batch {
+        use crate::vlm::batch::{BatchModel, anthropic::AnthropicBatch, gemini::GeminiBatch, openai::OpenAiBatch};
+        return Ok(match provider {
+            "openai" => {
+                let live = openai::build(spec, rest, settings, base, cache)?;
+                let wire = OpenAiBatch::new(live.proto());
+                Arc::new(BatchModel::new(live, wire, dir)?)
+            }
+            "anthropic" => {
+                let live = anthropic::build(spec, rest, settings, base, cache)?;
+                let wire = AnthropicBatch::new(live.proto());
+                Arc::new(BatchModel::new(live, wire, dir)?)
+            }
+            "gemini" => {
+                let live = gemini::build(spec, rest, settings, base, cache)?;
+                let wire = GeminiBatch::new(live.proto());
+                Arc::new(BatchModel::new(live, wire, dir)?)
+            }
+            _ => {
+                return Err(format!(
+                    "`--batch-api` is not available for `{spec}`: batches go to `openai:`, `anthropic:` and `gemini:` models (Bedrock's batch inference reads its input from S3)"
+                ));
+            }
+        });
+    }
     Ok(match provider {
         "openai" => Arc::new(openai::build(spec, rest, settings, base, cache)?),
         "anthropic" => Arc::new(anthropic::build(spec, rest, settings, base, cache)?),
