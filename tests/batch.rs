@@ -584,6 +584,160 @@ async fn a_killed_batch_run_resumes_its_pending_batch_instead_of_resubmitting() 
     assert!(err.contains("batch `batch_0` ended: ") && !err.contains("submitted:"), "{err}");
 }
 
+/// A whole batch that expired fails each of its requests with the reason, journaled as failed;
+/// the next run (a new process) sends them in a new batch.
+#[tokio::test(flavor = "multi_thread")]
+async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again() {
+    init_env();
+    let server = MockServer::start().await;
+    let svc = Arc::new(Service::default());
+    Mock::given(method("GET"))
+        .and(path("/v1/batches/batch_0"))
+        .respond_with(ResponseTemplate::new(200).set_body_json(json!({"id": "batch_0", "object": "batch",
+            "endpoint": "/v1/chat/completions", "input_file_id": "file-in0", "completion_window": "24h", "status": "expired",
+            "created_at": 1_760_000_000, "request_counts": {"total": 2, "completed": 0, "failed": 0}})))
+        .up_to_n_times(1)
+        .with_priority(1)
+        .mount(&server)
+        .await;
+    svc.ended.store(true, Ordering::SeqCst);
+    openai_service(&server, &svc).await;
+    let dir = tempfile::tempdir().unwrap();
+    let base = format!("{}/v1", server.uri());
+    let replies = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?", "b?"]).await;
+    for r in &replies {
+        assert_eq!(r.answer, Answer::ApiError);
+        assert!(
+            r.raw.starts_with("batch `batch_0` expired (its 24 h window passed) before this request was answered; not answered: the same command sends it again in a new batch (or live, without `--batch-api`)"),
+            "{}",
+            r.raw
+        );
+    }
+    let again = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?", "b?"]).await;
+    assert!(again.iter().all(|r| r.answer == Answer::Option(0)), "{again:?}");
+    assert_eq!(svc.batches.lock().unwrap().len(), 2, "the failed requests went into a second batch");
+    assert_eq!(
+        svc.keys(0).iter().map(|k| &k.0).collect::<Vec<_>>(),
+        svc.keys(1).iter().map(|k| &k.0).collect::<Vec<_>>()
+    );
+}
+
+/// `validate`, `probe` and `transfer` with `--batch-api` ask through batches too, on the run
+/// folder's journal.
+#[tokio::test(flavor = "multi_thread")]
+async fn validate_probe_and_transfer_ask_through_batches() {
+    let server = MockServer::start().await;
+    let svc = Arc::new(Service::default());
+    svc.ended.store(true, Ordering::SeqCst);
+    openai_service(&server, &svc).await;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let cfg = config(dir.path());
+    let base = format!("{}/v1", server.uri());
+    let run = |args: &[&str]| {
+        let mut c = revelio(args);
+        c.arg("--model-config").arg(&cfg);
+        c.output().unwrap()
+    };
+    let out_s = out.to_str().unwrap();
+    let o = run(&[
+        "search",
+        "domains/driving.rev",
+        "--model",
+        "openai:gpt-4.1-mini",
+        "--renderer",
+        "none",
+        "--algo",
+        "random",
+        "--budget",
+        "6",
+        "--samples",
+        "2",
+        "--shrink",
+        "0",
+        "--batch-api",
+        "--json",
+        "--no-cache",
+        "--base-url",
+        &base,
+        "--out",
+        out_s,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let after_search = svc.all_keys().len();
+    assert_eq!(after_search, 6);
+    let o = run(&[
+        "validate",
+        out_s,
+        "--top",
+        "2",
+        "--samples",
+        "3",
+        "--batch-api",
+        "--json",
+        "--no-cache",
+        "--base-url",
+        &base,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(svc.all_keys().len(), after_search + 6, "validate: two sets, three fresh scenes each");
+    assert!(err.contains("submitted: 6 requests at half price"), "{err}");
+    let before_probe = svc.all_keys().len();
+    let o = run(&[
+        "probe",
+        out_s,
+        "--top",
+        "1",
+        "--samples",
+        "2",
+        "--batch-api",
+        "--json",
+        "--no-cache",
+        "--base-url",
+        &base,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(svc.all_keys().len() > before_probe, "probe asked through a batch: {err}");
+    let mut c = revelio(&[
+        "transfer",
+        out_s,
+        "--model",
+        "openai:gpt-4.1",
+        "--top",
+        "1",
+        "--samples",
+        "2",
+        "--batch-api",
+        "--json",
+        "--no-cache",
+        "--base-url",
+        &base,
+        "--run-base-url",
+        &base,
+    ]);
+    c.arg("--run-model-config").arg(&cfg).arg("--model-config").arg(&cfg);
+    let o = c.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let models: HashSet<String> = svc
+        .batches
+        .lock()
+        .unwrap()
+        .iter()
+        .flatten()
+        .map(|(_, body)| body["model"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        models,
+        HashSet::from(["gpt-4.1-mini".to_string(), "gpt-4.1".to_string()]),
+        "both models asked in batches"
+    );
+    let log = std::fs::read_to_string(out.join("batches.jsonl")).unwrap();
+    assert!(log.lines().count() >= 4, "{log}");
+}
+
 /// Searches that choose each set from the last answers cannot wait hours for them.
 #[test]
 fn batch_api_is_refused_for_adaptive_searches() {

@@ -322,8 +322,10 @@ impl<P: Protocol, W: Wire> Inner<P, W> {
         self.state.lock().unwrap_or_else(|p| p.into_inner())
     }
 
+    /// A line on stderr, scrubbed of credentials (a provider's error body may echo one).
     fn say(&self, text: &str) {
-        eprintln!("{}: {}", self.wire.provider(), crate::diag::terminal_safe(text));
+        let text = crate::net::secret::redact(text.to_string(), &self.live.proto().secrets());
+        eprintln!("{}: {}", self.wire.provider(), crate::diag::terminal_safe(&text));
     }
 
     /// The live request body of `q`.
