@@ -622,6 +622,37 @@ async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again
     );
 }
 
+/// A status reply that does not parse is a specific error after a few looks; the batch stays
+/// journaled, and the next run looks at it again instead of submitting its requests again.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_malformed_status_reply_keeps_the_batch_journaled_for_the_next_run() {
+    init_env();
+    let server = MockServer::start().await;
+    let svc = Arc::new(Service::default());
+    Mock::given(method("GET"))
+        .and(path("/v1/batches/batch_0"))
+        .respond_with(ResponseTemplate::new(200).set_body_string("{\"id\": \"batch_0\", \"status\":"))
+        .up_to_n_times(3)
+        .with_priority(1)
+        .mount(&server)
+        .await;
+    svc.ended.store(true, Ordering::SeqCst);
+    openai_service(&server, &svc).await;
+    let dir = tempfile::tempdir().unwrap();
+    let base = format!("{}/v1", server.uri());
+    let replies = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?"]).await;
+    assert_eq!(replies[0].answer, Answer::ApiError);
+    assert!(
+        replies[0].raw.starts_with("cannot look at batch `batch_0`: malformed batch status reply: ")
+            && replies[0].raw.ends_with("it stays journaled in `batches.jsonl` and the same command looks at it again"),
+        "{}",
+        replies[0].raw
+    );
+    let again = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?"]).await;
+    assert_eq!(again[0].answer, Answer::Option(0), "{}", again[0].raw);
+    assert_eq!(svc.batches.lock().unwrap().len(), 1, "looked at again, not submitted again");
+}
+
 /// `validate`, `probe` and `transfer` with `--batch-api` ask through batches too, on the run
 /// folder's journal.
 #[tokio::test(flavor = "multi_thread")]

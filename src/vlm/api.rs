@@ -327,7 +327,7 @@ impl<P: Protocol> Model for ApiModel<P> {
 }
 
 /// A URL without user name, password, query or fragment: safe to record in a run folder.
-pub fn public_url(url: &str) -> String {
+fn public_url(url: &str) -> String {
     match reqwest::Url::parse(url) {
         Ok(mut u) => {
             let _ = u.set_username("");
