@@ -20,30 +20,28 @@ use wiremock::{Mock, MockServer, ResponseTemplate};
 /// form may be several commands, one per line (a run folder made first). `$MOCK` is the mock
 /// model server's address. Their output is not compared (the figures are the full run's).
 const REDUCED: &[(&str, &str, &str)] = &[
+    // README.md
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 100 --renderer none",
         "1000 rendered inferences take minutes",
     ),
     (
+        "revelio check domains/driving.rev --render 5",
+        "revelio check domains/driving.rev --render 1",
+        "five rendered scenes per singleton and pair take minutes",
+    ),
+    (
         "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam",
         "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam --budget 100 --renderer none",
-        "1000 rendered inferences take minutes",
+        "1000 rendered inferences",
     ),
-    (
-        "revelio validate runs/demo --top 10 --samples 20",
-        "revelio validate runs/demo --top 3 --samples 4",
-        "200 rendered inferences",
-    ),
-    (
-        "revelio probe runs/demo --top 20 --samples 5",
-        "revelio probe runs/demo --top 3 --samples 2",
-        "100 rendered probe inferences",
-    ),
+    ("revelio validate runs/demo --top 10 --samples 20", "revelio validate runs/demo --top 3 --samples 4", "200 rendered inferences"),
+    ("revelio probe runs/demo --top 20 --samples 5", "revelio probe runs/demo --top 3 --samples 2", "100 rendered inferences"),
     (
         "revelio transfer runs/demo --model sim:examples/sim/driving_gemini.toml --top 10",
         "revelio transfer runs/demo --model sim:examples/sim/driving_gemini.toml --top 2 --samples 2",
-        "rendered transfer inferences",
+        "rendered inferences",
     ),
     (
         "revelio compare runs/a runs/b --csv table.csv --html table.html",
@@ -70,18 +68,179 @@ const REDUCED: &[(&str, &str, &str)] = &[
     (
         "revelio bench lsp --domain domains/driving.rev --rounds 20",
         "revelio bench lsp --domain domains/driving.rev --rounds 2",
-        "a latency benchmark; two rounds show it runs",
+        "a latency benchmark: two rounds show it runs",
     ),
     (
-        "revelio check domains/driving.rev --render 5",
-        "revelio check domains/driving.rev --render 1",
+        "revelio search domains/driving.rev --model gemini:gemini-3-flash-preview --thinking medium --out runs/gemini-medium",
+        "revelio search domains/driving.rev --model gemini:gemini-3-flash-preview --thinking medium --out runs/gemini-medium --budget 20 --renderer none",
+        "against the mock server; 1000 rendered inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "4 algorithms × 10 seeds × 1250 inferences",
+    ),
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --batch 6 --shrink 0",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --batch 6 --shrink 0 --budget 64",
+        "1000 inferences of 1 s each",
+    ),
+    // docs/models.md
+    (
+        "revelio ask domains/driving.rev debris_far --model openai:zai-org/GLM-4.6V-Flash --base-url http://localhost:8000/v1 --model-config examples/models/paper.toml",
+        "revelio ask domains/driving.rev debris_far --model openai:zai-org/GLM-4.6V-Flash --base-url $MOCK/v1 --model-config examples/models/paper.toml",
+        "the mock server stands for the local vLLM server",
+    ),
+    // docs/porting.md
+    (
+        "revelio check domains/delivery.rev --render 5",
+        "revelio check domains/delivery.rev --render 1",
         "five rendered scenes per singleton and pair take minutes",
+    ),
+    (
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1000 --shrink 250",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "4 algorithms × 3 seeds × 1250 inferences",
+    ),
+    (
+        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery",
+        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery --budget 100 --renderer none",
+        "1250 rendered inferences",
+    ),
+    // docs/report.md
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --algo beam --budget 600 --out runs/demo-probe",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --algo beam --budget 100 --out runs/demo-probe",
+        "600 inferences",
+    ),
+    (
+        "revelio probe runs/demo-probe --top 40 --samples 10 --min-n 5",
+        "revelio probe runs/demo-probe --top 4 --samples 2 --min-n 1",
+        "400 rendered inferences",
+    ),
+    (
+        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 5 --samples 10",
+        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 2 --samples 2",
+        "300 rendered inferences",
+    ),
+    (
+        "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo beam --out runs/beam
+         revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo random --out runs/random
+         revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo gpts --out runs/gpts
+         revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
+        "the page names three runs of 600 inferences it does not make",
+    ),
+    // docs/search.md
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 100 --renderer none",
+        "1250 rendered inferences",
+    ),
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20 --budget 100 --renderer none --out runs/sequential",
+        "1250 rendered inferences (and the first search's run folder)",
+    ),
+    (
+        "revelio validate runs/driving-gpts-s0 --top 10 --samples 20",
+        "revelio validate runs/driving-gpts-s0 --top 3 --samples 4",
+        "200 rendered inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 1000 --max-samples 20",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --algos random,beam",
+        "8 searches × 5 seeds × 1000 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/P.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_fog.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "`P` is any profile; 4 algorithms × 10 seeds × 1250 inferences",
+    ),
+    (
+        "revelio bench search --domain domains/indoor.rev --profile examples/sim/P.toml --seeds 10 --shrink 250",
+        "revelio bench search --domain domains/indoor.rev --profile examples/sim/indoor_stress.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "`P` is any indoor profile; 4 algorithms × 10 seeds × 1250 inferences",
+    ),
+    (
+        "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 10 --shrink 250",
+        "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "4 algorithms × 10 seeds × 1250 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_robust.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_robust.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "4 algorithms × 10 seeds × 1250 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 300 --sweep kernel=dot,rbf",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --sweep kernel=dot,rbf",
+        "2 kernels × 5 seeds × 300 inferences",
+    ),
+    // docs/benchmarks.md
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 2 --budget 600 --sweep beam_width=1,5",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --sweep beam_width=1,5 --algos random,beam",
+        "2 values × 4 algorithms × 2 seeds × 600 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/P.toml",
+        "revelio bench search --profile examples/sim/driving_gemini.toml --seeds 1 --budget 60",
+        "`P` is any profile; 4 algorithms × 5 seeds × 1000 inferences",
+    ),
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo A",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo beam --budget 64",
+        "`A` is an algorithm; 1000 inferences of 1 s each",
+    ),
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo gpts --batch 1",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo gpts --batch 1 --budget 8",
+        "1000 sequential inferences of 1 s each",
+    ),
+    (
+        "revelio report runs/demo",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 100 --renderer none
+         revelio report runs/demo",
+        "the run folder of the README's first command, reduced",
+    ),
+    (
+        "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000",
+        "revelio bench search --profile examples/sim/indoor_paper.toml --domain domains/indoor.rev --seeds 1 --budget 60",
+        "`P` is any profile; 4 algorithms × 5 seeds × 1000 inferences",
+    ),
+    (
+        "revelio search domains/driving.rev --model sim:examples/sim/P.toml --algo random --renderer none --seed S",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_fog.toml --algo random --renderer none --seed 4 --budget 60",
+        "`P` is any profile, `S` a seed; 1250 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000 --max-samples 20",
+        "revelio bench search --profile examples/sim/driving_gemini_minimal.toml --seeds 1 --budget 60 --max-samples 20 --algos random,beam",
+        "`P` is any profile; 8 searches × 5 seeds × 1000 inferences",
+    ),
+    (
+        "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000 --max-samples 20 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --shrink 20 --algos random,beam",
+        "`P` is any profile; 8 searches × 5 seeds × 1250 inferences",
     ),
 ];
 
 /// Commands not run: (as the page shows it, why).
 const NOT_RUN: &[(&str, &str)] = &[
     ("revelio lsp", "a server on stdin/stdout: tests/lsp.rs drives it like an editor"),
+    (
+        "revelio check delivery.rev --format plain",
+        "a step of the tutorial: its `delivery.rev` is the page's partial file, not a shipped one",
+    ),
+    (
+        "revelio check domains/delivery.rev --render 1 --format plain",
+        "a step of the tutorial: its output is of the shipped file with `visible` thresholds raised to show the lint",
+    ),
+    (
+        "revelio bench search … --sweep PARAM=v1,v2,… [--plot FILE]",
+        "a synopsis; the sweeps it describes are shown in full and run",
+    ),
 ];
 
 /// The mock model server's reply: one body that every provider's parser reads (OpenAI
@@ -227,6 +386,10 @@ fn shown_commands(b: &Block) -> Vec<Shown> {
                     output.push(lines[k].1.clone());
                     k += 1;
                 }
+                // A blank line between two commands is the page's layout, not output.
+                while output.last().is_some_and(|l: &String| l.trim().is_empty()) {
+                    output.pop();
+                }
                 let command = match revelio_line(cmd) {
                     Some(c) => c,
                     // `$ cat FILE` followed by its text: the page writes that file.
@@ -290,7 +453,7 @@ impl Scratch {
     fn new(mock: &str) -> Scratch {
         let dir = tempfile::tempdir().unwrap();
         let root = common::root();
-        for folder in ["domains", "examples"] {
+        for folder in ["domains", "examples", "stdlib"] {
             copy_tree(&root.join(folder), &dir.path().join(folder));
         }
         copy_tree(&root.join("tests/doc_files"), dir.path());
@@ -433,7 +596,11 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
         };
         let mut last = None;
         for l in lines {
-            match scratch.run(l) {
+            let started = std::time::Instant::now();
+            let ran = scratch.run(l);
+            // For whoever trims the suite (`-- --nocapture`); never asserted.
+            eprintln!("{:6.1}s  {page}:{}  {l}", started.elapsed().as_secs_f64(), s.line);
+            match ran {
                 Ok(r) if r.code != 0 && !shows_error(s) => {
                     failures.push(format!("{at} (run as `{l}`) exited {}:\n{}{}", r.code, r.stdout, r.stderr));
                     break;
@@ -491,15 +658,12 @@ fn every_command_shown_runs() {
     }
     let shown: Vec<Shown> = blocks.iter().flat_map(shown_commands).collect();
     assert!(shown.len() > 40, "the pages show {} commands; the extraction is broken", shown.len());
-    let texts: BTreeSet<&str> = shown.iter().map(|s| s.command.as_str()).collect();
-    let stale: Vec<&str> = REDUCED
-        .iter()
-        .map(|r| r.0)
-        .chain(NOT_RUN.iter().map(|n| n.0))
-        .filter(|c| !texts.contains(c))
-        .collect();
-    assert!(stale.is_empty(), "REDUCED/NOT_RUN name commands no page shows any more: {stale:#?}");
+    run_all(shown);
+}
 
+/// Run commands, pages side by side (each in its own folder), a page's commands in order; fail
+/// with every command that failed.
+fn run_all(shown: Vec<Shown>) {
     let rt = tokio::runtime::Runtime::new().unwrap();
     let server = rt.block_on(async {
         let s = MockServer::start().await;
@@ -514,7 +678,6 @@ fn every_command_shown_runs() {
             None => by_page.push((s.page.clone(), vec![s])),
         }
     }
-    // Pages run side by side (each in its own folder); a page's commands run in order.
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(1, 4);
     let queue = std::sync::Mutex::new(by_page);
     let failures = std::sync::Mutex::new(Vec::new());
@@ -531,6 +694,132 @@ fn every_command_shown_runs() {
     });
     let failures = failures.into_inner().unwrap();
     assert!(failures.is_empty(), "{} shown commands fail:\n\n{}", failures.len(), failures.join("\n\n"));
+}
+
+/// The pages whose figures must name their commands, and where: README.md's figure table,
+/// docs/benchmarks.md in full.
+const FIGURE_PAGES: &[(&str, bool)] = &[("README.md", true), ("docs/benchmarks.md", false)];
+
+/// The text of a page outside its fenced blocks.
+fn prose(text: &str) -> String {
+    let mut out = String::new();
+    let mut fenced = false;
+    for l in text.lines() {
+        if l.starts_with("```") {
+            fenced = !fenced;
+        } else if !fenced {
+            out.push_str(l);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The inline code spans of `text`, whitespace (line breaks too) collapsed.
+fn code_spans(text: &str) -> Vec<String> {
+    text.split('`').skip(1).step_by(2).map(|s| s.split_whitespace().collect::<Vec<_>>().join(" ")).collect()
+}
+
+/// A span that names a command that produced a figure: `revelio …` with a flag or a path
+/// (after `time`, `/usr/bin/time -v` or `cargo run [--release] --`), or `cargo bench --bench X`.
+fn figure_command(span: &str) -> Option<String> {
+    let s = span.strip_prefix("/usr/bin/time -v ").or_else(|| span.strip_prefix("time ")).unwrap_or(span);
+    let s = s.split(' ').skip_while(|w| w.contains('=') && !w.starts_with('-')).collect::<Vec<_>>().join(" ");
+    if s.starts_with("cargo bench --bench ") {
+        return Some(s);
+    }
+    revelio_line(&s).filter(|c| c.contains(" --") || c.contains('/'))
+}
+
+/// The figure commands of a page: every such span of the page, or of its tables with a
+/// `Command` column (where each row must have one).
+fn figure_commands(page: &str, tables_only: bool) -> (Vec<Shown>, Vec<String>) {
+    let text = std::fs::read_to_string(common::root().join(page)).unwrap();
+    let (mut out, mut failures) = (Vec::new(), Vec::new());
+    let mut column = None;
+    let mut in_fence = false;
+    for (i, l) in text.lines().enumerate() {
+        if l.starts_with("```") {
+            in_fence = !in_fence;
+        }
+        let cells: Vec<&str> = l.trim().trim_matches('|').split('|').map(str::trim).collect();
+        if in_fence || !l.starts_with('|') {
+            column = None;
+        } else if column.is_none() {
+            column = Some(cells.iter().position(|c| *c == "Command"));
+        } else if let Some(Some(k)) = column
+            && !l.starts_with("|---")
+        {
+            let cell = cells.get(k).copied().unwrap_or("");
+            let spans: Vec<String> = code_spans(cell).iter().filter_map(|s| figure_command(s)).collect();
+            if spans.is_empty() {
+                failures.push(format!("{page}:{}: a figure without the command that produced it: {l}", i + 1));
+            }
+            if tables_only {
+                out.extend(spans.into_iter().map(|command| Shown { page: page.into(), line: i + 1, command, output: None }));
+            }
+        }
+    }
+    if !tables_only {
+        for span in code_spans(&prose(&text)) {
+            if let Some(command) = figure_command(&span) {
+                out.push(Shown { page: page.into(), line: 0, command, output: None });
+            }
+        }
+    }
+    (out, failures)
+}
+
+/// Every figure in README.md's figure table and in docs/benchmarks.md names the command that
+/// produced it, and that command runs — in the reduced form [`REDUCED`] gives (fewer seeds, a
+/// smaller budget), never timed; a `cargo bench --bench X` names a bench that exists.
+#[test]
+fn every_figure_names_a_command_that_runs() {
+    let mut shown = Vec::new();
+    let mut failures = Vec::new();
+    for (page, tables_only) in FIGURE_PAGES {
+        let (s, f) = figure_commands(page, *tables_only);
+        shown.extend(s);
+        failures.extend(f);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    let manifest = std::fs::read_to_string(common::root().join("Cargo.toml")).unwrap();
+    let mut seen = BTreeSet::new();
+    let mut runs = Vec::new();
+    for s in shown {
+        if let Some(bench) = s.command.strip_prefix("cargo bench --bench ") {
+            let name = bench.split(' ').next().unwrap();
+            assert!(
+                manifest.contains(&format!("[[bench]]\nname = \"{name}\"")),
+                "{}: `{}` names no bench of Cargo.toml",
+                s.page,
+                s.command
+            );
+        } else if seen.insert(s.command.clone()) {
+            // One page: a figure command may need the run folder another one makes.
+            runs.push(Shown { page: "figures".into(), ..s });
+        }
+    }
+    assert!(runs.len() >= 8, "only {} figure commands found; the extraction is broken", runs.len());
+    run_all(runs);
+}
+
+/// Every entry of [`REDUCED`] and [`NOT_RUN`] names a command some page still shows.
+#[test]
+fn no_stale_mapping() {
+    let mut texts: BTreeSet<String> = all_blocks().iter().flat_map(shown_commands).map(|s| s.command).collect();
+    for (page, tables_only) in FIGURE_PAGES {
+        texts.extend(figure_commands(page, *tables_only).0.into_iter().map(|s| s.command));
+    }
+    let stale: Vec<&str> = REDUCED
+        .iter()
+        .map(|r| r.0)
+        .chain(NOT_RUN.iter().map(|n| n.0))
+        .filter(|c| !texts.contains(*c))
+        .collect();
+    assert!(stale.is_empty(), "REDUCED/NOT_RUN name commands no page shows any more: {stale:#?}");
+    let dup: Vec<&str> = REDUCED.iter().map(|r| r.0).filter(|c| NOT_RUN.iter().any(|n| n.0 == *c)).collect();
+    assert!(dup.is_empty(), "both reduced and not run: {dup:?}");
 }
 
 /// Every ```` ```rev ```` block is a whole file that checks clean; a ```` ```rev fragment ````
