@@ -490,7 +490,9 @@ impl Scratch {
         for base in ["OPENAI_BASE_URL", "ANTHROPIC_BASE_URL", "GEMINI_BASE_URL", "BEDROCK_BASE_URL"] {
             cmd.env(base, &self.mock);
         }
-        for key in ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY", "AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY"] {
+        for key in
+            ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY", "AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY"]
+        {
             cmd.env(key, "docs-test-key");
         }
         cmd.env("AWS_REGION", "us-east-1").env_remove("AWS_SESSION_TOKEN");
@@ -570,7 +572,9 @@ fn output_matches(shown: &[String], printed: &[String]) -> bool {
     match shown.split_first() {
         None => printed.is_empty(),
         Some((s, rest)) if s.trim() == "…" => (0..=printed.len()).any(|k| output_matches(rest, &printed[k..])),
-        Some((s, rest)) => printed.split_first().is_some_and(|(p, prest)| line_matches(s, p) && output_matches(rest, prest)),
+        Some((s, rest)) => {
+            printed.split_first().is_some_and(|(p, prest)| line_matches(s, p) && output_matches(rest, prest))
+        }
     }
 }
 
@@ -616,11 +620,7 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
         let printed: Vec<String> = format!("{}{}", r.stdout, r.stderr).lines().map(redact).collect();
         let want: Vec<String> = output.iter().map(|l| redact(l)).collect();
         if !output_matches(&want, &printed) {
-            failures.push(format!(
-                "{at}: the page shows\n{}\nbut it prints\n{}",
-                want.join("\n"),
-                printed.join("\n")
-            ));
+            failures.push(format!("{at}: the page shows\n{}\nbut it prints\n{}", want.join("\n"), printed.join("\n")));
         }
         if shows_error(s) && r.code == 0 {
             failures.push(format!("{at}: the page shows an error, but it exited 0"));
@@ -631,9 +631,9 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
 
 /// A shown output with an error in it: the command is expected to exit 1.
 fn shows_error(s: &Shown) -> bool {
-    s.output
-        .as_ref()
-        .is_some_and(|o| o.iter().any(|l| l.starts_with("error") || l.contains(": error[") || l.trim_start().starts_with("× ")))
+    s.output.as_ref().is_some_and(|o| {
+        o.iter().any(|l| l.starts_with("error") || l.contains(": error[") || l.trim_start().starts_with("× "))
+    })
 }
 
 fn all_blocks() -> Vec<Block> {
@@ -725,8 +725,9 @@ fn code_spans(text: &str) -> Vec<String> {
 fn figure_command(span: &str) -> Option<String> {
     let s = span.strip_prefix("/usr/bin/time -v ").or_else(|| span.strip_prefix("time ")).unwrap_or(span);
     let s = s.split(' ').skip_while(|w| w.contains('=') && !w.starts_with('-')).collect::<Vec<_>>().join(" ");
-    if s.starts_with("cargo bench --bench ") {
-        return Some(s);
+    if let Some(name) = s.strip_prefix("cargo bench --bench ") {
+        // `cargo bench --bench NAME` names the tool, not a figure.
+        return Some(s.clone()).filter(|_| name.chars().any(|c| c.is_ascii_lowercase()));
     }
     revelio_line(&s).filter(|c| c.contains(" --") || c.contains('/'))
 }
@@ -756,14 +757,22 @@ fn figure_commands(page: &str, tables_only: bool) -> (Vec<Shown>, Vec<String>) {
                 failures.push(format!("{page}:{}: a figure without the command that produced it: {l}", i + 1));
             }
             if tables_only {
-                out.extend(spans.into_iter().map(|command| Shown { page: page.into(), line: i + 1, command, output: None }));
+                out.extend(spans.into_iter().map(|command| Shown {
+                    page: page.into(),
+                    line: i + 1,
+                    command,
+                    output: None,
+                }));
             }
         }
     }
     if !tables_only {
         for span in code_spans(&prose(&text)) {
             if let Some(command) = figure_command(&span) {
-                out.push(Shown { page: page.into(), line: 0, command, output: None });
+                // The line its first word is on, for the failure message.
+                let first = span.split(' ').take(3).collect::<Vec<_>>().join(" ");
+                let line = text.find(&first).map_or(0, |at| text[..at].matches('\n').count() + 1);
+                out.push(Shown { page: page.into(), line, command, output: None });
             }
         }
     }
@@ -811,12 +820,8 @@ fn no_stale_mapping() {
     for (page, tables_only) in FIGURE_PAGES {
         texts.extend(figure_commands(page, *tables_only).0.into_iter().map(|s| s.command));
     }
-    let stale: Vec<&str> = REDUCED
-        .iter()
-        .map(|r| r.0)
-        .chain(NOT_RUN.iter().map(|n| n.0))
-        .filter(|c| !texts.contains(*c))
-        .collect();
+    let stale: Vec<&str> =
+        REDUCED.iter().map(|r| r.0).chain(NOT_RUN.iter().map(|n| n.0)).filter(|c| !texts.contains(*c)).collect();
     assert!(stale.is_empty(), "REDUCED/NOT_RUN name commands no page shows any more: {stale:#?}");
     let dup: Vec<&str> = REDUCED.iter().map(|r| r.0).filter(|c| NOT_RUN.iter().any(|n| n.0 == *c)).collect();
     assert!(dup.is_empty(), "both reduced and not run: {dup:?}");
