@@ -805,8 +805,8 @@ fn every_figure_names_a_command_that_runs() {
                 s.command
             );
         } else if seen.insert(s.command.clone()) {
-            // One page: a figure command may need the run folder another one makes.
-            runs.push(Shown { page: "figures".into(), ..s });
+            // Each figure is its own measurement, in its own folder.
+            runs.push(Shown { page: format!("{} (figure {})", s.page, runs.len() + 1), ..s });
         }
     }
     assert!(runs.len() >= 8, "only {} figure commands found; the extraction is broken", runs.len());
