@@ -342,14 +342,20 @@ impl Observer {
 }
 
 /// The entities a concept placed that `seen` reports as not visible by the domain's thresholds,
-/// with their figures (`None`: all visible).
+/// with their figures (`None`: all visible). An entity with nothing drawn (no part in its look)
+/// cannot be measured: it is named as such, unless the domain accepts it with `allow R0108`.
 pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Option<String> {
+    let accept_undrawn = domain.allow.iter().any(|a| a.code == super::visible::UNDRAWN);
     let hidden: Vec<String> = scene
         .entities
         .iter()
         .zip(seen)
         .filter(|(e, _)| e.concept.is_some())
         .filter_map(|(e, v)| {
+            if e.shape.is_empty() {
+                return (!accept_undrawn)
+                    .then(|| format!("`{}` ({}) draws nothing, so it cannot be measured", e.name, e.kind));
+            }
             let t = domain.visibility.threshold(&e.kind, e.concept.as_deref());
             (!t.holds(v.pixels, v.contrast)).then(|| {
                 format!(

@@ -14,6 +14,9 @@ use super::observe::unseen;
 
 /// The lint code.
 pub const CODE: &str = "R0107";
+/// The code for an entity a concept places that draws nothing, so that no renderer figure can
+/// say whether it is seen; `allow R0108` (with a reason) accepts it, in the guard too.
+pub const UNDRAWN: &str = "R0108";
 
 /// A set is reported when at least this share of its scenes hides an entity.
 pub const MAX_SHARE: f64 = 0.1;
@@ -37,6 +40,8 @@ pub struct Tally {
     /// The first reason seen (which entity, how many pixels, which contrast).
     pub example: String,
     pub example_seed: u64,
+    /// Entities of the set drawn with no part at all: (entity, kind, concept).
+    pub undrawn: Vec<(String, String, String)>,
 }
 
 /// Count invisible scenes per set; returns every set rendered.
@@ -55,7 +60,8 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
     let mut out = Vec::new();
     for set in singles.into_iter().chain(pairs) {
         // A set without entities (weather, town) cannot hide one.
-        let mut t = Tally { set, scenes: 0, invisible: 0, example: String::new(), example_seed: 0 };
+        let mut t =
+            Tally { set, scenes: 0, invisible: 0, example: String::new(), example_seed: 0, undrawn: Vec::new() };
         for seed in 0..u64::from(plan.scenes) {
             let scene = sampler.sample(set, seed).map_err(|e| e.0)?;
             if scene.entities.iter().all(|e| e.concept.is_none()) {
@@ -63,7 +69,22 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
             }
             let (_, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
             t.scenes += 1;
-            if let Some(why) = unseen(domain, &scene, &seen) {
+            for e in scene.entities.iter().filter(|e| e.shape.is_empty()) {
+                let Some(concept) = &e.concept else { continue };
+                let key = (e.name.clone(), e.kind.clone(), concept.clone());
+                if !t.undrawn.contains(&key) {
+                    t.undrawn.push(key);
+                }
+            }
+            // Judged on what can be measured: an undrawn entity is R0108's, not R0107's.
+            let why = if t.undrawn.is_empty() {
+                unseen(domain, &scene, &seen)
+            } else {
+                let (drawn, seen): (Vec<_>, Vec<_>) =
+                    scene.entities.iter().cloned().zip(seen).filter(|(e, _)| !e.shape.is_empty()).unzip();
+                unseen(domain, &crate::scene::Scene { entities: drawn, ..scene.clone() }, &seen)
+            };
+            if let Some(why) = why {
                 if t.invisible == 0 {
                     t.example = why;
                     t.example_seed = seed;
@@ -81,7 +102,39 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
 /// R0107 warnings from a survey: each singleton invisible in at least [`MAX_SHARE`] of its
 /// scenes, and each pair that is although neither of its concepts is alone (a combination
 /// such as stairs at night). Pointed at the concept (the first of a pair).
+///
+/// Then R0108 for each entity a concept places that draws nothing (once per concept and
+/// entity), unless the domain has `allow R0108`.
 pub fn lint(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
+    let mut out = hidden(domain, tallies);
+    if domain.allow.iter().any(|a| a.code == UNDRAWN) {
+        return out;
+    }
+    let mut named: Vec<&(String, String, String)> = Vec::new();
+    for u in tallies.iter().flat_map(|t| &t.undrawn) {
+        if named.contains(&u) {
+            continue;
+        }
+        named.push(u);
+        let (entity, kind, concept) = u;
+        let span = domain.concepts.iter().find(|c| &c.name == concept).map(|c| c.span);
+        out.push(
+            Diagnostic::new(
+                UNDRAWN,
+                Severity::Warning,
+                span,
+                format!("`{entity}` ({kind}) of concept `{concept}` draws nothing, so its visibility cannot be measured"),
+            )
+            .with_help(format!(
+                "give `{kind}` a look with at least one part; if something else draws it (a `stage` with `when has {concept}`), accept it with `allow R0108` and a `///` reason"
+            )),
+        );
+    }
+    out
+}
+
+/// The R0107 warnings of [`lint`].
+fn hidden(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
     let too_often = |t: &Tally| f64::from(t.invisible) >= MAX_SHARE * f64::from(t.scenes) && t.invisible > 0;
     let bad_single: BTreeSet<usize> = tallies
         .iter()
