@@ -235,7 +235,8 @@ fn check_render_flags_a_concept_drawn_under_the_ground() {
     assert_eq!(v.threshold("Crate", Some("shown")), v.default);
     let r = BuiltinRenderer::new(None).unwrap();
     let tallies =
-        revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None }).unwrap();
+        revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None, larger: None })
+            .unwrap();
     let names = |t: &revelio::run::visible::Tally| d.set_names(t.set).join(",");
     let by_name: Vec<(String, u32, u32)> = tallies.iter().map(|t| (names(t), t.invisible, t.scenes)).collect();
     assert!(by_name.contains(&("buried".into(), 4, 4)), "{by_name:?}");
@@ -285,7 +286,7 @@ fn shipped_domains_pass_the_visibility_lint() {
     for f in &files {
         let compiled = revelio::cli::common::compile_path(f, false);
         let d = compiled.domain.unwrap_or_else(|| panic!("`{}` does not compile", f.display()));
-        let plan = revelio::run::visible::Plan { scenes: 3, sample: None };
+        let plan = revelio::run::visible::Plan { scenes: 3, sample: None, larger: None };
         let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
         assert!(tallies.iter().any(|t| t.set.len() == 2), "{}: no pair was rendered", f.display());
         let scenes: u32 = tallies.iter().map(|t| t.scenes).sum();
@@ -330,6 +331,18 @@ fn a_new_domain_checks_renders_and_searches() {
     let (code, text) = revelio(&["check", "yard.rev", "--render", "2", "--format", "plain"]);
     assert_eq!(code, Some(0), "{text}");
     assert!(!text.contains("warning") && !text.contains("error"), "{text}");
+    // Figures for every set rendered, larger sampled sets included.
+    let (code, text) = revelio(&["check", "yard.rev", "--render", "1", "--render-sets", "3", "--figures"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("figures {`crate`}: pixels min "), "{text}");
+    let larger = text.lines().filter(|l| l.starts_with("figures {") && l.split('`').count() >= 7).count();
+    assert_eq!(larger, 3, "three sets of three or more concepts:\n{text}");
+    let (code, text) = revelio(&["render", "yard.rev", "crate", "fog", "--figures", "-o", "one.png"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("`crate` (Crate, concept `crate`): ") && text.contains(" px at contrast "), "{text}");
+    let (code, text) = revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("figures    `crate` (Crate, concept `crate`): "), "{text}");
     let (code, text) = revelio(&["fmt", "--check", "."]);
     assert_eq!(code, Some(0), "{text}");
     let (code, text) = revelio(&["render", "yard.rev", "--all", "-o", "sheet.png"]);
@@ -363,7 +376,7 @@ fn the_render_lint_and_the_guard_name_an_entity_that_draws_nothing() {
     let text = std::fs::read_to_string(&path).unwrap();
     let d = revelio::check::compile_source("undrawn.rev", &text).unwrap();
     let r = renderer();
-    let plan = revelio::run::visible::Plan { scenes: 2, sample: None };
+    let plan = revelio::run::visible::Plan { scenes: 2, sample: None, larger: None };
     let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
     // Not counted hidden: nothing of it can be measured.
     assert!(tallies.iter().all(|t| t.invisible == 0), "{tallies:?}");

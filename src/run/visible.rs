@@ -29,6 +29,17 @@ pub struct Plan {
     /// Render only this many of the singletons and pairs, chosen with `seed` (every singleton
     /// is kept; pairs are sampled).
     pub sample: Option<(usize, u64)>,
+    /// Also render this many larger valid sets (3 concepts up to `max_size`), a sample chosen
+    /// with the seed: occlusion among three or more entities that no pair shows.
+    pub larger: Option<Larger>,
+}
+
+/// The larger sets of a [`Plan`].
+#[derive(Debug, Clone, Copy)]
+pub struct Larger {
+    pub count: usize,
+    pub max_size: usize,
+    pub seed: u64,
 }
 
 /// One set's count.
@@ -42,26 +53,65 @@ pub struct Tally {
     pub example_seed: u64,
     /// Entities of the set drawn with no part at all: (entity, kind, concept).
     pub undrawn: Vec<(String, String, String)>,
+    /// The figures of every placed entity in every scene: (pixels, contrast).
+    pub figures: Vec<(u32, f64)>,
+}
+
+impl Tally {
+    /// `min / median` pixels and contrast over every placed entity of every scene, as one line.
+    pub fn figures_text(&self) -> String {
+        let mut px: Vec<u32> = self.figures.iter().map(|f| f.0).collect();
+        let mut co: Vec<f64> = self.figures.iter().map(|f| f.1).collect();
+        if px.is_empty() {
+            return "nothing measured".into();
+        }
+        px.sort_unstable();
+        co.sort_by(f64::total_cmp);
+        let (n, mid) = (px.len(), px.len() / 2);
+        let median_px =
+            if n % 2 == 1 { f64::from(px[mid]) } else { (f64::from(px[mid - 1]) + f64::from(px[mid])) / 2.0 };
+        let median_co = if n % 2 == 1 { co[mid] } else { (co[mid - 1] + co[mid]) / 2.0 };
+        format!(
+            "pixels min {} median {median_px}, contrast min {:.3} median {median_co:.3} ({} figures, {} scenes, {} not visible)",
+            px[0], co[0], n, self.scenes, self.invisible
+        )
+    }
 }
 
 /// Count invisible scenes per set; returns every set rendered.
 pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result<Vec<Tally>, String> {
+    use rand::SeedableRng;
+    use rand::seq::SliceRandom;
     let lattice = Lattice::enumerate(domain, 2);
     let (singles, mut pairs): (Vec<ConceptSet>, Vec<ConceptSet>) = lattice.sets.iter().partition(|s| s.len() == 1);
     if let Some((n, seed)) = plan.sample {
-        use rand::SeedableRng;
-        use rand::seq::SliceRandom;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         pairs.shuffle(&mut rng);
         pairs.truncate(n.saturating_sub(singles.len()));
         pairs.sort();
     }
+    let mut larger: Vec<ConceptSet> = Vec::new();
+    if let Some(l) = plan.larger.filter(|l| l.count > 0 && l.max_size >= 3) {
+        let all = Lattice::enumerate(domain, l.max_size);
+        larger = all.sets.iter().copied().filter(|s| s.len() >= 3).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(l.seed);
+        larger.shuffle(&mut rng);
+        larger.truncate(l.count);
+        larger.sort_by_key(|s| (s.len(), *s));
+    }
     let sampler = crate::sample::Sampler::new(domain);
     let mut out = Vec::new();
-    for set in singles.into_iter().chain(pairs) {
+    for set in singles.into_iter().chain(pairs).chain(larger) {
         // A set without entities (weather, town) cannot hide one.
-        let mut t =
-            Tally { set, scenes: 0, invisible: 0, example: String::new(), example_seed: 0, undrawn: Vec::new() };
+        let mut t = Tally {
+            set,
+            scenes: 0,
+            invisible: 0,
+            example: String::new(),
+            example_seed: 0,
+            undrawn: Vec::new(),
+            figures: Vec::new(),
+        };
         for seed in 0..u64::from(plan.scenes) {
             let scene = sampler.sample(set, seed).map_err(|e| e.0)?;
             if scene.entities.iter().all(|e| e.concept.is_none()) {
@@ -76,6 +126,14 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
                     t.undrawn.push(key);
                 }
             }
+            t.figures.extend(
+                scene
+                    .entities
+                    .iter()
+                    .zip(&seen)
+                    .filter(|(e, _)| e.concept.is_some() && !e.shape.is_empty())
+                    .map(|(_, v)| (v.pixels, v.contrast)),
+            );
             // Judged on what can be measured: an undrawn entity is R0108's, not R0107's.
             let why = if t.undrawn.is_empty() {
                 unseen(domain, &scene, &seen)
@@ -165,4 +223,30 @@ fn hidden(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn figures_are_min_and_median_over_every_entity_and_scene() {
+        let mut t = Tally {
+            set: ConceptSet::EMPTY,
+            scenes: 2,
+            invisible: 1,
+            example: String::new(),
+            example_seed: 0,
+            undrawn: Vec::new(),
+            figures: vec![(30, 0.5), (10, 0.1), (20, 0.3), (40, 0.2)],
+        };
+        assert_eq!(
+            t.figures_text(),
+            "pixels min 10 median 25, contrast min 0.100 median 0.250 (4 figures, 2 scenes, 1 not visible)"
+        );
+        t.figures.pop();
+        assert!(t.figures_text().starts_with("pixels min 10 median 20, contrast min 0.100 median 0.300"));
+        t.figures.clear();
+        assert_eq!(t.figures_text(), "nothing measured");
+    }
 }
