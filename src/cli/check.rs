@@ -460,7 +460,9 @@ mod tests {
                 max_sets: crate::lattice::DEFAULT_MAX_SETS,
                 render: None,
                 render_sample: None,
-                seed: 0,
+                render_sets: None,
+                figures: false,
+                seed: None,
             })
         };
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);
