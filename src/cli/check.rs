@@ -30,7 +30,7 @@ pub struct CheckArgs {
     pub format: Format,
     /// Also render N scenes of every valid singleton and pair with the builtin renderer and
     /// warn (R0107) about concepts and combinations whose entities are not visible in at least
-    /// 10% of them
+    /// 10% of them, and (R0108) about entities that draw nothing
     #[arg(long, value_name = "N")]
     pub render: Option<u32>,
     /// With `--render`: render every singleton but only a seeded sample of the pairs, K sets in

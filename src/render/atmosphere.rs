@@ -44,8 +44,8 @@ impl Frame {
         for (i, l) in lights.iter().take(n).enumerate() {
             self.lights[i] = v4(l.at, l.strength);
             self.light_colors[i] = v4(l.color, 1.0);
-            for k in 0..3 {
-                bounce[k] += l.color[k] * l.strength * 0.05;
+            for (b, c) in bounce.iter_mut().zip(l.color) {
+                *b += c * l.strength * 0.05;
             }
         }
         self.light_count = [n as f32, bounce[0], bounce[1], bounce[2]];

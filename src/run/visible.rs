@@ -1,7 +1,9 @@
 //! The visibility lint of `revelio check --render N` (R0107): sample N scenes of every valid
-//! singleton and pair (or a seeded sample of them), draw each with the builtin renderer and
-//! count the scenes in which an entity a concept placed is not visible by the domain's
-//! thresholds — the scenes the observe pipeline would resample or record as `invisible`.
+//! singleton and pair (or a seeded sample of them), and of a seeded sample of larger sets if
+//! asked, draw each with the builtin renderer and count the scenes in which an entity a concept
+//! placed is not visible by the domain's thresholds — the scenes the observe pipeline would
+//! resample or record as `invisible`. An entity that draws nothing cannot be measured: it is
+//! named (R0108), not counted hidden. Each set's figures are kept for `--figures`.
 
 use std::collections::BTreeSet;
 
