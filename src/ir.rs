@@ -459,10 +459,25 @@ pub struct ShapePart {
     pub material: String,
     /// Only draw this part when the condition holds for the entity/world (e.g. a lit lamp).
     pub when: Option<Expr>,
+    /// Whether the part counts in its entity's blob shadow (`shadow false`: a lamp or a sign
+    /// high above the ground casts none).
+    #[serde(default = "yes", skip_serializing_if = "is_yes")]
+    pub shadow: bool,
 }
 
-/// Materials the builtin renderer knows (the checker rejects others).
-pub const MATERIALS: &[&str] = &["matte", "metal", "glass", "emissive", "water", "flame", "smoke"];
+fn yes() -> bool {
+    true
+}
+
+fn is_yes(b: &bool) -> bool {
+    *b
+}
+
+/// Materials the builtin renderer knows (the checker rejects others). `light` is a lamp: drawn
+/// like `emissive`, and it lights the scene around it (a ceiling panel, a strip light); `glossy`
+/// is a polished or wet floor that mirrors the lamps; `mirror` reflects nearly everything.
+pub const MATERIALS: &[&str] =
+    &["matte", "metal", "glass", "emissive", "water", "flame", "smoke", "light", "glossy", "mirror"];
 
 /// Materials the builtin renderer draws see-through: what stands behind a part of one of them
 /// stays seen (its colour's alpha below 1 does the same).

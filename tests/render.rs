@@ -235,7 +235,8 @@ fn check_render_flags_a_concept_drawn_under_the_ground() {
     assert_eq!(v.threshold("Crate", Some("shown")), v.default);
     let r = BuiltinRenderer::new(None).unwrap();
     let tallies =
-        revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None }).unwrap();
+        revelio::run::visible::survey(&d, &r, revelio::run::visible::Plan { scenes: 4, sample: None, larger: None })
+            .unwrap();
     let names = |t: &revelio::run::visible::Tally| d.set_names(t.set).join(",");
     let by_name: Vec<(String, u32, u32)> = tallies.iter().map(|t| (names(t), t.invisible, t.scenes)).collect();
     assert!(by_name.contains(&("buried".into(), 4, 4)), "{by_name:?}");
@@ -285,7 +286,7 @@ fn shipped_domains_pass_the_visibility_lint() {
     for f in &files {
         let compiled = revelio::cli::common::compile_path(f, false);
         let d = compiled.domain.unwrap_or_else(|| panic!("`{}` does not compile", f.display()));
-        let plan = revelio::run::visible::Plan { scenes: 3, sample: None };
+        let plan = revelio::run::visible::Plan { scenes: 3, sample: None, larger: None };
         let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
         assert!(tallies.iter().any(|t| t.set.len() == 2), "{}: no pair was rendered", f.display());
         let scenes: u32 = tallies.iter().map(|t| t.scenes).sum();
@@ -299,4 +300,110 @@ fn shipped_domains_pass_the_visibility_lint() {
         }
     }
     assert!(problems.is_empty(), "{} R0107 warnings:\n{}", problems.len(), problems.join("\n"));
+}
+
+/// Issue 31: `revelio new` scaffolds a domain that checks clean with the render lint, renders a
+/// contact sheet, is formatted, and searches (offline, on its own sim profile) to a report whose
+/// cores include the planted mode. A second `new` on the same path overwrites nothing.
+#[test]
+fn a_new_domain_checks_renders_and_searches() {
+    let dir = tempfile::tempdir().unwrap();
+    let revelio = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        (out.status.code(), text)
+    };
+    let (code, text) = revelio(&["new", "yard"]);
+    assert_eq!(code, Some(0), "{text}");
+    for f in ["yard.rev", "yard/world.rev", "yard/look.rev", "yard/sim.toml"] {
+        assert!(dir.path().join(f).is_file(), "{f} not written:\n{text}");
+    }
+    let (code, text) = revelio(&["new", "yard.rev"]);
+    assert_eq!(code, Some(1), "{text}");
+    assert!(text.contains("already exists"), "{text}");
+    let (code, text) = revelio(&["new", "2yard"]);
+    assert_eq!(code, Some(2), "{text}");
+
+    let (code, text) = revelio(&["check", "yard.rev", "--render", "2", "--format", "plain"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(!text.contains("warning") && !text.contains("error"), "{text}");
+    // Figures for every set rendered, larger sampled sets included.
+    let (code, text) = revelio(&["check", "yard.rev", "--render", "1", "--render-sets", "3", "--figures"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("figures {`crate`}: pixels min "), "{text}");
+    let larger = text.lines().filter(|l| l.starts_with("figures {") && l.split('`').count() >= 7).count();
+    assert_eq!(larger, 3, "three sets of three or more concepts:\n{text}");
+    let (code, text) = revelio(&["render", "yard.rev", "crate", "fog", "--figures", "-o", "one.png"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("`crate` (Crate, concept `crate`): ") && text.contains(" px at contrast "), "{text}");
+    let (code, text) = revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("figures    `crate` (Crate, concept `crate`): "), "{text}");
+    let (code, text) = revelio(&["fmt", "--check", "."]);
+    assert_eq!(code, Some(0), "{text}");
+    let (code, text) = revelio(&["render", "yard.rev", "--all", "-o", "sheet.png"]);
+    assert_eq!(code, Some(0), "{text}");
+    let sheet = image::open(dir.path().join("sheet.png")).unwrap();
+    assert!(sheet.width() > 400 && sheet.height() > 200, "{}x{}", sheet.width(), sheet.height());
+
+    let (code, text) = revelio(&[
+        "search",
+        "yard.rev",
+        "--model",
+        "sim:yard/sim.toml",
+        "--out",
+        "run",
+        "--budget",
+        "100",
+        "--renderer",
+        "none",
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(dir.path().join("run/report/index.html").is_file(), "{text}");
+    assert!(text.contains("crate + fog"), "the planted mode is not a core:\n{text}");
+}
+
+/// Issue 31: an entity whose look has no part (a stage draws it) is named by the render lint
+/// (R0108) instead of being counted hidden, and by the visibility guard instead of being judged
+/// at 0 px; `allow R0108` with a reason accepts it in both.
+#[test]
+fn the_render_lint_and_the_guard_name_an_entity_that_draws_nothing() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/render/undrawn.rev");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let d = revelio::check::compile_source("undrawn.rev", &text).unwrap();
+    let r = renderer();
+    let plan = revelio::run::visible::Plan { scenes: 2, sample: None, larger: None };
+    let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
+    // Not counted hidden: nothing of it can be measured.
+    assert!(tallies.iter().all(|t| t.invisible == 0), "{tallies:?}");
+    let diags = revelio::run::visible::lint(&d, &tallies);
+    assert_eq!(diags.len(), 1, "{diags:?}");
+    assert_eq!(diags[0].code, revelio::run::visible::UNDRAWN);
+    assert!(
+        diags[0].message.contains("`stairs` (Staircase) of concept `stairs` draws nothing"),
+        "{}",
+        diags[0].message
+    );
+    let s = diags[0].span.unwrap();
+    assert!(text[s.start as usize..s.end as usize].starts_with("concept stairs"));
+
+    // The guard names it too.
+    let stairs = d.concepts.iter().find(|c| c.name == "stairs").unwrap().id;
+    let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
+    let (_, seen) = r.render_seen(&scene).unwrap();
+    let why = revelio::run::observe::unseen(&d, &scene, &seen).expect("an undrawn entity is not shown unnamed");
+    assert!(why.contains("`stairs` (Staircase) draws nothing"), "{why}");
+
+    // Accepted with `allow R0108` and a reason: no warning, and the guard shows the scene.
+    let allowed = text.replacen("visible {", "/// The `steps` stage draws the stairs.\nallow R0108\nvisible {", 1);
+    let d = revelio::check::compile_source("undrawn.rev", &allowed).unwrap();
+    let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
+    assert!(revelio::run::visible::lint(&d, &tallies).is_empty());
+    let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
+    let (_, seen) = r.render_seen(&scene).unwrap();
+    assert_eq!(revelio::run::observe::unseen(&d, &scene, &seen), None);
 }

@@ -128,6 +128,7 @@ pub(crate) fn lower(
     c.lower_visibility(items);
     c.check_relations();
     c.lower_constraints(items);
+    c.check_modifier_effects();
     c.lower_questions(items);
     c.lower_rules(entry, items);
     c.lower_allows(items);

@@ -11,6 +11,7 @@
 mod concepts;
 mod expr;
 mod lower;
+mod modifiers;
 mod names;
 mod relations;
 mod rules;

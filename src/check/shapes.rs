@@ -283,6 +283,7 @@ impl Checker<'_> {
             pitch_deg: 0.0,
             material: "matte".to_string(),
             when: None,
+            shadow: true,
         };
         let mut ok = true;
         let mut seen: Vec<(&'static str, Span)> = Vec::new();
@@ -313,6 +314,10 @@ impl Checker<'_> {
                 ast::PartProp::Yaw(n) => self.number(n, "angle").map(|v| part.yaw_deg = v),
                 ast::PartProp::Roll(n) => self.number(n, "angle").map(|v| part.roll_deg = v),
                 ast::PartProp::Pitch(n) => self.number(n, "angle").map(|v| part.pitch_deg = v),
+                ast::PartProp::Shadow(b, _) => {
+                    part.shadow = *b;
+                    Some(())
+                }
                 ast::PartProp::When(e, _) => self.lower_expr(e, scope).map(|e| part.when = Some(e)),
             };
             ok &= done.is_some();
@@ -344,6 +349,7 @@ fn prop_key(p: &ast::PartProp) -> (&'static str, Span) {
         ast::PartProp::Yaw(n) => ("yaw", n.span),
         ast::PartProp::Roll(n) => ("roll", n.span),
         ast::PartProp::Pitch(n) => ("pitch", n.span),
+        ast::PartProp::Shadow(_, s) => ("shadow", *s),
         ast::PartProp::When(_, s) => ("when", *s),
     }
 }

@@ -127,7 +127,14 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         Some(reply) if reply.answer == Answer::ApiError => {
             Err((1, format!("`{}` failed: {}", model.id(), terminal_safe(&reply.raw))))
         }
-        Some(reply) => Ok(report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule)),
+        Some(reply) => {
+            let mut out = report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule);
+            // What the model was shown: each placed entity's figures (none without a renderer).
+            for line in o.record.visibility.iter().filter_map(|v| crate::run::observe::figure_line(domain, v)) {
+                out.push_str(&format!("figures    {line}\n"));
+            }
+            Ok(out)
+        }
     }
 }
 

@@ -30,16 +30,24 @@ pub struct CheckArgs {
     pub format: Format,
     /// Also render N scenes of every valid singleton and pair with the builtin renderer and
     /// warn (R0107) about concepts and combinations whose entities are not visible in at least
-    /// 10% of them
+    /// 10% of them, and (R0108) about entities that draw nothing
     #[arg(long, value_name = "N")]
     pub render: Option<u32>,
     /// With `--render`: render every singleton but only a seeded sample of the pairs, K sets in
     /// all
     #[arg(long, value_name = "K", requires = "render")]
     pub render_sample: Option<usize>,
-    /// Seed of `--render-sample`
-    #[arg(long, default_value_t = 0, requires = "render_sample")]
-    pub seed: u64,
+    /// With `--render`: also render a seeded sample of K larger valid sets (3 concepts up to
+    /// `--max-size`), whose entities may hide one another in ways no pair shows
+    #[arg(long, value_name = "K", requires = "render")]
+    pub render_sets: Option<usize>,
+    /// With `--render`: print the visibility figures (min / median pixels and contrast of the
+    /// placed entities) of every set rendered
+    #[arg(long, requires = "render")]
+    pub figures: bool,
+    /// Seed of `--render-sample` and `--render-sets` [default: 0]
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Largest concept set the lattice lints judge
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
     pub max_size: u32,
@@ -76,7 +84,7 @@ pub fn run(args: CheckArgs) -> ExitCode {
     let limits = crate::lint::Limits { max_size: args.max_size as usize, max_sets: args.max_sets };
     let mut compiled: Vec<Compiled> = files.iter().map(|f| compile_path_with(f, Some(limits))).collect();
     if stdin == 1 {
-        let name = args.stdin_filename.unwrap_or_else(|| PathBuf::from("<stdin>"));
+        let name = args.stdin_filename.clone().unwrap_or_else(|| PathBuf::from("<stdin>"));
         compiled.push(match crate::source::read_bounded(std::io::stdin(), &name.to_string_lossy()) {
             Ok(text) => compile_text_with(&name, &text, Some(limits)),
             Err(r) => Compiled {
@@ -88,11 +96,19 @@ pub fn run(args: CheckArgs) -> ExitCode {
         });
         files.push(name);
     }
+    if args.seed.is_some() && args.render_sample.is_none() && args.render_sets.is_none() {
+        eprintln!("error: `--seed` chooses the sets of `--render-sample` or `--render-sets`; give one of them");
+        return ExitCode::from(2);
+    }
+    let mut figures = String::new();
     if let Some(scenes) = args.render {
-        let plan = render_plan(scenes, args.render_sample, args.seed);
+        let plan = render_plan(scenes, &args);
         for c in &mut compiled {
             match render_lint(c, plan) {
-                Ok(diags) => {
+                Ok((diags, lines)) => {
+                    if args.figures {
+                        figures.push_str(&lines);
+                    }
                     c.diagnostics.extend(diags);
                     check::sort_diagnostics(&mut c.diagnostics);
                 }
@@ -123,7 +139,8 @@ pub fn run(args: CheckArgs) -> ExitCode {
         Format::Plain => reports.iter().filter(|r| !r.allowed).map(Report::plain).collect(),
         Format::Json => reports.iter().map(|r| r.json() + "\n").collect(),
     };
-    write_stdout(&out);
+    // Figures before the diagnostics: the summary line stays last.
+    write_stdout(&(figures + &out));
     if errors > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }
 
@@ -133,25 +150,39 @@ type Plan = crate::run::visible::Plan;
 type Plan = ();
 
 #[cfg(feature = "render")]
-fn render_plan(scenes: u32, sample: Option<usize>, seed: u64) -> Plan {
-    Plan { scenes, sample: sample.map(|k| (k, seed)) }
+fn render_plan(scenes: u32, args: &CheckArgs) -> Plan {
+    let seed = args.seed.unwrap_or(0);
+    Plan {
+        scenes,
+        sample: args.render_sample.map(|k| (k, seed)),
+        larger: args.render_sets.map(|count| crate::run::visible::Larger {
+            count,
+            max_size: args.max_size as usize,
+            seed,
+        }),
+    }
 }
 
 #[cfg(not(feature = "render"))]
-fn render_plan(_: u32, _: Option<usize>, _: u64) -> Plan {}
+fn render_plan(_: u32, _: &CheckArgs) -> Plan {}
 
-/// R0107 for a domain file that compiled without errors (used modules have no lattice).
+/// R0107 and R0108 for a domain file that compiled without errors (used modules have no
+/// lattice), and the figures of every set rendered, a line each.
 #[cfg(feature = "render")]
-fn render_lint(c: &Compiled, plan: Plan) -> Result<Vec<Diagnostic>, String> {
-    let Some(domain) = c.domain.as_ref().filter(|d| !d.name.is_empty()) else { return Ok(Vec::new()) };
+fn render_lint(c: &Compiled, plan: Plan) -> Result<(Vec<Diagnostic>, String), String> {
+    let Some(domain) = c.domain.as_ref().filter(|d| !d.name.is_empty()) else { return Ok((Vec::new(), String::new())) };
     let renderer = crate::render::BuiltinRenderer::new(None).map_err(|e| e.message)?;
     let tallies = crate::run::visible::survey(domain, &renderer, plan)
         .map_err(|e| format!("cannot render `{}` for the visibility lint: {e}", domain.name))?;
-    Ok(crate::run::visible::lint(domain, &tallies))
+    let figures: String = tallies
+        .iter()
+        .map(|t| format!("figures {}: {}\n", crate::oracle::set_text(domain, t.set), t.figures_text()))
+        .collect();
+    Ok((crate::run::visible::lint(domain, &tallies), figures))
 }
 
 #[cfg(not(feature = "render"))]
-fn render_lint(_: &Compiled, _: Plan) -> Result<Vec<Diagnostic>, String> {
+fn render_lint(_: &Compiled, _: Plan) -> Result<(Vec<Diagnostic>, String), String> {
     Err("`--render` needs the builtin renderer, and this build of revelio has none (built without the `render` feature)".into())
 }
 
@@ -429,7 +460,9 @@ mod tests {
                 max_sets: crate::lattice::DEFAULT_MAX_SETS,
                 render: None,
                 render_sample: None,
-                seed: 0,
+                render_sets: None,
+                figures: false,
+                seed: None,
             })
         };
         assert_eq!(run_on(vec![lib.clone()]), ExitCode::SUCCESS);

@@ -15,6 +15,7 @@ pub mod emit;
 pub mod fmt;
 pub mod lattice;
 pub mod lsp;
+pub mod new;
 pub mod oracle;
 pub mod probe;
 pub mod progress;
@@ -37,6 +38,8 @@ pub struct Cli {
 pub enum Command {
     /// Type-check `.rev` files and report every problem
     Check(check::CheckArgs),
+    /// Scaffold a new domain (domain file, world, looks, sim profile) that checks and searches
+    New(new::NewArgs),
     /// Rewrite `.rev` files in the canonical layout (`--check` only reports)
     Fmt(fmt::FmtArgs),
     /// Run the language server on standard input/output (for editors)
@@ -81,6 +84,7 @@ pub fn main() -> ExitCode {
     };
     match cli.command {
         Command::Check(a) => check::run(a),
+        Command::New(a) => new::run(a),
         Command::Fmt(a) => fmt::run(a),
         Command::Lsp(a) => lsp::run(a),
         Command::Describe(a) => describe::run(a),

@@ -36,6 +36,10 @@ pub struct RenderArgs {
     /// Print the graphics adapter the builtin renderer uses, and exit.
     #[arg(long)]
     pub info: bool,
+    /// Print each placed entity's visibility figures (pixels and contrast, against the domain's
+    /// `visible` thresholds) for every image drawn
+    #[arg(long)]
+    pub figures: bool,
 }
 
 /// Parse `WxH` (e.g. `640x360`).
@@ -86,10 +90,13 @@ pub fn run(args: RenderArgs) -> ExitCode {
     // Sheets are kept and shared, so they get the slower, smaller encoding.
     let encode = if as_sheet { encode_png_small } else { encode_png };
     match draw(&domain, &renderer, &jobs, as_sheet) {
-        Ok(img) => match encode(&img).map_err(|e| e.message).and_then(|png| {
+        Ok((img, figures)) => match encode(&img).map_err(|e| e.message).and_then(|png| {
             std::fs::write(&args.output, png).map_err(|e| format!("cannot write `{}`: {e}", args.output.display()))
         }) {
             Ok(()) => {
+                if args.figures {
+                    print!("{figures}");
+                }
                 println!("wrote {} ({}x{})", args.output.display(), img.width(), img.height());
                 ExitCode::SUCCESS
             }
@@ -155,15 +162,29 @@ fn caption(domain: &Domain, set: ConceptSet) -> String {
     domain.set_names(set).join(" + ")
 }
 
-/// Render the jobs: one image, or a captioned contact sheet.
-pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet: bool) -> Result<RgbaImage, String> {
+/// Render the jobs: one image, or a captioned contact sheet; and the visibility figures of
+/// every placed entity, a block per image.
+pub fn draw(
+    domain: &Domain,
+    renderer: &BuiltinRenderer,
+    jobs: &[Job],
+    as_sheet: bool,
+) -> Result<(RgbaImage, String), String> {
     let mut tiles = Vec::with_capacity(jobs.len());
+    let mut figures = String::new();
     let sampler = crate::sample::Sampler::new(domain);
     for job in jobs {
         // No concept: the baseline every concept is seen against (outside the lattice).
         let scene = if job.set.is_empty() { sampler.backdrop(job.seed) } else { sampler.sample(job.set, job.seed) }
             .map_err(|e| format!("cannot sample `{}` with seed {}: {e}", job.caption, job.seed))?;
-        let mut img = renderer.render_rgba(&scene).map_err(|e| e.message)?;
+        let (mut img, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
+        let lines: Vec<String> = seen
+            .iter()
+            .filter_map(|v| crate::run::observe::figure_line(domain, v))
+            .map(|l| format!("  {l}\n"))
+            .collect();
+        let entities = if lines.is_empty() { "  no entity placed\n".to_string() } else { lines.concat() };
+        figures.push_str(&format!("{} (seed {}):\n{entities}", job.caption, job.seed));
         if as_sheet {
             sheet::caption(&mut img, &job.caption);
         }
@@ -171,10 +192,10 @@ pub fn draw(domain: &Domain, renderer: &BuiltinRenderer, jobs: &[Job], as_sheet:
     }
     match tiles.len() {
         0 => Err("nothing to render: no concept of the domain is in a valid set".to_string()),
-        1 if !as_sheet => Ok(tiles.remove(0)),
+        1 if !as_sheet => Ok((tiles.remove(0), figures)),
         n => {
             let (w, h) = tiles[0].dimensions();
-            Ok(sheet::grid(&tiles, sheet::columns_for(n, w, h)))
+            Ok((sheet::grid(&tiles, sheet::columns_for(n, w, h)), figures))
         }
     }
 }
@@ -193,6 +214,7 @@ mod tests {
             grid,
             all: false,
             info: false,
+            figures: false,
         }
     }
 

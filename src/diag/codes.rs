@@ -42,6 +42,7 @@ codes! {
     TOO_MANY_QUANTIFIERS = "R0034", "too-many-quantifiers", "a condition that nests more than 3 `exists` (a shape condition's `self` counts as one)";
     COUNT_TOO_LARGE = "R0035", "count-too-large", "a count past its bound: `repeat` over 1 000, over 4 096 stage parts with repeats, over 256 parts in one block, over 128 entities added";
     DRAWS_NOTHING = "R0036", "draws-nothing", "(warning) a kind that a concept places but that has no look, own or inherited, or a `look` on a kind that nothing places";
+    INEFFECTIVE_MODIFIER = "R0037", "ineffective-modifier", "(warning) a modifier whose `set` cannot hold for a kind it targets (outside the attribute's bounds on that kind, or a `distance`/`lateral` range outside the region the entity stands in), or that changes nothing on any entity it can land on";
     MISPLACED_STATEMENT = "R0040", "misplaced-statement", "a statement where it means nothing (`move` in a concept, `add` in a modifier, …)";
     MISSING_STATEMENT = "R0041", "missing-statement", "a required statement is missing (a modifier's `target`, a rule's `expect`, a shape part's `size`, …)";
     DUPLICATE_STATEMENT = "R0042", "duplicate-statement", "a statement or setting given twice where only one counts";

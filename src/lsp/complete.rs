@@ -141,6 +141,7 @@ const LINTS: &[(&str, &str)] = &[
     ("R0105", "a modifier has no possible target"),
     ("R0106", "no rule matches some valid set"),
     ("R0107", "a concept or pair is hidden in rendered scenes (check --render)"),
+    ("R0108", "an entity a concept places draws nothing: its visibility cannot be measured (check --render)"),
 ];
 
 fn item(label: &str, kind: CompletionItemKind, detail: &str) -> CompletionItem {

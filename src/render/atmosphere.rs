@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use bytemuck::{Pod, Zeroable};
 
+use super::mesh::{Light, MAX_LIGHTS};
 use crate::ir::Camera;
 
 /// Near clip plane (metres): small enough for a kitchen close-up.
@@ -27,6 +28,28 @@ pub struct Frame {
     pub fog: [f32; 4],
     pub wet: [f32; 4],
     pub viewport: [f32; 4],
+    /// Lamps (`light` parts): xyz centre, w strength; `light_colors` rgb; `light_count.x` in use,
+    /// `light_count.yzw` the light they bounce off a room's walls and ceiling (linear rgb).
+    pub lights: [[f32; 4]; MAX_LIGHTS],
+    pub light_colors: [[f32; 4]; MAX_LIGHTS],
+    pub light_count: [f32; 4],
+}
+
+impl Frame {
+    /// Light the frame with the mesh's lamps; each also adds light from every direction, as a
+    /// room's walls and ceiling bounce it (so a ceiling above the lamps is not black).
+    pub fn set_lights(&mut self, lights: &[Light]) {
+        let n = lights.len().min(MAX_LIGHTS);
+        let mut bounce = [0.0f32; 3];
+        for (i, l) in lights.iter().take(n).enumerate() {
+            self.lights[i] = v4(l.at, l.strength);
+            self.light_colors[i] = v4(l.color, 1.0);
+            for (b, c) in bounce.iter_mut().zip(l.color) {
+                *b += c * l.strength * 0.05;
+            }
+        }
+        self.light_count = [n as f32, bounce[0], bounce[1], bounce[2]];
+    }
 }
 
 /// Weather in renderer terms, each in 0..1 (the angle in degrees).
@@ -120,6 +143,9 @@ pub fn frame(camera: &Camera, env: &BTreeMap<String, f64>, width: u32, height: u
         fog: v4(fog_color, extinction),
         wet: [w.wetness.max(w.precipitation * 0.6), w.deposits, w.precipitation, (seed % 1000) as f32 / 1000.0],
         viewport: [width as f32, height as f32, w.fog_distance, rain_streaks(w.precipitation, width, height).0 as f32],
+        lights: [[0.0; 4]; MAX_LIGHTS],
+        light_colors: [[0.0; 4]; MAX_LIGHTS],
+        light_count: [0.0; 4],
     }
 }
 

@@ -74,7 +74,8 @@ impl BuiltinRenderer {
         let (w, h) = self.size_for(scene);
         check_size(w, h)?;
         let mesh = mesh::build(scene, scene.camera.at);
-        let frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
+        let mut frame = atmosphere::frame(&scene.camera, &scene.environment, w, h, scene.seed);
+        frame.set_lights(&mesh.lights);
         let (_, streaks) = atmosphere::rain_streaks(frame.wet[2], w, h);
         let drawn = self.gpu.draw(&mesh, &frame, streaks).map_err(RenderError::new)?;
         let seen = visibility::measure(scene, &drawn.pixels, &drawn.ids, w, h);
@@ -133,6 +134,7 @@ impl Renderer for BuiltinRenderer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ir::Primitive;
     use crate::render::fixtures::*;
     use crate::render::project;
 
@@ -269,6 +271,63 @@ mod tests {
         let clear_mid = contrast(20.0, clear());
         assert!(rain < clear_mid, "rain {rain} vs clear {clear_mid}");
         assert!(night < clear_mid * 0.5, "night {night} vs clear {clear_mid}");
+    }
+
+    /// Mean sRGB level of the pixels in a box.
+    fn mean_level(img: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> f64 {
+        let px: Vec<f64> = (y0..=y1)
+            .flat_map(|y| (x0..=x1).map(move |x| (x, y)))
+            .map(|(x, y)| img.get_pixel(x, y).0[..3].iter().map(|&c| f64::from(c)).sum::<f64>() / 3.0)
+            .collect();
+        px.iter().sum::<f64>() / px.len() as f64
+    }
+
+    /// A part of material `light` lights what stands near it at night; the same part as
+    /// `emissive` glows but lights nothing.
+    #[test]
+    fn a_light_part_lights_the_scene_around_it() {
+        let r = renderer();
+        let night = weather(0.0, 0.0, 0.0, 0.0, -30.0);
+        let lit = |material: &str| {
+            let mut s = scene(vec![red_box(10.0)], night.clone());
+            s.stage.push(part(Primitive::Box, [1.2, 0.6, 0.04], [8.5, 0.0, 3.0], 0xfff6e0, material));
+            let img = r.render_rgba(&s).unwrap();
+            mean_level(&img, screen_box(&s, [9.5, -0.5, 0.0], [10.5, 0.5, 1.0]))
+        };
+        let (lamp, glow) = (lit("light"), lit("emissive"));
+        assert!(lamp > glow * 2.0 && lamp > 40.0, "box under a lamp {lamp:.1}, under a glowing panel {glow:.1}");
+    }
+
+    /// A glossy floor shows the lamp's reflection where a mirror would, a matte one does not;
+    /// a mirror part reflects more of the lit room than a matte part of the same colour.
+    #[test]
+    fn a_glossy_floor_mirrors_the_lamp_and_a_mirror_reflects() {
+        let r = renderer();
+        let night = weather(0.0, 0.0, 0.0, 0.0, -30.0);
+        let floor = |material: &str| {
+            let mut s = scene(Vec::new(), night.clone());
+            s.stage = vec![
+                part(Primitive::Plane, [60.0, 20.0, 0.0], [20.0, 0.0, 0.0], 0x707070, material),
+                part(Primitive::Box, [1.2, 0.6, 0.04], [12.0, 0.0, 3.0], 0xfff6e0, "light"),
+                part(
+                    Primitive::Sphere,
+                    [1.0, 1.0, 1.0],
+                    [9.0, 3.0, 1.5],
+                    0x808080,
+                    if material == "glossy" { "mirror" } else { "matte" },
+                ),
+            ];
+            let img = r.render_rgba(&s).unwrap();
+            // Where the floor mirrors the lamp: the lamp's image below the floor.
+            let (xy, _) = project(&s.camera, 640, 360, [12.0, 0.0, -3.0]).unwrap();
+            let (x, y) = (xy[0].round() as u32, xy[1].round() as u32);
+            let spot = mean_level(&img, (x - 2, y - 2, x + 2, y + 2));
+            let ball = mean_level(&img, screen_box(&s, [8.8, 2.8, 1.3], [9.2, 3.2, 1.7]));
+            (spot, ball)
+        };
+        let ((glossy, mirror), (matte, plain)) = (floor("glossy"), floor("matte"));
+        assert!(glossy > matte + 40.0, "the lamp's reflection: glossy {glossy:.1}, matte {matte:.1}");
+        assert!(mirror > plain + 20.0, "mirror ball {mirror:.1}, matte ball {plain:.1}");
     }
 
     #[test]

@@ -18,6 +18,7 @@ pub fn part(prim: Primitive, size: [f64; 3], at: [f64; 3], rgb: u32, material: &
         pitch_deg: 0.0,
         material: material.to_string(),
         when: None,
+        shadow: true,
     }
 }
 

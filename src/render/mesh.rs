@@ -26,6 +26,11 @@ pub enum Material {
     Smoke = 6,
     /// The blob shadow under an entity (not writable from `.rev`).
     Shadow = 7,
+    /// A lamp: drawn like `Emissive`, and a light of the frame (`Mesh::lights`).
+    Light = 8,
+    /// A polished or wet floor: dark, with sharp reflections of the lamps.
+    Glossy = 9,
+    Mirror = 10,
 }
 
 impl Material {
@@ -39,6 +44,9 @@ impl Material {
             "water" => Material::Water,
             "flame" => Material::Flame,
             "smoke" => Material::Smoke,
+            "light" => Material::Light,
+            "glossy" => Material::Glossy,
+            "mirror" => Material::Mirror,
             _ => Material::Matte,
         }
     }
@@ -84,6 +92,22 @@ pub struct Mesh {
     pub indices: Vec<u32>,
     /// `indices[..opaque_len]` are drawn with depth writes, the rest blended.
     pub opaque_len: u32,
+    /// The parts of material `light`, nearest the camera first, at most [`MAX_LIGHTS`].
+    pub lights: Vec<Light>,
+}
+
+/// Most lamps that light one frame (the shader's uniform arrays hold this many).
+pub const MAX_LIGHTS: usize = 8;
+
+/// A lamp of the frame: a part of material `light`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// Its centre in the scene frame.
+    pub at: [f32; 3],
+    /// Linear-light colour.
+    pub color: [f32; 3],
+    /// Strength: grows with the square root of its largest face (a 1.2 × 0.6 m panel is 1.7).
+    pub strength: f32,
 }
 
 /// The multiply-rotate hash of rustc (FxHash): vertex keys are a few words, and SipHash's DoS
@@ -225,6 +249,23 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
             shadows.push(s);
         }
     }
+    let mut lights: Vec<(f64, Light)> = placed
+        .iter()
+        .filter(|p| Material::from_hint(&p.part.material) == Material::Light)
+        .map(|p| {
+            let [sx, sy, sz] = p.part.size;
+            let face = (sx * sy).max(sy * sz).max(sx * sz);
+            let c = p.part.color;
+            let light = Light {
+                at: p.xf.t.map(|x| x as f32),
+                color: [srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2])],
+                strength: (2.4 * face.sqrt()).clamp(0.3, 6.0) as f32,
+            };
+            (dist2(p.xf.t, eye), light)
+        })
+        .collect();
+    lights.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let lights: Vec<Light> = lights.into_iter().take(MAX_LIGHTS).map(|(_, l)| l).collect();
     let (mut opaque, mut translucent): (Vec<_>, Vec<_>) =
         placed.into_iter().partition(|p| part_alpha(p.part, Material::from_hint(&p.part.material)) >= 1.0);
     // Stable sorts by centre distance keep equal distances in source order, so the output
@@ -248,6 +289,7 @@ pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
         emit_part(&mut mesh, p, eye, closed);
     }
     mesh.opaque_len = mesh.indices.len() as u32;
+    mesh.lights = lights;
     // Shadows lie on the ground under everything translucent, so they go first.
     for s in &shadows {
         emit_shadow(&mut mesh, s);
@@ -304,8 +346,11 @@ struct Shadow {
 
 fn blob_shadow(parts: &[ShapePart], exf: &Xf) -> Option<Shadow> {
     let solid = parts.iter().filter(|p| {
-        !matches!(Material::from_hint(&p.material), Material::Emissive | Material::Smoke | Material::Flame)
-            && p.prim != Primitive::Plane
+        !matches!(
+            Material::from_hint(&p.material),
+            Material::Emissive | Material::Smoke | Material::Flame | Material::Light
+        ) && p.prim != Primitive::Plane
+            && p.shadow
     });
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in solid {
@@ -537,5 +582,40 @@ mod tests {
         for v in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], up, [0.3, -0.7, 0.2]] {
             assert!(close(product.rot(v), direct.rot(v)));
         }
+    }
+
+    /// `shadow false` keeps a part out of its entity's blob shadow (a lamp 1.7 m up casts none
+    /// on the floor), and lamps are the frame's lights, nearest first.
+    #[test]
+    fn shadow_false_parts_cast_no_blob_and_light_parts_are_lights() {
+        let body = crate::render::fixtures::part(Primitive::Box, [0.6, 0.6, 0.6], [0.0, 0.0, 0.3], 0x808080, "matte");
+        let mut lamp =
+            crate::render::fixtures::part(Primitive::Box, [2.0, 2.0, 0.1], [0.0, 0.0, 1.7], 0xffffff, "matte");
+        let wide = blob_shadow(&[body.clone(), lamp.clone()], &Xf::identity()).unwrap();
+        lamp.shadow = false;
+        let narrow = blob_shadow(&[body.clone(), lamp.clone()], &Xf::identity()).unwrap();
+        assert!(
+            (wide.half[0] - 1.15).abs() < 1e-9 && (narrow.half[0] - 0.45).abs() < 1e-9,
+            "{:?} {:?}",
+            wide.half,
+            narrow.half
+        );
+        assert!(blob_shadow(&[lamp], &Xf::identity()).is_none());
+
+        let mut s =
+            crate::render::fixtures::scene(Vec::new(), crate::render::fixtures::weather(0.0, 0.0, 0.0, 0.0, -30.0));
+        for x in [30.0, 10.0] {
+            s.stage.push(crate::render::fixtures::part(
+                Primitive::Box,
+                [1.2, 0.6, 0.04],
+                [x, 0.0, 3.0],
+                0xffffff,
+                "light",
+            ));
+        }
+        let mesh = build(&s, s.camera.at);
+        assert_eq!(mesh.lights.len(), 2);
+        assert_eq!(mesh.lights[0].at, [10.0, 0.0, 3.0], "nearest first");
+        assert!((mesh.lights[0].strength - (2.4 * 0.72f32.sqrt())).abs() < 1e-5);
     }
 }

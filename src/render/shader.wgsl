@@ -20,6 +20,11 @@ struct Frame {
     wet: vec4<f32>,
     // x: width, y: height, z: fog start distance, w: number of near rain streaks.
     viewport: vec4<f32>,
+    // Lamps (parts of material `light`, mesh.rs): xyz centre, w strength; their colours; x of
+    // `light_count` is how many are in use.
+    lights: array<vec4<f32>, 8>,
+    light_colors: array<vec4<f32>, 8>,
+    light_count: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -32,6 +37,9 @@ const WATER: i32 = 4;
 const FLAME: i32 = 5;
 const SMOKE: i32 = 6;
 const SHADOW: i32 = 7;
+const LIGHT: i32 = 8;
+const GLOSSY: i32 = 9;
+const MIRROR: i32 = 10;
 
 fn sky(dir: vec3<f32>) -> vec3<f32> {
     let up = clamp(dir.z, -1.0, 1.0);
@@ -204,7 +212,7 @@ fn shade(in: VsOut) -> vec4<f32> {
     if m == SHADOW {
         return vec4<f32>(0.0, 0.0, 0.0, in.color.a * frame.ambient.w * (1.0 - fog));
     }
-    if m == EMISSIVE || m == FLAME {
+    if m == EMISSIVE || m == FLAME || m == LIGHT {
         // Light sources are not darkened by weather and pierce fog better than lit surfaces.
         let c = mix(in.color.rgb * 1.15, frame.fog.rgb, fog * 0.45);
         return vec4<f32>(c, in.color.a);
@@ -252,15 +260,46 @@ fn shade(in: VsOut) -> vec4<f32> {
         mirror = 0.3;
         shine = 96.0;
         spec_k = 0.9;
+    } else if m == GLOSSY {
+        // A polished or wet floor: darker than dry, with sharp reflections of the lamps.
+        albedo = albedo * 0.6;
+        mirror = 0.35;
+        shine = 160.0;
+        spec_k = 1.0;
+    } else if m == MIRROR {
+        albedo = albedo * 0.15;
+        mirror = 0.92;
+        shine = 512.0;
+        spec_k = 1.0;
     }
 
-    var c = albedo * (diffuse + hemi);
+    var c = albedo * (diffuse + hemi + frame.light_count.yzw);
     let h = normalize(l + v);
     c += sun * spec_k * pow(max(dot(n, h), 0.0), shine);
     let fresnel = 0.04 + 0.96 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+    let r = reflect(-v, n);
     if mirror > 0.0 {
-        let r = reflect(-v, n);
-        c = mix(c, sky(r) * 0.9, clamp(mirror * (0.3 + 0.7 * fresnel), 0.0, 1.0));
+        // Indoors (lamps lit) a glossy floor or a mirror shows the lit room, brighter towards
+        // the ceiling, not the sky.
+        var env = sky(r) * 0.9;
+        if (m == GLOSSY || m == MIRROR) && frame.light_count.x > 0.0 {
+            env = (frame.ambient.rgb + frame.light_count.yzw * 8.0) * (0.7 + 0.5 * r.z) * select(1.0, 0.5, m == GLOSSY);
+        }
+        let k = select(0.3 + 0.7 * fresnel, 1.0, m == MIRROR);
+        c = mix(c, env, clamp(mirror * k, 0.0, 1.0));
+    }
+    // Lamps: diffuse and highlight falling off with distance, and on shiny surfaces a sharp
+    // reflection of the lamp itself (what makes a floor read as wet).
+    for (var i = 0; i < i32(frame.light_count.x); i = i + 1) {
+        let to_l = frame.lights[i].xyz - in.world;
+        let dl = length(to_l);
+        let ld = to_l / max(dl, 1e-4);
+        let lc = frame.light_colors[i].rgb * frame.lights[i].w / (1.0 + dl * dl / 6.25);
+        c += albedo * lc * max(dot(n, ld), 0.0);
+        c += lc * spec_k * pow(max(dot(n, normalize(ld + v)), 0.0), shine);
+        if mirror > 0.0 {
+            c += frame.light_colors[i].rgb * mirror * 3.0 * pow(max(dot(r, ld), 0.0), 300.0);
+        }
     }
     if m == GLASS {
         alpha = clamp(alpha + fresnel * 0.4, 0.0, 1.0);

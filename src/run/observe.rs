@@ -27,7 +27,7 @@
 use std::sync::Arc;
 
 use crate::hash::sha256_hex as sha256;
-use crate::ir::{ConceptSet, Domain};
+use crate::ir::{ConceptSet, Domain, Effect};
 use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
 use crate::render::{EntityVisibility, Renderer};
@@ -342,14 +342,20 @@ impl Observer {
 }
 
 /// The entities a concept placed that `seen` reports as not visible by the domain's thresholds,
-/// with their figures (`None`: all visible).
+/// with their figures (`None`: all visible). An entity with nothing drawn (no part in its look)
+/// cannot be measured: it is named as such, unless the domain accepts it with `allow R0108`.
 pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Option<String> {
+    let accept_undrawn = domain.allow.iter().any(|a| a.code == super::visible::UNDRAWN);
     let hidden: Vec<String> = scene
         .entities
         .iter()
         .zip(seen)
         .filter(|(e, _)| e.concept.is_some())
         .filter_map(|(e, v)| {
+            if e.shape.is_empty() {
+                return (!accept_undrawn)
+                    .then(|| format!("`{}` ({}) draws nothing, so it cannot be measured", e.name, e.kind));
+            }
             let t = domain.visibility.threshold(&e.kind, e.concept.as_deref());
             (!t.holds(v.pixels, v.contrast)).then(|| {
                 format!(
@@ -360,4 +366,26 @@ pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Opti
         })
         .collect();
     (!hidden.is_empty()).then(|| hidden.join("; "))
+}
+
+/// The kind of the entity `entity` that concept `concept` adds.
+fn kind_of<'d>(domain: &'d Domain, concept: &str, entity: &str) -> Option<&'d str> {
+    let c = domain.concepts.iter().find(|c| c.name == concept)?;
+    c.effects.iter().find_map(|e| match e {
+        Effect::Add { name, kind, .. } if name == entity => Some(domain.kinds[kind.index()].name.as_str()),
+        _ => None,
+    })
+}
+
+/// One line of figures for an entity a concept placed: its pixels and contrast against the
+/// threshold the domain sets for it, and whether the guard would show it (`None` for scenery).
+pub fn figure_line(domain: &Domain, v: &EntityVisibility) -> Option<String> {
+    let concept = v.concept.as_deref()?;
+    let kind = kind_of(domain, concept, &v.entity).unwrap_or("?");
+    let t = domain.visibility.threshold(kind, Some(concept));
+    let verdict = if t.holds(v.pixels, v.contrast) { "visible" } else { "NOT visible" };
+    Some(format!(
+        "`{}` ({kind}, concept `{concept}`): {} px at contrast {:.3}, needs {} px at {:.3}: {verdict}",
+        v.entity, v.pixels, v.contrast, t.pixels, t.contrast
+    ))
 }

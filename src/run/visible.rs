@@ -1,7 +1,9 @@
 //! The visibility lint of `revelio check --render N` (R0107): sample N scenes of every valid
-//! singleton and pair (or a seeded sample of them), draw each with the builtin renderer and
-//! count the scenes in which an entity a concept placed is not visible by the domain's
-//! thresholds — the scenes the observe pipeline would resample or record as `invisible`.
+//! singleton and pair (or a seeded sample of them), and of a seeded sample of larger sets if
+//! asked, draw each with the builtin renderer and count the scenes in which an entity a concept
+//! placed is not visible by the domain's thresholds — the scenes the observe pipeline would
+//! resample or record as `invisible`. An entity that draws nothing cannot be measured: it is
+//! named (R0108), not counted hidden. Each set's figures are kept for `--figures`.
 
 use std::collections::BTreeSet;
 
@@ -14,6 +16,9 @@ use super::observe::unseen;
 
 /// The lint code.
 pub const CODE: &str = "R0107";
+/// The code for an entity a concept places that draws nothing, so that no renderer figure can
+/// say whether it is seen; `allow R0108` (with a reason) accepts it, in the guard too.
+pub const UNDRAWN: &str = "R0108";
 
 /// A set is reported when at least this share of its scenes hides an entity.
 pub const MAX_SHARE: f64 = 0.1;
@@ -26,6 +31,17 @@ pub struct Plan {
     /// Render only this many of the singletons and pairs, chosen with `seed` (every singleton
     /// is kept; pairs are sampled).
     pub sample: Option<(usize, u64)>,
+    /// Also render this many larger valid sets (3 concepts up to `max_size`), a sample chosen
+    /// with the seed: occlusion among three or more entities that no pair shows.
+    pub larger: Option<Larger>,
+}
+
+/// The larger sets of a [`Plan`].
+#[derive(Debug, Clone, Copy)]
+pub struct Larger {
+    pub count: usize,
+    pub max_size: usize,
+    pub seed: u64,
 }
 
 /// One set's count.
@@ -37,25 +53,67 @@ pub struct Tally {
     /// The first reason seen (which entity, how many pixels, which contrast).
     pub example: String,
     pub example_seed: u64,
+    /// Entities of the set drawn with no part at all: (entity, kind, concept).
+    pub undrawn: Vec<(String, String, String)>,
+    /// The figures of every placed entity in every scene: (pixels, contrast).
+    pub figures: Vec<(u32, f64)>,
+}
+
+impl Tally {
+    /// `min / median` pixels and contrast over every placed entity of every scene, as one line.
+    pub fn figures_text(&self) -> String {
+        let mut px: Vec<u32> = self.figures.iter().map(|f| f.0).collect();
+        let mut co: Vec<f64> = self.figures.iter().map(|f| f.1).collect();
+        if px.is_empty() {
+            return "nothing measured".into();
+        }
+        px.sort_unstable();
+        co.sort_by(f64::total_cmp);
+        let (n, mid) = (px.len(), px.len() / 2);
+        let median_px =
+            if n % 2 == 1 { f64::from(px[mid]) } else { (f64::from(px[mid - 1]) + f64::from(px[mid])) / 2.0 };
+        let median_co = if n % 2 == 1 { co[mid] } else { (co[mid - 1] + co[mid]) / 2.0 };
+        format!(
+            "pixels min {} median {median_px}, contrast min {:.3} median {median_co:.3} ({} figures, {} scenes, {} not visible)",
+            px[0], co[0], n, self.scenes, self.invisible
+        )
+    }
 }
 
 /// Count invisible scenes per set; returns every set rendered.
 pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result<Vec<Tally>, String> {
+    use rand::SeedableRng;
+    use rand::seq::SliceRandom;
     let lattice = Lattice::enumerate(domain, 2);
     let (singles, mut pairs): (Vec<ConceptSet>, Vec<ConceptSet>) = lattice.sets.iter().partition(|s| s.len() == 1);
     if let Some((n, seed)) = plan.sample {
-        use rand::SeedableRng;
-        use rand::seq::SliceRandom;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         pairs.shuffle(&mut rng);
         pairs.truncate(n.saturating_sub(singles.len()));
         pairs.sort();
     }
+    let mut larger: Vec<ConceptSet> = Vec::new();
+    if let Some(l) = plan.larger.filter(|l| l.count > 0 && l.max_size >= 3) {
+        let all = Lattice::enumerate(domain, l.max_size);
+        larger = all.sets.iter().copied().filter(|s| s.len() >= 3).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(l.seed);
+        larger.shuffle(&mut rng);
+        larger.truncate(l.count);
+        larger.sort_by_key(|s| (s.len(), *s));
+    }
     let sampler = crate::sample::Sampler::new(domain);
     let mut out = Vec::new();
-    for set in singles.into_iter().chain(pairs) {
+    for set in singles.into_iter().chain(pairs).chain(larger) {
         // A set without entities (weather, town) cannot hide one.
-        let mut t = Tally { set, scenes: 0, invisible: 0, example: String::new(), example_seed: 0 };
+        let mut t = Tally {
+            set,
+            scenes: 0,
+            invisible: 0,
+            example: String::new(),
+            example_seed: 0,
+            undrawn: Vec::new(),
+            figures: Vec::new(),
+        };
         for seed in 0..u64::from(plan.scenes) {
             let scene = sampler.sample(set, seed).map_err(|e| e.0)?;
             if scene.entities.iter().all(|e| e.concept.is_none()) {
@@ -63,7 +121,30 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
             }
             let (_, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
             t.scenes += 1;
-            if let Some(why) = unseen(domain, &scene, &seen) {
+            for e in scene.entities.iter().filter(|e| e.shape.is_empty()) {
+                let Some(concept) = &e.concept else { continue };
+                let key = (e.name.clone(), e.kind.clone(), concept.clone());
+                if !t.undrawn.contains(&key) {
+                    t.undrawn.push(key);
+                }
+            }
+            t.figures.extend(
+                scene
+                    .entities
+                    .iter()
+                    .zip(&seen)
+                    .filter(|(e, _)| e.concept.is_some() && !e.shape.is_empty())
+                    .map(|(_, v)| (v.pixels, v.contrast)),
+            );
+            // Judged on what can be measured: an undrawn entity is R0108's, not R0107's.
+            let why = if t.undrawn.is_empty() {
+                unseen(domain, &scene, &seen)
+            } else {
+                let (drawn, seen): (Vec<_>, Vec<_>) =
+                    scene.entities.iter().cloned().zip(seen).filter(|(e, _)| !e.shape.is_empty()).unzip();
+                unseen(domain, &crate::scene::Scene { entities: drawn, ..scene.clone() }, &seen)
+            };
+            if let Some(why) = why {
                 if t.invisible == 0 {
                     t.example = why;
                     t.example_seed = seed;
@@ -81,7 +162,39 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
 /// R0107 warnings from a survey: each singleton invisible in at least [`MAX_SHARE`] of its
 /// scenes, and each pair that is although neither of its concepts is alone (a combination
 /// such as stairs at night). Pointed at the concept (the first of a pair).
+///
+/// Then R0108 for each entity a concept places that draws nothing (once per concept and
+/// entity), unless the domain has `allow R0108`.
 pub fn lint(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
+    let mut out = hidden(domain, tallies);
+    if domain.allow.iter().any(|a| a.code == UNDRAWN) {
+        return out;
+    }
+    let mut named: Vec<&(String, String, String)> = Vec::new();
+    for u in tallies.iter().flat_map(|t| &t.undrawn) {
+        if named.contains(&u) {
+            continue;
+        }
+        named.push(u);
+        let (entity, kind, concept) = u;
+        let span = domain.concepts.iter().find(|c| &c.name == concept).map(|c| c.span);
+        out.push(
+            Diagnostic::new(
+                UNDRAWN,
+                Severity::Warning,
+                span,
+                format!("`{entity}` ({kind}) of concept `{concept}` draws nothing, so its visibility cannot be measured"),
+            )
+            .with_help(format!(
+                "give `{kind}` a look with at least one part; if something else draws it (a `stage` with `when has {concept}`), accept it with `allow R0108` and a `///` reason"
+            )),
+        );
+    }
+    out
+}
+
+/// The R0107 warnings of [`lint`].
+fn hidden(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
     let too_often = |t: &Tally| f64::from(t.invisible) >= MAX_SHARE * f64::from(t.scenes) && t.invisible > 0;
     let bad_single: BTreeSet<usize> = tallies
         .iter()
@@ -112,4 +225,30 @@ pub fn lint(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn figures_are_min_and_median_over_every_entity_and_scene() {
+        let mut t = Tally {
+            set: ConceptSet::EMPTY,
+            scenes: 2,
+            invisible: 1,
+            example: String::new(),
+            example_seed: 0,
+            undrawn: Vec::new(),
+            figures: vec![(30, 0.5), (10, 0.1), (20, 0.3), (40, 0.2)],
+        };
+        assert_eq!(
+            t.figures_text(),
+            "pixels min 10 median 25, contrast min 0.100 median 0.250 (4 figures, 2 scenes, 1 not visible)"
+        );
+        t.figures.pop();
+        assert!(t.figures_text().starts_with("pixels min 10 median 20, contrast min 0.100 median 0.300"));
+        t.figures.clear();
+        assert_eq!(t.figures_text(), "nothing measured");
+    }
 }

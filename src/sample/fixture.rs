@@ -13,6 +13,7 @@ pub(crate) fn part(prim: Primitive, size: [f64; 3], at: [f64; 3], when: Option<E
         pitch_deg: 0.0,
         material: "matte".into(),
         when,
+        shadow: true,
     }
 }
 

@@ -236,6 +236,7 @@ mod tests {
             pitch_deg: 0.0,
             material: "matte".into(),
             when: None,
+            shadow: true,
         }
     }
 

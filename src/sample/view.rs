@@ -196,6 +196,7 @@ mod tests {
             pitch_deg: 0.0,
             material: material.into(),
             when: None,
+            shadow: true,
         }
     }
 

@@ -205,6 +205,8 @@ pub enum PartProp {
     Yaw(Num),
     Roll(Num),
     Pitch(Num),
+    /// `shadow false`: the part casts no blob shadow (a lamp 1.7 m up, a sign on a pole).
+    Shadow(bool, Span),
     When(Expr, Span),
 }
 

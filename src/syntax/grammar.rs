@@ -61,6 +61,7 @@ pub fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_yaw => "yaw",
         kw_roll => "roll",
         kw_pitch => "pitch",
+        kw_shadow => "shadow",
         kw_repeat => "repeat",
         kw_step => "step",
         kw_in => "in",

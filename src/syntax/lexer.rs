@@ -138,8 +138,8 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
 
 /// The keywords that stand inside a statement.
 pub(crate) const INNER_KEYWORDS: &[&str] = &[
-    "std", "for", "at", "look_at", "fov", "size", "color", "material", "yaw", "roll", "pitch", "repeat", "step", "in",
-    "not", "and", "or", "has", "exists", "count", "where", "true", "false",
+    "std", "for", "at", "look_at", "fov", "size", "color", "material", "yaw", "roll", "pitch", "shadow", "repeat",
+    "step", "in", "not", "and", "or", "has", "exists", "count", "where", "true", "false",
 ];
 
 /// Whether the grammar reads `word` as a keyword where it stands in keyword position (`true` and

@@ -207,6 +207,7 @@ impl Builder<'_> {
             Some(Rule::kw_yaw) => PartProp::Yaw(self.number(c.next())),
             Some(Rule::kw_roll) => PartProp::Roll(self.number(c.next())),
             Some(Rule::kw_pitch) => PartProp::Pitch(self.number(c.next())),
+            Some(Rule::kw_shadow) => PartProp::Shadow(c.next().as_str() == "true", span),
             _ => PartProp::When(self.expr(c.next()), span),
         }
     }
