@@ -486,8 +486,11 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let tau = params.threshold;
     let screen = Rule::fixed(SCREEN.min(params.samples), tau);
-    let confirm = params.confirm_rule();
-    let triage = confirm.with_z(TRIAGE_Z);
+    // The confirmation decides with the anytime-valid test and its indifference zone (a core
+    // is established above τ − δ, its parts are not); the triage before it stays a fixed-n
+    // Wilson test at 80 %, a heuristic that only picks what to confirm.
+    let confirm = params.confirm_rule().with_zone(params.delta);
+    let triage = params.confirm_rule().with_z(TRIAGE_Z);
     let escalate = Rule { samples: ESCALATE.min(params.samples), ..triage };
     let search_rule = driver.rule();
     let mut searcher = PatternSearcher::new(params, space);

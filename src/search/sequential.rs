@@ -21,6 +21,7 @@
 //! Every rule tests the 95 % interval except where [`Rule::with_z`] narrows it: `--algo interact`
 //! triages at 80 % (`interact::TRIAGE_Z`) and confirms what the triage finds at 95 %.
 
+use super::cs;
 use super::interval::{Z95, wilson_z};
 use super::metrics::SetStats;
 
@@ -35,22 +36,40 @@ pub struct Rule {
     pub threshold: f64,
     /// The normal quantile of the interval tested against τ ([`Z95`]: the 95 % interval).
     pub z: f64,
+    /// The anytime-valid test with an indifference zone δ ([`super::cs`]): a set is settled
+    /// when its 95 % confidence sequence lies above τ − δ (it fails) or below τ + δ (it passes);
+    /// `z` is then unused. `None`: the Wilson interval against τ itself (the paper's searches).
+    pub zone: Option<f64>,
 }
 
 impl Rule {
     /// The paper's estimator: exactly `samples` observations per set.
     pub fn fixed(samples: u32, threshold: f64) -> Rule {
-        Rule { samples, max_samples: samples, threshold, z: Z95 }
+        Rule { samples, max_samples: samples, threshold, z: Z95, zone: None }
     }
 
     /// The sequential rule: m observations, then up to M while the 95 % interval straddles τ.
     pub fn sequential(samples: u32, max_samples: u32, threshold: f64) -> Rule {
-        Rule { samples, max_samples, threshold, z: Z95 }
+        Rule { samples, max_samples, threshold, z: Z95, zone: None }
     }
 
     /// The same rule with a `z` interval.
     pub fn with_z(self, z: f64) -> Rule {
         Rule { z, ..self }
+    }
+
+    /// The same rule decided by the anytime-valid test with indifference zone `delta`.
+    pub fn with_zone(self, delta: f64) -> Rule {
+        Rule { zone: Some(delta), ..self }
+    }
+
+    /// Whether the set counts as failing under this rule: established above τ − δ by the
+    /// confidence sequence (with a zone), or the paper's observed FR ≥ τ (without).
+    pub fn fails(&self, s: &SetStats) -> bool {
+        match self.zone {
+            Some(delta) => cs::verdict(s.wrong, s.answered(), self.threshold, delta) == cs::Verdict::Fails,
+            None => s.is_failure_mode(self.threshold),
+        }
     }
 
     pub fn is_sequential(&self) -> bool {
@@ -60,6 +79,9 @@ impl Rule {
     /// Whether `wrong` failures out of `answered` leave τ inside the rule's interval (95 % unless
     /// [`Rule::with_z`] set another).
     pub fn straddles(&self, wrong: u32, answered: u32) -> bool {
+        if let Some(delta) = self.zone {
+            return cs::verdict(wrong, answered, self.threshold, delta) == cs::Verdict::Open;
+        }
         let [lo, hi] = wilson_z(wrong, answered, self.z);
         lo < self.threshold && self.threshold <= hi
     }
