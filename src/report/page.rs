@@ -63,6 +63,12 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     write_nav(out, p)?;
     write_metrics(out, p)?;
     write_cores(out, p)?;
+    if !p.borderline.is_empty() {
+        writeln!(out, "<section id=\"borderline\">\n<h2>Borderline ({})</h2>", p.borderline.len())?;
+        out.push_str("<p class=\"note\">Candidate cores whose fresh observations reached the per-set cap with their interval still reaching both below τ − δ and above τ + δ: near the threshold, neither failure modes nor passing. More observations would settle them.</p>\n<div class=\"card\">");
+        write_modes(out, &p.borderline)?;
+        out.push_str("</div>\n</section>\n\n");
+    }
     if !p.others.is_empty() {
         writeln!(out, "<section id=\"others\">\n<h2>Other failure modes ({})</h2>", p.others.len())?;
         let again = if p.refuted.is_empty() && p.not_distinct.is_empty() {
@@ -198,6 +204,9 @@ fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
         Esc(&c.fr),
         Esc(&c.ci)
     )?;
+    for line in c.evidence.iter().chain(&c.part) {
+        writeln!(out, "<p class=\"note\">{}</p>", Esc(line))?;
+    }
     writeln!(out, "<div class=\"facts\">\n<span><b>{}</b> wrong of <b>{}</b> answered</span>", c.wrong, c.answered)?;
     writeln!(out, "<span>validated: <b>{}</b></span>", Esc(&c.validated))?;
     writeln!(out, "<span><b>{}</b> failure modes of the search contain it</span>", c.supersets)?;

@@ -487,10 +487,11 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
     let tau = params.threshold;
     let screen = Rule::fixed(SCREEN.min(params.samples), tau);
     // The confirmation decides with the anytime-valid test and its indifference zone (a core
-    // is established above τ − δ, its parts are not); the triage before it stays a fixed-n
-    // Wilson test at 80 %, a heuristic that only picks what to confirm.
+    // is established above τ − δ, its parts are not). The triage before it is a fixed-n Wilson
+    // test at 80 % against the same zone, a heuristic that only picks what to confirm: a set at
+    // 0.5 passes it in about 15 observations, where testing it against τ itself took 40.
     let confirm = params.confirm_rule().with_zone(params.delta);
-    let triage = params.confirm_rule().with_z(TRIAGE_Z);
+    let triage = confirm.with_z(TRIAGE_Z);
     let escalate = Rule { samples: ESCALATE.min(params.samples), ..triage };
     let search_rule = driver.rule();
     let mut searcher = PatternSearcher::new(params, space);

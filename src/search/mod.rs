@@ -173,10 +173,11 @@ pub const SHRINK_SHARE: u64 = 4;
 /// observations it is wrong about once in a hundred.
 pub const SHRINK_MAX_FACTOR: u32 = 4;
 
-/// Fresh confirmation keeps 1/`CONFIRM_SHARE` of the shrink budget: at the default 250, 125
-/// inferences, enough to confirm five strong cores (about 16 observations each at 0.85) with
-/// room for the weak candidates' first m.
-pub const CONFIRM_SHARE: u64 = 2;
+/// Fresh confirmation keeps 1/`CONFIRM_SHARE` of the shrink budget: at the default 250, 62
+/// inferences, enough to confirm three or four strong cores (about 16 observations each at
+/// 0.85); it also gets whatever the search and shrink phase leave. A half share left most of
+/// its 125 unspent on the graded profiles (one or two candidates a run).
+pub const CONFIRM_SHARE: u64 = 4;
 
 /// `--algo interact` confirms cores with up to this many times m observations.
 pub const CONFIRM_MAX_FACTOR: u32 = 8;
