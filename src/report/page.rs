@@ -10,7 +10,7 @@ use super::view::{CoreView, IndexPage, ModeRow, ObsView, VisibilityView, index_p
 use super::{Findings, Run};
 use crate::analysis::probe::{Mechanism, ProbeReport};
 use crate::analysis::transfer::{Transfer, TransferReport, pooled_counts};
-use crate::analysis::wilson95;
+use crate::analysis::{anytime95, wilson95};
 use crate::ir::Domain;
 use crate::search::interval::pct;
 
@@ -529,7 +529,7 @@ fn write_probe(out: &mut String, p: &ProbeReport) -> fmt::Result {
             "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td><span class=\"badge {}\">{}</span></td></tr>",
             Esc(&c.concept),
             Esc(&pct(c.recognition)),
-            Esc(&interval(wilson95(right, answered))),
+            Esc(&interval(anytime95(right, answered))),
             Esc(&counts(right, answered)),
             Esc(&pct(c.failure)),
             c.n,
@@ -582,7 +582,7 @@ fn write_probe(out: &mut String, p: &ProbeReport) -> fmt::Result {
             i + 1,
             Esc(&s.concepts.join(" + ")),
             Esc(&pct(s.fr)),
-            Esc(&interval(wilson95(u64::from(s.wrong), u64::from(s.answered)))),
+            Esc(&interval(anytime95(u64::from(s.wrong), u64::from(s.answered)))),
             Esc(&counts(u64::from(s.wrong), u64::from(s.answered)))
         )?;
     }
@@ -611,7 +611,7 @@ fn write_transfer_rows(out: &mut String, t: &Transfer, lines: &[crate::analysis:
                 "<td class=\"num{}\">{} <span class=\"ci\">{}</span></td>",
                 if hit { " hit" } else { "" },
                 Esc(&pct(s.target_fr.get(m).copied().flatten())),
-                Esc(&interval(wilson95(wrong, n)))
+                Esc(&interval(anytime95(wrong, n)))
             )?;
         }
         out.push_str("</tr>\n");
@@ -623,7 +623,7 @@ fn write_transfer(out: &mut String, r: &TransferReport) -> fmt::Result {
     let t = &r.transfer;
     writeln!(
         out,
-        "<section id=\"transfer\">\n<h2>Transfer to other models</h2>\n<p class=\"note\">From <code>transfer.json</code> (<code>revelio transfer</code>, paper RQ3): the run's top {} sets and {} random valid sets, {} observations each, asked of every model on the same scenes — each image rendered once and shown to all. M1 is the run's own model, asked again on those scenes. A set transfers to a model when its FR there is ≥ τ = {:.0}% (shaded). Brackets are 95% Wilson intervals.</p>\n<div class=\"card\">",
+        "<section id=\"transfer\">\n<h2>Transfer to other models</h2>\n<p class=\"note\">From <code>transfer.json</code> (<code>revelio transfer</code>, paper RQ3): the run's top {} sets and {} random valid sets, {} observations each, asked of every model on the same scenes — each image rendered once and shown to all. M1 is the run's own model, asked again on those scenes. A set transfers to a model when its FR there is ≥ τ = {:.0}% (shaded). Brackets are 95% intervals: anytime-valid per set, Wilson for the pooled MFR.</p>\n<div class=\"card\">",
         t.sets.len(),
         t.random.len(),
         t.samples,

@@ -430,7 +430,10 @@ pub async fn validate(
             "invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"
         )));
     }
-    let rule = Rule::sequential(samples, max_samples.unwrap_or(samples), config.params.threshold);
+    // Sequential validation stops by the anytime-valid test with the run's indifference zone:
+    // a set is topped up while its interval reaches both below τ − δ and above τ + δ.
+    let rule = Rule::sequential(samples, max_samples.unwrap_or(samples), config.params.threshold)
+        .with_zone(config.params.delta);
     let history = summary
         .sets
         .iter()
