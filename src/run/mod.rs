@@ -17,6 +17,8 @@ pub mod runner;
 pub mod setup;
 #[cfg(test)]
 mod shrink_tests;
+#[cfg(test)]
+mod confirm_tests;
 pub mod stop;
 pub mod summary;
 #[cfg(test)]
