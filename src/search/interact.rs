@@ -12,7 +12,9 @@
 //!   and this explaining use the confirmation rule's sequential test at 80 % ([`TRIAGE_Z`]),
 //!   which decides the many sets with a part of a failure mode's signal in half the
 //!   observations. A core this triage finds is shrunk again under the confirmation rule
-//!   itself ([`Params::confirm_rule`], 95 %): the core and its one-smaller subsets are topped up
+//!   itself ([`Params::confirm_rule`] with the indifference zone `--delta`: the anytime-valid
+//!   test of [`super::cs`], a core established above τ − δ): the core and its one-smaller
+//!   subsets are topped up
 //!   until they settle, and it is confirmed only if it still holds. A confirmed core's supersets
 //!   leave the open sets (exclusion) and it closes every pattern that holds it (conditioning), so
 //!   the next picks go looking for the next family. A failing set that does not lift over a

@@ -20,6 +20,12 @@
 //!
 //! Every rule tests the 95 % interval except where [`Rule::with_z`] narrows it: `--algo interact`
 //! triages at 80 % (`interact::TRIAGE_Z`) and confirms what the triage finds at 95 %.
+//!
+//! With an indifference zone ([`Rule::with_zone`]) the rule tests the anytime-valid interval
+//! ([`super::cs`]) against τ − δ and τ + δ instead of τ: a set is settled once it is established
+//! above τ − δ (it fails, [`Rule::fails`]) or below τ + δ (it passes). Interact confirms its cores
+//! this way (its triage uses the zone with the 80 % Wilson interval), and so does a sequential
+//! `validate`; the paper's searches keep the Wilson test against τ.
 
 use super::cs;
 use super::interval::{Z95, wilson_z};
