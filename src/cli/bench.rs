@@ -42,6 +42,8 @@ pub struct BenchArgs {
     pub what: BenchWhat,
 }
 
+// Parsed once per process: the size of the search variant's flags costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(clap::Subcommand, Debug)]
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
@@ -436,9 +438,10 @@ pub(crate) fn bench_one(
                 .iter()
                 .enumerate()
                 .filter(|(i, c)| {
-                    let [lo, hi] = intervals.get(*i).copied().unwrap_or_else(|| {
-                        r.history.iter().find(|s| s.set == **c).map_or([0.0, 1.0], SetStats::ci95)
-                    });
+                    let [lo, hi] = intervals
+                        .get(*i)
+                        .copied()
+                        .unwrap_or_else(|| r.history.iter().find(|s| s.set == **c).map_or([0.0, 1.0], SetStats::ci95));
                     let e = truth.error_for(**c);
                     lo <= e && e <= hi
                 })

@@ -293,7 +293,8 @@ pub fn print_summary(
         )?;
         for (i, c) in s.cores.iter().take(top).enumerate() {
             let star = if c.minimal { "" } else { "  (not fully shrunk)" };
-            let (cfr, cn) = c.confirmed.as_ref().map_or(("–".to_string(), 0), |r| (fr_ci_text(r.fr, r.ci95), r.answered));
+            let (cfr, cn) =
+                c.confirmed.as_ref().map_or(("–".to_string(), 0), |r| (fr_ci_text(r.fr, r.ci95), r.answered));
             let part = c.part.as_ref().map_or_else(String::new, |p| {
                 format!("  (part {} alone: {} of {})", p.concepts.join(" + "), pct(p.fr), p.answered)
             });

@@ -4,9 +4,9 @@
 use std::collections::BTreeSet;
 
 use super::{Findings, Run};
+use crate::analysis::anytime95;
 use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::Transfer;
-use crate::analysis::anytime95;
 use crate::outcome::Outcome;
 
 fn field(s: &str) -> String {

@@ -299,7 +299,12 @@ impl Run {
     }
 }
 
+/// A row's interval as its run wrote it (Wilson in older runs, anytime-valid since); from the
+/// counts (anytime-valid) when the run wrote none.
 fn row_ci(row: &SetRow) -> Option<(f64, f64)> {
+    if row.answered > 0 && row.ci95 != [0.0, 1.0] {
+        return Some((row.ci95[0], row.ci95[1]));
+    }
     anytime95(u64::from(row.wrong), u64::from(row.answered))
 }
 

@@ -46,7 +46,11 @@ fn a_graded_landscape_reports_no_false_core() {
             for core in &r.summary.cores {
                 let set = d.parse_set(&core.set.concepts).unwrap();
                 let truth = profile.error_for(set);
-                assert!(truth > 0.5, "{algo:?} seed {seed}: {:?} (true rate {truth}) reported as a core", core.set.concepts);
+                assert!(
+                    truth > 0.5,
+                    "{algo:?} seed {seed}: {:?} (true rate {truth}) reported as a core",
+                    core.set.concepts
+                );
                 let fresh = core.confirmed.as_ref().expect("a confirmed core carries its fresh evidence");
                 assert!(fresh.answered > 0 && fresh.ci95[0] > 0.5, "{fresh:?}");
             }

@@ -24,13 +24,13 @@ use super::progress::{Progress, ProgressTo};
 use super::setup::DEFAULT_CONCURRENCY;
 use super::stop::Stop;
 use super::summary::{
-    CONSISTENT_FR, CheckedRow, ConfirmSummary, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary, Spend, Summary, ValidatedSet,
-    Validation, validation_file,
+    CONSISTENT_FR, CheckedRow, ConfirmSummary, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary,
+    Spend, Summary, ValidatedSet, Validation, validation_file,
 };
 use super::{MAX_API_ERRORS, ResumeError, RunError};
+use crate::search::confirm::{self, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
-use crate::search::confirm::{self, Checked, Status};
 use crate::search::shrink::{self, Found};
 use crate::search::{Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 
@@ -244,10 +244,8 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
     if let Some((checked, spent, budget, parts)) = &confirmation {
         let row = |s: &SetStats| SetRow::new(&setup.domain, s);
-        let rows: Vec<CheckedRow> = checked
-            .iter()
-            .map(|c| CheckedRow { set: row(&c.stats), e_value: c.e, status: c.status })
-            .collect();
+        let rows: Vec<CheckedRow> =
+            checked.iter().map(|c| CheckedRow { set: row(&c.stats), e_value: c.e, status: c.status }).collect();
         for core in &mut summary.cores {
             let at = candidates.iter().position(|c| setup.domain.set_names(c.stats.set) == core.set.concepts);
             if let Some(i) = at {

@@ -233,7 +233,8 @@ mod tests {
             let (mut held, mut wilson_held) = ([0u32; 3], 0u32);
             for _ in 0..STREAMS {
                 let draws: Vec<bool> = (0..200).map(|_| rng.random::<f64>() < p).collect();
-                let stop_at = |fire: &dyn Fn(u32, u32, [f64; 2], [f64; 2]) -> bool, iv: &dyn Fn(u32, u32) -> [f64; 2]| {
+                let stop_at = |fire: &dyn Fn(u32, u32, [f64; 2], [f64; 2]) -> bool,
+                               iv: &dyn Fn(u32, u32) -> [f64; 2]| {
                     let (mut k, mut prev) = (0u32, [0.0, 1.0]);
                     for n in 1..=200u32 {
                         k += u32::from(draws[n as usize - 1]);
@@ -248,9 +249,8 @@ mod tests {
                 let dips = |_: u32, n: u32, prev: [f64; 2], now: [f64; 2]| n > 1 && now[1] < prev[1];
                 let crosses = |k: u32, n: u32, _: [f64; 2], _: [f64; 2]| f64::from(k) / f64::from(n) >= tau;
                 let missed = |_: u32, _: u32, _: [f64; 2], now: [f64; 2]| misses(now);
-                for (i, rule) in [&dips as &dyn Fn(u32, u32, [f64; 2], [f64; 2]) -> bool, &crosses, &missed]
-                    .into_iter()
-                    .enumerate()
+                for (i, rule) in
+                    [&dips as &dyn Fn(u32, u32, [f64; 2], [f64; 2]) -> bool, &crosses, &missed].into_iter().enumerate()
                 {
                     held[i] += u32::from(!misses(stop_at(rule, &cs)));
                 }

@@ -318,7 +318,9 @@ impl Params {
     /// The shrink phase's budget once the search spent `spent`.
     pub fn shrink_budget(&self, spent: u64) -> u64 {
         match self.algo {
-            Algo::Interact => (self.budget + self.shrink - self.confirm_reserve()).saturating_sub(spent.max(self.budget)),
+            Algo::Interact => {
+                (self.budget + self.shrink - self.confirm_reserve()).saturating_sub(spent.max(self.budget))
+            }
             _ => self.shrink - self.confirm_reserve(),
         }
     }
