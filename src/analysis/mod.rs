@@ -37,6 +37,25 @@ pub fn same_set(a: &[String], b: &[String]) -> bool {
     a.len() == b.len() && is_subset(a, b)
 }
 
+/// The 95 % anytime-valid interval ([`crate::search::cs`]) of `k` failures in `n` answered
+/// observations; `None` for n = 0. What every per-set rate (and probe's R(c)) is shown with:
+/// it holds however the command decided how many observations to make.
+pub fn anytime95(k: u64, n: u64) -> Option<(f64, f64)> {
+    if n == 0 {
+        return None;
+    }
+    match (u32::try_from(k.min(n)), u32::try_from(n)) {
+        (Ok(k), Ok(n)) => {
+            let [lo, hi] = crate::search::cs::interval(k, n);
+            Some((lo, hi))
+        }
+        _ => {
+            let p = k.min(n) as f64 / n as f64;
+            Some((p, p))
+        }
+    }
+}
+
 /// Wilson score 95 % interval ([`crate::search::interval::wilson`], the one the search's
 /// sequential test uses) of `k` failures in `n` answered observations; `None` for n = 0.
 ///

@@ -42,6 +42,8 @@ pub struct BenchArgs {
     pub what: BenchWhat,
 }
 
+// Parsed once per process: the size of the search variant's flags costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(clap::Subcommand, Debug)]
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
@@ -168,6 +170,17 @@ pub struct AlgoResult {
     /// one-smaller subset was evaluated and passes) and the share whose true error is ≥ τ.
     pub cores: Stat,
     pub core_precision: Stat,
+    /// Core precision pooled over seeds (true cores / all cores): a core is false when its true
+    /// error is ≤ τ − δ.
+    pub pooled_core_precision: Option<f64>,
+    /// Share of a run's cores whose reported interval (the confirmed one, when confirmation ran)
+    /// holds the core's true error.
+    pub coverage: Stat,
+    /// Borderline sets per run (confirmation candidates that reached the cap near τ).
+    pub borderline: Stat,
+    /// Realised false discovery proportion per run: false cores (true error ≤ τ − δ) over
+    /// cores, 0 without cores.
+    pub fdp: Stat,
     /// Share of planted modes that some core with observed FR ≥ τ contains.
     pub core_recovered: Stat,
     /// Share of planted modes reported exactly as a core.
@@ -227,6 +240,11 @@ pub(crate) struct RunFigures {
     recovered: Option<f64>,
     cores: f64,
     core_precision: Option<f64>,
+    /// (true cores, cores): for the pooled precision.
+    core_counts: (usize, usize),
+    coverage: Option<f64>,
+    borderline: f64,
+    fdp: f64,
     core_recovered: Option<f64>,
     exact: Option<f64>,
     us: f64,
@@ -319,6 +337,13 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                 recovered: col(&|r| r.recovered, share),
                 cores: col(&|r| Some(r.cores), count),
                 core_precision: col(&|r| r.core_precision, share),
+                pooled_core_precision: {
+                    let (t, n) = rows.iter().fold((0, 0), |(t, n), r| (t + r.core_counts.0, n + r.core_counts.1));
+                    (n > 0).then(|| t as f64 / n as f64)
+                },
+                coverage: col(&|r| r.coverage, share),
+                borderline: col(&|r| Some(r.borderline), count),
+                fdp: col(&|r| Some(r.fdp), share),
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
                 us_per_inference: col(&|r| Some(r.us), count),
@@ -379,12 +404,21 @@ pub(crate) fn bench_one(
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
     let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.search.threshold)).map(|s| s.set).collect();
+    // With confirmation, the reported cores are the confirmed ones and their interval is the
+    // fresh observations' (summary.json `cores[].confirmed`).
+    let intervals: Vec<[f64; 2]> = if r.summary.shrink.is_some() {
+        r.summary.cores.iter().map(|c| c.confirmed.as_ref().unwrap_or(&c.set).ci95).collect()
+    } else {
+        Vec::new()
+    };
     let cores: Vec<_> = if r.summary.shrink.is_some() {
         r.found.cores.iter().map(|c| c.stats.set).collect()
     } else {
         crate::search::shrink::minimal_failures(&r.history, space, args.search.threshold)
     };
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
+    // A core is true when its error is above τ − δ (inside the zone either answer is right).
+    let zone_low = args.search.threshold - args.search.delta + 1e-9;
     let per_mode: Vec<(bool, bool)> =
         planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
     let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
@@ -397,7 +431,29 @@ pub(crate) fn bench_one(
         precision: precision(truth, &modes, args.search.threshold),
         recovered: recovered(&r.history, planted, args.search.threshold),
         cores: cores.len() as f64,
-        core_precision: precision(truth, &cores, args.search.threshold),
+        core_precision: precision(truth, &cores, zone_low),
+        core_counts: (true_modes(truth, &cores, zone_low), cores.len()),
+        coverage: (!cores.is_empty()).then(|| {
+            let held = cores
+                .iter()
+                .enumerate()
+                .filter(|(i, c)| {
+                    let [lo, hi] = intervals
+                        .get(*i)
+                        .copied()
+                        .unwrap_or_else(|| r.history.iter().find(|s| s.set == **c).map_or([0.0, 1.0], SetStats::ci95));
+                    let e = truth.error_for(**c);
+                    lo <= e && e <= hi
+                })
+                .count();
+            held as f64 / cores.len() as f64
+        }),
+        borderline: r.summary.borderline.len() as f64,
+        fdp: if cores.is_empty() {
+            0.0
+        } else {
+            (cores.len() - true_modes(truth, &cores, zone_low)) as f64 / cores.len() as f64
+        },
         // Every core failed when it was confirmed (the shrink keeps failing subsets only).
         core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
         exact: share(per_mode.iter().filter(|m| m.1).count()),
@@ -446,7 +502,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     writeln!(
         w,
         "mean [95% interval over seeds]; FMs: failure modes reported, false: true error < τ, precision: share ≥ τ; \
-         planted found: held by a failure mode; recovered: held by a core; exact: reported as a core"
+         planted found: held by a failure mode; recovered: held by a core; exact: reported as a core; \
+         a core is false when its true error is ≤ τ − δ (δ = {}): core precision (pooled over seeds in \
+         parentheses), FDP: false cores / cores per run; coverage: cores whose interval holds the true error; \
+         borderline: candidates left near τ at the confirmation cap",
+        args.search.delta
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
         if s.n == 0 {
@@ -458,7 +518,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     let planted_col = |s: &Stat| if planted == 0 { "-".to_string() } else { f(s, 100.0, 0) };
     writeln!(
         w,
-        "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  µs/inference",
+        "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14} {:>16} {:>16} {:>14}  µs/inference",
         "algo",
         "PFM %",
         "MFR %",
@@ -470,13 +530,16 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         "cores",
         "core precision %",
         "recovered %",
-        "exact %"
+        "exact %",
+        "FDP %",
+        "coverage %",
+        "borderline"
     )?;
     for r in results {
         let name = label(r, args.search.samples);
         writeln!(
             w,
-            "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14}  {:.0}",
+            "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14} {:>16} {:>16} {:>14}  {:.0}",
             name,
             f(&r.pfm, 1.0, 1),
             f(&r.mfr, 1.0, 1),
@@ -486,9 +549,16 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             f(&r.precision, 100.0, 0),
             planted_col(&r.recovered),
             f(&r.cores, 1.0, 1),
-            f(&r.core_precision, 100.0, 0),
+            format!(
+                "{} ({})",
+                f(&r.core_precision, 100.0, 0),
+                r.pooled_core_precision.map_or_else(|| "-".into(), |p| format!("{:.0}", 100.0 * p))
+            ),
             planted_col(&r.core_recovered),
             planted_col(&r.exact),
+            f(&r.fdp, 100.0, 0),
+            f(&r.coverage, 100.0, 0),
+            f(&r.borderline, 1.0, 1),
             r.us_per_inference.mean
         )?;
     }

@@ -252,6 +252,14 @@ pub struct SearchFlags {
     /// Interact: supersets of a confirmed core (exclude, fallback, keep)
     #[arg(long, default_value = "fallback")]
     pub supersets: Supersets,
+    /// Indifference zone δ around τ: a reported core is established to fail above τ − δ, a set
+    /// passes once established below τ + δ; in between it is borderline
+    #[arg(long, default_value_t = crate::search::DEFAULT_DELTA)]
+    pub delta: f64,
+    /// False discovery rate q of the confirmed cores (e-BH over the candidates' fresh
+    /// confirmation observations)
+    #[arg(long, default_value_t = crate::search::DEFAULT_FDR)]
+    pub fdr: f64,
 }
 
 impl SearchFlags {
@@ -271,6 +279,8 @@ impl SearchFlags {
             max_size: self.max_size,
             surrogate: self.surrogate,
             supersets: self.supersets,
+            delta: self.delta,
+            fdr: self.fdr,
             ..Params::default()
         }
     }

@@ -18,6 +18,7 @@ use crate::run::setup::{self, Parts, SetupError};
 use crate::run::summary;
 use crate::run::summary::{RunConfig, Summary};
 use crate::search::gp::Kernel;
+use crate::search::interval::pct;
 use crate::search::{Algo, Params};
 
 use super::common::{ModelFlags, RunFlags, SearchFlags, algo_parser, fail_run, fr_ci_text, runtime, watch_ctrl_c};
@@ -259,6 +260,23 @@ pub fn print_summary(
             crate::search::shrink::LIFT_MAX_FACTOR * sh.max_samples
         )?;
     }
+    if let Some(c) = &s.confirmation {
+        writeln!(
+            w,
+            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} (zone τ ± {}, up to {} observations each, {} inferences of {}){}",
+            c.confirmed,
+            c.candidates,
+            c.q,
+            c.delta,
+            c.cap,
+            c.inferences,
+            c.budget,
+            match s.borderline.len() {
+                0 => String::new(),
+                n => format!("; {n} borderline"),
+            }
+        )?;
+    }
     writeln!(w, "spend: {}", s.spend.line())?;
     let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
     let flat: Vec<&crate::run::summary::NotDistinctRow> = s.shrink.iter().flat_map(|sh| &sh.not_distinct).collect();
@@ -272,7 +290,38 @@ pub fn print_summary(
     if s.cores.is_empty() && s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
     }
-    if !s.cores.is_empty() {
+    if !s.cores.is_empty() && s.confirmation.is_some() {
+        // Confirmed FR and interval from the fresh observations alone; the search's own
+        // evidence (which selected the core) beside it.
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>4}  {:<14}  {:>4}  {:<14}  {:>4}  {:>9}  confirmed minimal failure modes (cores)",
+            "#", "confirmed FR", "n", "search FR", "n", "supersets"
+        )?;
+        for (i, c) in s.cores.iter().take(top).enumerate() {
+            let star = if c.minimal { "" } else { "  (not fully shrunk)" };
+            let (cfr, cn) =
+                c.confirmed.as_ref().map_or(("–".to_string(), 0), |r| (fr_ci_text(r.fr, r.ci95), r.answered));
+            let part = c.part.as_ref().map_or_else(String::new, |p| {
+                format!("  (part {} alone: {} of {})", p.concepts.join(" + "), pct(p.fr), p.answered)
+            });
+            writeln!(
+                w,
+                "{:>4}  {:<14}  {:>4}  {:<14}  {:>4}  {:>9}  {}{star}{part}",
+                i + 1,
+                cfr,
+                cn,
+                fr_ci_text(c.set.fr, c.set.ci95),
+                c.set.answered,
+                c.supersets,
+                c.set.concepts.join(" + ")
+            )?;
+        }
+        if s.cores.len() > top {
+            writeln!(w, "      … {} more cores in summary.json", s.cores.len() - top)?;
+        }
+    } else if !s.cores.is_empty() {
         writeln!(w)?;
         writeln!(
             w,
@@ -293,6 +342,27 @@ pub fn print_summary(
         }
         if s.cores.len() > top {
             writeln!(w, "      … {} more cores in summary.json", s.cores.len() - top)?;
+        }
+    }
+    if !s.borderline.is_empty() {
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>4}  {:<14}  {:>4}  borderline: near τ after the confirmation cap, neither a core nor passing",
+            "#", "FR [95% CI]", "n"
+        )?;
+        for (i, r) in s.borderline.iter().take(top).enumerate() {
+            writeln!(
+                w,
+                "{:>4}  {:<14}  {:>4}  {}",
+                i + 1,
+                fr_ci_text(r.set.fr, r.set.ci95),
+                r.set.answered,
+                r.set.concepts.join(" + ")
+            )?;
+        }
+        if s.borderline.len() > top {
+            writeln!(w, "      … {} more in summary.json (`borderline`)", s.borderline.len() - top)?;
         }
     }
     if !rest.is_empty() {
@@ -390,6 +460,8 @@ mod tests {
             sets: failure_modes.clone(),
             failure_modes,
             shrink,
+            confirmation: None,
+            borderline: vec![],
             spend: crate::run::summary::Spend {
                 calls: 1000,
                 cached: 12,
@@ -426,6 +498,8 @@ mod tests {
             supersets,
             minimal,
             shrunk_from: vec![],
+            confirmed: None,
+            part: None,
         };
         let cores =
             vec![core(&["light_green", "obstruction_near"], 19, 20, 2, true), core(&["debris_far"], 7, 9, 1, false)];
@@ -443,6 +517,42 @@ mod tests {
         let mut out = Vec::new();
         let s = summary(modes, cores, Some(shrink));
         print_summary(&mut out, &s, 2, Path::new("runs/x"), Duration::from_millis(1500)).unwrap();
+        insta::assert_snapshot!(String::from_utf8(out).unwrap());
+    }
+
+    #[test]
+    fn summary_table_shows_confirmed_and_search_evidence_and_borderline_sets() {
+        use crate::run::summary::{CheckedRow, ConfirmSummary};
+        use crate::search::confirm::Status;
+        let modes = vec![SetRow { core: Some(0), ..row(&["pedestrian", "weather_foggy"], 5, 5) }];
+        let core = CoreRow {
+            set: row(&["pedestrian", "weather_foggy"], 14, 15),
+            supersets: 1,
+            minimal: true,
+            shrunk_from: vec![],
+            confirmed: Some(row(&["pedestrian", "weather_foggy"], 15, 17)),
+            part: Some(row(&["pedestrian"], 9, 18)),
+        };
+        let checked = |c: &[&str], w, n, status| CheckedRow { set: row(c, w, n), e_value: 1.0, status };
+        let rows = vec![
+            checked(&["pedestrian", "weather_foggy"], 15, 17, Status::Confirmed),
+            checked(&["cyclist", "light_red"], 22, 40, Status::Borderline),
+            checked(&["cone"], 1, 10, Status::Passes),
+        ];
+        let mut s = summary(modes, vec![core], None);
+        s.borderline = vec![rows[1].clone()];
+        s.confirmation = Some(ConfirmSummary {
+            q: 0.05,
+            delta: 0.1,
+            cap: 40,
+            budget: 125,
+            inferences: 67,
+            candidates: 3,
+            confirmed: 1,
+            checked: rows,
+        });
+        let mut out = Vec::new();
+        print_summary(&mut out, &s, 5, Path::new("runs/x"), Duration::from_millis(1500)).unwrap();
         insta::assert_snapshot!(String::from_utf8(out).unwrap());
     }
 }

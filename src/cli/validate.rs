@@ -1,6 +1,7 @@
 //! `revelio validate RUN_DIR --top 10 --samples 20 [--max-samples M]`: re-evaluate a run's top
 //! sets with fresh scenes (paper section 4) — sequentially with `--max-samples`: a set whose
-//! 95 % interval still straddles the run's τ gets more, up to M — journaled in the run folder;
+//! anytime-valid 95 % interval still reaches both below τ − δ and above τ + δ (the run's τ and
+//! δ) gets more, up to M — journaled in the run folder;
 //! reports each validated FR with its interval, mean ± sd FR and how many reach FR ≥ 0.8, then
 //! refreshes the run report.
 //!
@@ -36,8 +37,8 @@ pub struct ValidateArgs {
     /// Fresh observations per set
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
     pub samples: u32,
-    /// Sequential validation: a set whose 95 % interval still straddles the run's τ gets more
-    /// observations, up to M [default: --samples]
+    /// Sequential validation: a set whose anytime-valid 95 % interval still reaches both below
+    /// τ − δ and above τ + δ (the run's) gets more observations, up to M [default: --samples]
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
     #[command(flatten)]

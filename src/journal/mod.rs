@@ -59,6 +59,9 @@ pub enum Phase {
     Probe,
     /// `revelio transfer`: a run's top sets and random sets asked of other models.
     Transfer,
+    /// Fresh confirmation of a search's candidate cores: new scenes (a seed stream of its own,
+    /// indices past the search's), asked after the candidates were selected.
+    Confirm,
 }
 
 /// One observation, as one journal line.

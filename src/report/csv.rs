@@ -4,9 +4,9 @@
 use std::collections::BTreeSet;
 
 use super::{Findings, Run};
+use crate::analysis::anytime95;
 use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::Transfer;
-use crate::analysis::wilson95;
 use crate::outcome::Outcome;
 
 fn field(s: &str) -> String {
@@ -102,7 +102,7 @@ pub fn recognition(p: &ProbeReport) -> String {
     for c in &p.analysis.concepts {
         let m = &c.marks;
         let (right, answered) = (m.pos_correct + m.neg_correct, m.pos_total + m.neg_total);
-        let [lo, hi] = ci(wilson95(u64::from(right), u64::from(answered)));
+        let [lo, hi] = ci(anytime95(u64::from(right), u64::from(answered)));
         line(
             &mut out,
             &[

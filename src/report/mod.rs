@@ -28,7 +28,7 @@ use serde::Deserialize;
 
 use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::TransferReport;
-use crate::analysis::{self, is_subset, same_set, wilson95};
+use crate::analysis::{self, anytime95, is_subset, same_set};
 use crate::ir::Domain;
 use crate::journal::{Phase, Record, safe};
 use crate::outcome::Outcome;
@@ -252,7 +252,7 @@ impl Run {
                     Core {
                         concepts: c.concepts.clone(),
                         fr: c.fr,
-                        ci95: c.ci95.or_else(|| wilson95(u64::from(wrong), u64::from(c.answered))),
+                        ci95: c.ci95.or_else(|| anytime95(u64::from(wrong), u64::from(c.answered))),
                         wrong,
                         answered: c.answered,
                         supersets: c.supersets.unwrap_or_else(|| analysis::supersets(&c.concepts, modes)),
@@ -299,8 +299,13 @@ impl Run {
     }
 }
 
+/// A row's interval as its run wrote it (Wilson in older runs, anytime-valid since); from the
+/// counts (anytime-valid) when the run wrote none.
 fn row_ci(row: &SetRow) -> Option<(f64, f64)> {
-    wilson95(u64::from(row.wrong), u64::from(row.answered))
+    if row.answered > 0 && row.ci95 != [0.0, 1.0] {
+        return Some((row.ci95[0], row.ci95[1]));
+    }
+    anytime95(u64::from(row.wrong), u64::from(row.answered))
 }
 
 /// What `write` produced.

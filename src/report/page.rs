@@ -10,7 +10,7 @@ use super::view::{CoreView, IndexPage, ModeRow, ObsView, VisibilityView, index_p
 use super::{Findings, Run};
 use crate::analysis::probe::{Mechanism, ProbeReport};
 use crate::analysis::transfer::{Transfer, TransferReport, pooled_counts};
-use crate::analysis::wilson95;
+use crate::analysis::{anytime95, wilson95};
 use crate::ir::Domain;
 use crate::search::interval::pct;
 
@@ -63,6 +63,12 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     write_nav(out, p)?;
     write_metrics(out, p)?;
     write_cores(out, p)?;
+    if !p.borderline.is_empty() {
+        writeln!(out, "<section id=\"borderline\">\n<h2>Borderline ({})</h2>", p.borderline.len())?;
+        out.push_str("<p class=\"note\">Candidate cores whose fresh observations reached the per-set cap with their interval still reaching both below τ − δ and above τ + δ: near the threshold, neither failure modes nor passing. More observations would settle them.</p>\n<div class=\"card\">");
+        write_modes(out, &p.borderline)?;
+        out.push_str("</div>\n</section>\n\n");
+    }
     if !p.others.is_empty() {
         writeln!(out, "<section id=\"others\">\n<h2>Other failure modes ({})</h2>", p.others.len())?;
         let again = if p.refuted.is_empty() && p.not_distinct.is_empty() {
@@ -198,6 +204,9 @@ fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
         Esc(&c.fr),
         Esc(&c.ci)
     )?;
+    for line in c.evidence.iter().chain(&c.part) {
+        writeln!(out, "<p class=\"note\">{}</p>", Esc(line))?;
+    }
     writeln!(out, "<div class=\"facts\">\n<span><b>{}</b> wrong of <b>{}</b> answered</span>", c.wrong, c.answered)?;
     writeln!(out, "<span>validated: <b>{}</b></span>", Esc(&c.validated))?;
     writeln!(out, "<span><b>{}</b> failure modes of the search contain it</span>", c.supersets)?;
@@ -520,7 +529,7 @@ fn write_probe(out: &mut String, p: &ProbeReport) -> fmt::Result {
             "<tr><td><code>{}</code></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td><span class=\"badge {}\">{}</span></td></tr>",
             Esc(&c.concept),
             Esc(&pct(c.recognition)),
-            Esc(&interval(wilson95(right, answered))),
+            Esc(&interval(anytime95(right, answered))),
             Esc(&counts(right, answered)),
             Esc(&pct(c.failure)),
             c.n,
@@ -573,7 +582,7 @@ fn write_probe(out: &mut String, p: &ProbeReport) -> fmt::Result {
             i + 1,
             Esc(&s.concepts.join(" + ")),
             Esc(&pct(s.fr)),
-            Esc(&interval(wilson95(u64::from(s.wrong), u64::from(s.answered)))),
+            Esc(&interval(anytime95(u64::from(s.wrong), u64::from(s.answered)))),
             Esc(&counts(u64::from(s.wrong), u64::from(s.answered)))
         )?;
     }
@@ -602,7 +611,7 @@ fn write_transfer_rows(out: &mut String, t: &Transfer, lines: &[crate::analysis:
                 "<td class=\"num{}\">{} <span class=\"ci\">{}</span></td>",
                 if hit { " hit" } else { "" },
                 Esc(&pct(s.target_fr.get(m).copied().flatten())),
-                Esc(&interval(wilson95(wrong, n)))
+                Esc(&interval(anytime95(wrong, n)))
             )?;
         }
         out.push_str("</tr>\n");
@@ -614,7 +623,7 @@ fn write_transfer(out: &mut String, r: &TransferReport) -> fmt::Result {
     let t = &r.transfer;
     writeln!(
         out,
-        "<section id=\"transfer\">\n<h2>Transfer to other models</h2>\n<p class=\"note\">From <code>transfer.json</code> (<code>revelio transfer</code>, paper RQ3): the run's top {} sets and {} random valid sets, {} observations each, asked of every model on the same scenes — each image rendered once and shown to all. M1 is the run's own model, asked again on those scenes. A set transfers to a model when its FR there is ≥ τ = {:.0}% (shaded). Brackets are 95% Wilson intervals.</p>\n<div class=\"card\">",
+        "<section id=\"transfer\">\n<h2>Transfer to other models</h2>\n<p class=\"note\">From <code>transfer.json</code> (<code>revelio transfer</code>, paper RQ3): the run's top {} sets and {} random valid sets, {} observations each, asked of every model on the same scenes — each image rendered once and shown to all. M1 is the run's own model, asked again on those scenes. A set transfers to a model when its FR there is ≥ τ = {:.0}% (shaded). Brackets are 95% intervals: anytime-valid per set, Wilson for the pooled MFR.</p>\n<div class=\"card\">",
         t.sets.len(),
         t.random.len(),
         t.samples,

@@ -265,7 +265,7 @@ fn csv_tables_hold_every_set_and_outcome() {
     let lines: Vec<&str> = sets.lines().collect();
     assert_eq!(lines[0], "order,concepts,size,fr,ci95_lo,ci95_hi,wrong,answered,observations,failure_mode,unparsed");
     assert_eq!(lines.len(), 1 + SETS.len());
-    assert_eq!(lines[4], "4,town_town01,1,0.0000,0.0000,0.4899,0,4,5,false,1");
+    assert_eq!(lines[4], "4,town_town01,1,0.0000,0.0000,0.6838,0,4,5,false,1");
 }
 
 #[test]
@@ -449,7 +449,7 @@ fn probe_transfer_and_visibility_sections() {
         p.contains("<code>sim:&#60;evil&#62;@1</code>") && !html.contains("<evil>") && !html.contains("<b>cone</b>")
     );
     assert!(p.contains(
-        "<tr><td><code>debris_far</code></td><td class=\"num\">11%</td><td class=\"num\">[3–33%]</td><td class=\"num\">2/18</td><td class=\"num\">90%</td><td class=\"num\">2</td><td><span class=\"badge o-wrong\">recognition</span></td></tr>"
+        "<tr><td><code>debris_far</code></td><td class=\"num\">11%</td><td class=\"num\">[0–44%]</td><td class=\"num\">2/18</td><td class=\"num\">90%</td><td class=\"num\">2</td><td><span class=\"badge o-wrong\">recognition</span></td></tr>"
     ), "{p}");
     assert!(p.contains("<span class=\"badge o-correct\">reasoning</span>"));
     assert!(p.contains("<code>&#60;b&#62;cone&#60;/b&#62;</code> + <code>debris_far</code>"), "the lift table");
@@ -463,7 +463,7 @@ fn probe_transfer_and_visibility_sections() {
         assert!(html.contains(&format!("<a href=\"{nav}\">")), "{nav} in the navigation");
     }
     let csv = std::fs::read_to_string(out.join("recognition.csv")).unwrap();
-    assert!(csv.lines().any(|l| l.starts_with("debris_far,0.1111,0.0310,0.3280,2,18,2,0.9000,2,recognition")), "{csv}");
+    assert!(csv.lines().any(|l| l.starts_with("debris_far,0.1111,0.0043,0.4421,2,18,2,0.9000,2,recognition")), "{csv}");
     let csv = std::fs::read_to_string(out.join("transfer.csv")).unwrap();
     assert_eq!(
         csv.lines().next().unwrap(),

@@ -88,6 +88,11 @@ pub struct CoreView {
     pub observations: Vec<ObsView>,
     /// Where the visibility guard had to redraw or withhold this core's scenes.
     pub visibility: Option<String>,
+    /// The fresh confirmation's rate and interval beside the search's evidence (runs with
+    /// confirmation).
+    pub evidence: Option<String>,
+    /// The core's near-threshold part and its own rate.
+    pub part: Option<String>,
 }
 
 pub struct ConceptRow {
@@ -125,6 +130,8 @@ pub struct IndexPage<'a> {
     pub refuted: Vec<ModeRow>,
     /// Failing sets that do not fail more than a passing part, each with that part's row.
     pub not_distinct: Vec<(ModeRow, ModeRow)>,
+    /// Confirmation candidates left near τ at the per-set cap (fresh observations).
+    pub borderline: Vec<ModeRow>,
     pub concepts: Vec<ConceptRow>,
     pub heatmap: &'a str,
     /// Evaluated pairs, highest rate first: the heatmap's numbers.
@@ -287,6 +294,13 @@ fn mode_row(run: &Run, i: usize) -> ModeRow {
     }
 }
 
+/// The summary's core row with these concepts, and the confirmation's q (runs with
+/// confirmation only).
+fn confirmed_row<'r>(run: &'r Run, concepts: &[String]) -> Option<(&'r crate::run::summary::CoreRow, f64)> {
+    let q = run.summary.confirmation.as_ref()?.q;
+    run.summary.cores.iter().find(|c| crate::analysis::same_set(&c.set.concepts, concepts)).map(|c| (c, q))
+}
+
 fn core_view(
     run: &Run,
     domain: Option<&Domain>,
@@ -333,6 +347,28 @@ fn core_view(
         verdict_error,
         observations,
         visibility: visibility_text(&crate::analysis::visibility(&f.core_observations[i])),
+        evidence: confirmed_row(run, &c.concepts).and_then(|(core, q)| {
+            core.confirmed.as_ref().map(|r| {
+                format!(
+                    "Confirmed on {} fresh observations made after it was selected: {} {} (anytime-valid 95%; e-BH at q = {q}). The search's own evidence, which selected it: {} {} of {}.",
+                    r.answered,
+                    pct(r.fr),
+                    interval(Some((r.ci95[0], r.ci95[1]))),
+                    pct(core.set.fr),
+                    interval(Some((core.set.ci95[0], core.set.ci95[1]))),
+                    core.set.answered
+                )
+            })
+        }),
+        part: confirmed_row(run, &c.concepts).and_then(|(core, _)| core.part.as_ref()).map(|p| {
+            format!(
+                "Near-threshold part: {} alone fails {} {} of {}; the core adds what lifts it.",
+                p.concepts.join(" + "),
+                pct(p.fr),
+                interval(Some((p.ci95[0], p.ci95[1]))),
+                p.answered
+            )
+        }),
     }
 }
 
@@ -547,13 +583,23 @@ pub fn index_page<'a>(
         .enumerate()
         .map(|(i, r)| (row(i, &r.set), row(i, &r.by)))
         .collect();
+    let borderline = s.borderline.iter().enumerate().map(|(i, r)| row(i, &r.set)).collect();
     let (outcome_phases, outcome_rows) = outcome_table(f);
-    let cores_note = if f.shrunk {
+    let cores_note = if let Some(c) = &s.confirmation {
+        format!(
+            "{} of {} candidate cores confirmed. Each candidate is a smallest set the search found failing, established above τ − δ = {:.2} by an anytime-valid test, whose parts one concept smaller are not; it is then asked again on fresh scenes, after it was selected, and reported only if e-BH across all candidates confirms it at a false discovery rate of q = {} (a core is false when its true rate is ≤ τ − δ). Its rate and interval below are the fresh observations' alone.",
+            c.confirmed,
+            c.candidates,
+            s.threshold - c.delta,
+            c.q
+        )
+    } else if f.shrunk {
         "Each core is a smallest set that still fails by the sequential test and fails significantly more often than each of its parts one concept smaller (found by shrinking the strongest failure families); every failure mode is listed under the first core it contains."
+            .to_string()
     } else {
         "This run has no shrink phase: the cores shown are its minimal failure modes — failure modes none of whose evaluated subsets failed. A smaller failing subset may exist that the search never evaluated."
-    }
-    .to_string();
+            .to_string()
+    };
     let mut notes: Vec<String> = run.unreadable.iter().map(|e| format!("Left out: {e}.")).collect();
     let all = crate::analysis::latest_observations(&run.records);
     let mut files = vec![
@@ -584,6 +630,7 @@ pub fn index_page<'a>(
         others,
         refuted,
         not_distinct,
+        borderline,
         concepts,
         heatmap,
         pairs: pair_rows(&f.pairs),

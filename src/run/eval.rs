@@ -51,6 +51,7 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
         Phase::Shrink => 0x5348_5249_4e4b,
         Phase::Probe => 0x0050_524f_4245,
         Phase::Transfer => 0x5452_414e_5346,
+        Phase::Confirm => 0x434f_4e46_524d,
     };
     let mut h = mix(run_seed ^ p);
     h = mix(h ^ key.set.0 as u64);
@@ -185,7 +186,7 @@ impl Evaluator {
         if outcome.asked_a_model() {
             self.spend.add(usage, cached);
         }
-        if key.phase == Phase::Shrink {
+        if matches!(key.phase, Phase::Shrink | Phase::Confirm) {
             if let Some(p) = &self.progress {
                 p.inc(&self.spend);
             }

@@ -24,10 +24,11 @@ use super::progress::{Progress, ProgressTo};
 use super::setup::DEFAULT_CONCURRENCY;
 use super::stop::Stop;
 use super::summary::{
-    CONSISTENT_FR, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary, Spend, Summary, ValidatedSet,
-    Validation, validation_file,
+    CONSISTENT_FR, CheckedRow, ConfirmSummary, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary,
+    Spend, Summary, ValidatedSet, Validation, validation_file,
 };
 use super::{MAX_API_ERRORS, ResumeError, RunError};
+use crate::search::confirm::{self, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
 use crate::search::shrink::{self, Found};
@@ -192,8 +193,12 @@ pub struct RunReport {
     pub summary: Summary,
     /// The search's evaluated sets (before the shrink phase).
     pub history: Vec<SetStats>,
-    /// The shrink phase's cores and refuted failure modes (empty when it was off).
+    /// The shrink phase's cores — with confirmation, only the confirmed ones — and refuted
+    /// failure modes (empty when it was off).
     pub found: Found,
+    /// Every candidate core after fresh confirmation, in the shrink phase's order (`None`
+    /// without a shrink phase).
+    pub confirmation: Option<Vec<Checked>>,
     /// Observations served from the journal (a resumed run).
     pub replayed: u64,
     pub dropped_torn_line: bool,
@@ -225,11 +230,41 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     if let Some(mut p) = eval.progress.take() {
         p.finish();
     }
-    let (history, found, shrink) = match result {
+    let (history, mut found, shrink, confirmation) = match result {
         Ok(r) => r,
         Err(e) => return Err(run_error(e)),
     };
+    // Only the confirmed candidates are reported as cores.
+    let candidates = found.cores.clone();
+    if let Some((checked, _, _, _)) = &confirmation {
+        let kept: Vec<ConceptSet> =
+            checked.iter().filter(|c| c.status == Status::Confirmed).map(|c| c.stats.set).collect();
+        found.cores.retain(|c| kept.contains(&c.stats.set));
+    }
     let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
+    if let Some((checked, spent, budget, parts)) = &confirmation {
+        let row = |s: &SetStats| SetRow::new(&setup.domain, s);
+        let rows: Vec<CheckedRow> =
+            checked.iter().map(|c| CheckedRow { set: row(&c.stats), e_value: c.e, status: c.status }).collect();
+        for core in &mut summary.cores {
+            let at = candidates.iter().position(|c| setup.domain.set_names(c.stats.set) == core.set.concepts);
+            if let Some(i) = at {
+                core.confirmed = Some(rows[i].set.clone());
+                core.part = parts[i].as_ref().map(row);
+            }
+        }
+        summary.borderline = rows.iter().filter(|r| r.status == Status::Borderline).cloned().collect();
+        summary.confirmation = Some(ConfirmSummary {
+            q: params.fdr,
+            delta: params.delta,
+            cap: params.confirm_plan(0).cap,
+            budget: *budget,
+            inferences: *spent,
+            candidates: rows.len(),
+            confirmed: rows.iter().filter(|r| r.status == Status::Confirmed).count(),
+            checked: rows,
+        });
+    }
     summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
         budget: params.shrink,
         inferences,
@@ -252,6 +287,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         summary,
         history,
         found,
+        confirmation: confirmation.map(|c| c.0),
         replayed: eval.replayed,
         dropped_torn_line,
         set_aside,
@@ -267,16 +303,22 @@ fn run_error(e: SearchError<RunError>) -> RunError {
     }
 }
 
-/// The search, then the shrink phase: the search's history, the shrink's findings, and (when it
-/// ran) the shrink's inferences and the subsets it evaluated beyond the search.
+/// What fresh confirmation gave: every candidate checked, the inferences spent and given, and
+/// per candidate its near-threshold part (the one-smaller subset that fails most, when its
+/// observed rate is at least τ − 2δ: within δ of the zone).
+type Confirmed = (Vec<Checked>, u64, u64, Vec<Option<SetStats>>);
+
+/// The search, then the shrink phase, then fresh confirmation of the shrink's cores: the
+/// search's history, the shrink's findings, (when it ran) the shrink's inferences and the
+/// subsets it evaluated beyond the search, and the confirmation.
 async fn search_and_shrink(
     params: &Params,
     space: &Space,
     eval: &mut Evaluator,
-) -> Searched<(Vec<SetStats>, Found, Option<(u64, usize)>), Evaluator> {
+) -> Searched<(Vec<SetStats>, Found, Option<(u64, usize)>, Option<Confirmed>), Evaluator> {
     let history = crate::search::run(params, space, eval).await?;
     if params.shrink == 0 {
-        return Ok((history, Found::default(), None));
+        return Ok((history, Found::default(), None, None));
     }
     eval.phase = Phase::Shrink;
     if let Some(p) = &eval.progress {
@@ -286,7 +328,33 @@ async fn search_and_shrink(
     let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink_budget(spent), history.clone());
     let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
     let shrink = (driver.spent(), driver.history.len() - history.len());
-    Ok((history, found, Some(shrink)))
+    let everything = driver.history;
+    // Confirmation: what the search and the shrink phase left of budget + shrink (at least the
+    // reserve), on fresh scenes: a phase of its own, indices past every earlier observation.
+    let budget = (params.budget + params.shrink).saturating_sub(spent + shrink.0);
+    eval.phase = Phase::Confirm;
+    if let Some(p) = &eval.progress {
+        p.set_label("confirm");
+    }
+    let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
+    let candidates: Vec<(ConceptSet, u32)> =
+        found.cores.iter().map(|c| (c.stats.set, of(c.stats.set).map_or(0, SetStats::observations))).collect();
+    let (checked, confirm_spent) = confirm::confirm(eval, &candidates, params.confirm_plan(budget)).await?;
+    let near = params.threshold - 2.0 * params.delta;
+    let parts = found
+        .cores
+        .iter()
+        .map(|c| {
+            c.stats
+                .set
+                .one_smaller()
+                .filter_map(of)
+                .filter(|s| s.fr().is_some_and(|f| f >= near))
+                .max_by(|a, b| a.value().total_cmp(&b.value()).then(b.set.cmp(&a.set)))
+                .cloned()
+        })
+        .collect();
+    Ok((history, found, Some(shrink), Some((checked, confirm_spent, budget, parts))))
 }
 
 pub fn summarize(
@@ -318,11 +386,15 @@ pub fn summarize(
                 supersets,
                 minimal: c.minimal,
                 shrunk_from: names(c.root),
+                confirmed: None,
+                part: None,
             })
             .collect(),
         failure_modes: modes.iter().zip(family).map(|(s, core)| SetRow { core, ..SetRow::new(domain, s) }).collect(),
         sets: history.iter().map(|s| SetRow::new(domain, s)).collect(),
         shrink: None,
+        confirmation: None,
+        borderline: Vec::new(),
         spend,
     }
 }
@@ -356,7 +428,10 @@ pub async fn validate(
             "invalid `--max-samples`: must be at least `--samples` ({samples}), got {max}"
         )));
     }
-    let rule = Rule::sequential(samples, max_samples.unwrap_or(samples), config.params.threshold);
+    // Sequential validation stops by the anytime-valid test with the run's indifference zone:
+    // a set is topped up while its interval reaches both below τ − δ and above τ + δ.
+    let rule = Rule::sequential(samples, max_samples.unwrap_or(samples), config.params.threshold)
+        .with_zone(config.params.delta);
     let history = summary
         .sets
         .iter()

@@ -140,7 +140,8 @@ pub struct SetRow {
     pub concepts: Vec<String>,
     /// Failure rate over answered observations (`None`: nothing answered).
     pub fr: Option<f64>,
-    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
+    /// 95 % interval of the failure rate: anytime-valid ([`crate::search::cs`]) in runs written
+    /// since it existed, Wilson's before (`[0, 1]` when nothing was answered).
     #[serde(default = "unit_interval")]
     pub ci95: [f64; 2],
     pub wrong: u32,
@@ -164,7 +165,7 @@ impl SetRow {
         SetRow {
             concepts: concepts.iter().map(|c| c.to_string()).collect(),
             fr: (answered > 0).then(|| f64::from(wrong) / f64::from(answered)),
-            ci95: crate::search::interval::wilson(wrong, answered),
+            ci95: crate::search::cs::interval(wrong, answered),
             wrong,
             answered,
             observations: answered,
@@ -200,6 +201,44 @@ pub struct CoreRow {
     pub minimal: bool,
     /// The failure mode it was shrunk from.
     pub shrunk_from: Vec<String>,
+    /// Its fresh confirmation: the observations made after it was selected, alone, with their
+    /// anytime-valid interval (absent in runs without confirmation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmed: Option<SetRow>,
+    /// Its one-smaller subset that fails most, when that part's observed rate is at least
+    /// τ − 2δ (within δ of the zone): the core owes part of its rate to it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<SetRow>,
+}
+
+/// Fresh confirmation in `summary.json`: the candidate cores, each confirmed on observations
+/// made after it was selected, and e-BH across them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConfirmSummary {
+    /// The false discovery rate e-BH held the confirmed cores to.
+    pub q: f64,
+    /// The indifference zone δ around τ.
+    pub delta: f64,
+    /// Most fresh observations a candidate got (the per-set cap).
+    pub cap: u32,
+    /// Inferences it was given and spent.
+    pub budget: u64,
+    pub inferences: u64,
+    /// Candidates sent to confirmation, and how many of them e-BH confirmed.
+    pub candidates: usize,
+    pub confirmed: usize,
+    /// Every candidate with its fresh observations, e-value and status.
+    pub checked: Vec<CheckedRow>,
+}
+
+/// One candidate after confirmation: its fresh observations only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CheckedRow {
+    #[serde(flatten)]
+    pub set: SetRow,
+    /// The e-value against "its rate is ≤ τ − δ" from the fresh observations.
+    pub e_value: f64,
+    pub status: crate::search::confirm::Status,
 }
 
 /// The shrink phase in `summary.json`.
@@ -252,6 +291,14 @@ pub struct Summary {
     /// The shrink phase (absent when it was off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shrink: Option<ShrinkSummary>,
+    /// Fresh confirmation of the candidate cores (absent without a shrink phase, and in runs
+    /// written before it existed: their `cores` are unconfirmed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmation: Option<ConfirmSummary>,
+    /// Candidates that reached the confirmation cap with their interval straddling the zone
+    /// around τ: near the threshold, neither cores nor passing (fresh observations).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub borderline: Vec<CheckedRow>,
     /// Tokens and money of the run's observations, every phase (its model's usage and
     /// configured prices).
     #[serde(default)]
@@ -339,7 +386,17 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Summary), RunError> {
 fn summary_sets(summary: &Summary) -> impl Iterator<Item = &SetRow> {
     let shrink =
         summary.shrink.iter().flat_map(|s| s.refuted.iter().chain(s.not_distinct.iter().flat_map(|n| [&n.set, &n.by])));
-    summary.sets.iter().chain(&summary.failure_modes).chain(summary.cores.iter().map(|c| &c.set)).chain(shrink)
+    let confirmed = summary.confirmation.iter().flat_map(|c| c.checked.iter().map(|r| &r.set));
+    let parts = summary.cores.iter().flat_map(|c| c.confirmed.iter().chain(&c.part));
+    summary
+        .sets
+        .iter()
+        .chain(&summary.failure_modes)
+        .chain(summary.cores.iter().map(|c| &c.set))
+        .chain(shrink)
+        .chain(confirmed)
+        .chain(parts)
+        .chain(summary.borderline.iter().map(|r| &r.set))
 }
 
 /// A summary read from a run folder sizes what is computed from it (the report's pair matrix

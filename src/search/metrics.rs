@@ -61,8 +61,14 @@ impl SetStats {
         self.fr().is_some_and(|fr| fr >= threshold)
     }
 
-    /// 95 % Wilson interval of the failure rate (`[0, 1]` when nothing was answered).
+    /// 95 % anytime-valid interval of the failure rate ([`super::cs`]: it holds however the
+    /// search chose to stop asking about the set; `[0, 1]` when nothing was answered).
     pub fn ci95(&self) -> [f64; 2] {
+        super::cs::interval(self.wrong, self.answered())
+    }
+
+    /// The fixed-n Wilson interval: what the searches steer by (not what they report).
+    pub fn wilson95(&self) -> [f64; 2] {
         super::interval::wilson(self.wrong, self.answered())
     }
 

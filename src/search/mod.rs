@@ -20,6 +20,9 @@
 //! and [`shrink::shrink`] reduces one failing set to a minimal failing subset through a driver.
 
 pub mod beam;
+pub mod confirm;
+pub mod cs;
+pub mod ebh;
 pub mod gp;
 pub mod gp_rbf;
 pub mod gpts;
@@ -122,6 +125,36 @@ pub struct Params {
     /// Inferences for shrinking failure modes to cores after the search (0: no shrink phase).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shrink: u64,
+    /// The indifference zone δ around τ of the anytime-valid test ([`cs`]): a reported core is
+    /// established above τ − δ, a set passes once established below τ + δ (`--delta`).
+    #[serde(default = "default_delta", skip_serializing_if = "is_default_delta")]
+    pub delta: f64,
+    /// The false discovery rate q the confirmed cores are held to by e-BH ([`ebh`], `--fdr`).
+    #[serde(default = "default_fdr", skip_serializing_if = "is_default_fdr")]
+    pub fdr: f64,
+}
+
+/// The default indifference zone δ: a 0.85 mode is established above τ − δ = 0.5 in about 10
+/// observations, a 0.7 one in about 40; testing against τ itself would take hundreds.
+pub const DEFAULT_DELTA: f64 = 0.1;
+
+/// The default false discovery rate of the confirmed cores.
+pub const DEFAULT_FDR: f64 = 0.05;
+
+fn default_delta() -> f64 {
+    DEFAULT_DELTA
+}
+
+fn is_default_delta(x: &f64) -> bool {
+    *x == DEFAULT_DELTA
+}
+
+fn default_fdr() -> f64 {
+    DEFAULT_FDR
+}
+
+fn is_default_fdr(x: &f64) -> bool {
+    *x == DEFAULT_FDR
 }
 
 fn is_zero(x: &u64) -> bool {
@@ -139,6 +172,12 @@ pub const SHRINK_SHARE: u64 = 4;
 /// wrong one time in four at an error of 0.35 (a single concept's partial effect); at up to 20
 /// observations it is wrong about once in a hundred.
 pub const SHRINK_MAX_FACTOR: u32 = 4;
+
+/// Fresh confirmation keeps 1/`CONFIRM_SHARE` of the shrink budget: at the default 250, 62
+/// inferences, enough to confirm three or four strong cores (about 16 observations each at
+/// 0.85); it also gets whatever the search and shrink phase leave. A half share left most of
+/// its 125 unspent on the graded profiles (one or two candidates a run).
+pub const CONFIRM_SHARE: u64 = 4;
 
 /// `--algo interact` confirms cores with up to this many times m observations.
 pub const CONFIRM_MAX_FACTOR: u32 = 8;
@@ -162,6 +201,8 @@ impl Default for Params {
             supersets: interact::Supersets::default(),
             max_samples: None,
             shrink: 0,
+            delta: DEFAULT_DELTA,
+            fdr: DEFAULT_FDR,
         }
     }
 }
@@ -226,6 +267,12 @@ impl Params {
                 ),
             );
         }
+        if !(self.delta >= 0.0 && self.delta < 0.5) {
+            return bad("delta", &format!("must be at least 0 and below 0.5, got {}", self.delta));
+        }
+        if !(self.fdr > 0.0 && self.fdr < 1.0) {
+            return bad("fdr", &format!("must be above 0 and below 1, got {}", self.fdr));
+        }
         if self.algo == Algo::Gpts && self.kernel == gp::Kernel::Rbf && self.max_size > gp_rbf::MAX_DRAW_SET {
             return bad(
                 "kernel",
@@ -263,7 +310,7 @@ impl Params {
     /// leaves: [`Params::shrink_budget`]). Every algorithm spends at most budget + shrink in all.
     pub fn search_budget(&self) -> u64 {
         match self.algo {
-            Algo::Interact => self.budget + self.shrink,
+            Algo::Interact => self.budget + self.shrink - self.confirm_reserve(),
             _ => self.budget,
         }
     }
@@ -271,8 +318,29 @@ impl Params {
     /// The shrink phase's budget once the search spent `spent`.
     pub fn shrink_budget(&self, spent: u64) -> u64 {
         match self.algo {
-            Algo::Interact => (self.budget + self.shrink).saturating_sub(spent.max(self.budget)),
-            _ => self.shrink,
+            Algo::Interact => {
+                (self.budget + self.shrink - self.confirm_reserve()).saturating_sub(spent.max(self.budget))
+            }
+            _ => self.shrink - self.confirm_reserve(),
+        }
+    }
+
+    /// Inferences kept for fresh confirmation ([`confirm`]) out of the shrink budget:
+    /// 1/[`CONFIRM_SHARE`] of it (0 without a shrink phase: no cores, nothing to confirm).
+    /// Confirmation also gets whatever the search and the shrink phase leave.
+    pub fn confirm_reserve(&self) -> u64 {
+        self.shrink / CONFIRM_SHARE
+    }
+
+    /// How fresh confirmation runs with these parameters and `budget` inferences.
+    pub fn confirm_plan(&self, budget: u64) -> confirm::Plan {
+        confirm::Plan {
+            tau: self.threshold,
+            delta: self.delta,
+            q: self.fdr,
+            batch: self.samples,
+            cap: self.confirm_rule().max_samples,
+            budget,
         }
     }
 

@@ -221,7 +221,7 @@ impl Patterns {
         // A core fails by definition: a pattern whose own answers pass (the 95 % interval of its
         // failure rate below τ) is none, whatever its supersets did.
         let mut cleared = vec![false; self.pats.len()];
-        for s in history.iter().filter(|s| s.answered() > 0 && s.ci95()[1] < threshold) {
+        for s in history.iter().filter(|s| s.answered() > 0 && s.wilson95()[1] < threshold) {
             if let Some(&j) = self.index.get(&s.set) {
                 cleared[j as usize] = true;
             }

@@ -20,7 +20,14 @@
 //!
 //! Every rule tests the 95 % interval except where [`Rule::with_z`] narrows it: `--algo interact`
 //! triages at 80 % (`interact::TRIAGE_Z`) and confirms what the triage finds at 95 %.
+//!
+//! With an indifference zone ([`Rule::with_zone`]) the rule tests the anytime-valid interval
+//! ([`super::cs`]) against τ − δ and τ + δ instead of τ: a set is settled once it is established
+//! above τ − δ (it fails, [`Rule::fails`]) or below τ + δ (it passes). Interact confirms its cores
+//! this way (its triage uses the zone with the 80 % Wilson interval), and so does a sequential
+//! `validate`; the paper's searches keep the Wilson test against τ.
 
+use super::cs;
 use super::interval::{Z95, wilson_z};
 use super::metrics::SetStats;
 
@@ -35,32 +42,63 @@ pub struct Rule {
     pub threshold: f64,
     /// The normal quantile of the interval tested against τ ([`Z95`]: the 95 % interval).
     pub z: f64,
+    /// An indifference zone δ: a set is settled when its interval lies above τ − δ (it fails)
+    /// or below τ + δ (it passes). `None`: the interval is tested against τ itself (the paper's
+    /// searches).
+    pub zone: Option<f64>,
+    /// Whether the interval is the 95 % anytime-valid confidence sequence ([`super::cs`]; `z`
+    /// is then unused) rather than the fixed-n Wilson interval at `z`.
+    pub anytime: bool,
 }
 
 impl Rule {
     /// The paper's estimator: exactly `samples` observations per set.
     pub fn fixed(samples: u32, threshold: f64) -> Rule {
-        Rule { samples, max_samples: samples, threshold, z: Z95 }
+        Rule { samples, max_samples: samples, threshold, z: Z95, zone: None, anytime: false }
     }
 
     /// The sequential rule: m observations, then up to M while the 95 % interval straddles τ.
     pub fn sequential(samples: u32, max_samples: u32, threshold: f64) -> Rule {
-        Rule { samples, max_samples, threshold, z: Z95 }
+        Rule { samples, max_samples, threshold, z: Z95, zone: None, anytime: false }
     }
 
-    /// The same rule with a `z` interval.
+    /// The same rule with a fixed-n Wilson interval at `z`.
     pub fn with_z(self, z: f64) -> Rule {
-        Rule { z, ..self }
+        Rule { z, anytime: false, ..self }
+    }
+
+    /// The interval of `wrong` of `answered` this rule tests.
+    pub fn interval(&self, wrong: u32, answered: u32) -> [f64; 2] {
+        if self.anytime { cs::interval(wrong, answered) } else { wilson_z(wrong, answered, self.z) }
+    }
+
+    /// The same rule decided by the anytime-valid test with indifference zone `delta` (a
+    /// later [`Rule::with_z`] keeps the zone with a Wilson interval: a triage).
+    pub fn with_zone(self, delta: f64) -> Rule {
+        Rule { zone: Some(delta), anytime: true, ..self }
+    }
+
+    /// Whether the set counts as failing under this rule: established above τ − δ by the
+    /// confidence sequence (with a zone), or the paper's observed FR ≥ τ (without).
+    pub fn fails(&self, s: &SetStats) -> bool {
+        match self.zone {
+            Some(delta) => self.interval(s.wrong, s.answered())[0] > self.threshold - delta,
+            None => s.is_failure_mode(self.threshold),
+        }
     }
 
     pub fn is_sequential(&self) -> bool {
         self.max_samples > self.samples
     }
 
-    /// Whether `wrong` failures out of `answered` leave τ inside the rule's interval (95 % unless
-    /// [`Rule::with_z`] set another).
+    /// Whether `wrong` failures out of `answered` leave the set undecided: τ inside the rule's
+    /// interval (95 % unless [`Rule::with_z`] set another), or with a zone, the interval
+    /// reaching both below τ − δ and above τ + δ.
     pub fn straddles(&self, wrong: u32, answered: u32) -> bool {
-        let [lo, hi] = wilson_z(wrong, answered, self.z);
+        let [lo, hi] = self.interval(wrong, answered);
+        if let Some(delta) = self.zone {
+            return lo <= self.threshold - delta && hi >= self.threshold + delta;
+        }
         lo < self.threshold && self.threshold <= hi
     }
 

@@ -91,9 +91,10 @@ pub fn lifts(set: &SetStats, sub: &SetStats) -> bool {
 /// Shrink the failing set `root` to a 1-minimal failing subset, testing through `driver` (its
 /// rule decides "still fails"; its budget bounds the cost).
 pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root: ConceptSet) -> Searched<Shrunk, E> {
-    let threshold = driver.rule().threshold;
+    // "Fails" as the driver's rule says: FR ≥ τ, or established above τ − δ with a zone.
+    let rule = driver.rule();
     let Some(stats) = driver.test(root).await? else { return Ok(Shrunk::Unaffordable) };
-    if !stats.is_failure_mode(threshold) {
+    if !rule.fails(&stats) {
         return Ok(Shrunk::Refuted(stats));
     }
     let mut current = root;
@@ -110,7 +111,7 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
                         minimal = false;
                         break 'shrink;
                     }
-                    Some(s) if s.is_failure_mode(threshold) => {
+                    Some(s) if rule.fails(&s) => {
                         current = sub;
                         continue 'shrink;
                     }
@@ -126,7 +127,7 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
         let mut asked_by = None;
         loop {
             let stats = driver.stats(current).cloned().expect("a kept subset was evaluated");
-            if !stats.is_failure_mode(threshold) {
+            if !rule.fails(&stats) {
                 // Observations the lift test asked for took it below τ: it fails no more than
                 // that part.
                 return Ok(match asked_by {
@@ -136,7 +137,7 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
             }
             let flat = current.one_smaller().find_map(|sub| driver.stats(sub).filter(|t| !lifts(&stats, t)).cloned());
             let Some(t) = flat else { return Ok(Shrunk::Core(Core { stats, minimal, root })) };
-            if t.is_failure_mode(threshold) {
+            if rule.fails(&t) {
                 // More observations took the subset above τ: shrink on from it.
                 current = t.set;
                 break;
@@ -201,8 +202,8 @@ pub fn drop_order(history: &[SetStats], set: ConceptSet) -> Vec<ConceptId> {
 pub fn roots(history: &[SetStats], threshold: f64) -> Vec<ConceptSet> {
     let mut modes: Vec<&SetStats> = history.iter().filter(|s| s.is_failure_mode(threshold)).collect();
     modes.sort_by(|a, b| {
-        b.ci95()[0]
-            .total_cmp(&a.ci95()[0])
+        b.wilson95()[0]
+            .total_cmp(&a.wilson95()[0])
             .then(b.value().total_cmp(&a.value()))
             .then(a.set.len().cmp(&b.set.len()))
             .then(a.set.cmp(&b.set))
@@ -273,7 +274,7 @@ pub async fn run<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, roots: 
         let (x, y) = (&a.stats, &b.stats);
         y.value()
             .total_cmp(&x.value())
-            .then(y.ci95()[0].total_cmp(&x.ci95()[0]))
+            .then(y.wilson95()[0].total_cmp(&x.wilson95()[0]))
             .then(y.answered().cmp(&x.answered()))
             .then(x.set.cmp(&y.set))
     });
