@@ -137,7 +137,13 @@ fn params_are_validated() {
     let e = |p: Params| p.validate().unwrap_err();
     assert_eq!(e(Params { samples: 0, ..ok.clone() }), "invalid `--samples`: must be at least 1");
     assert_eq!(e(Params { threshold: 1.5, ..ok.clone() }), "invalid `--threshold`: must be between 0 and 1, got 1.5");
-    assert_eq!(e(Params { beam_budget: 2000, ..ok.clone() }), "invalid `--beam-budget`: 2000 exceeds the budget 1000");
+    assert_eq!(e(Params { beam_budget: 2000, ..ok.clone() }), "invalid `--beam-budget`: 2000 exceeds the search's budget 1000");
+    assert_eq!(
+        e(Params { shrink: 998, ..ok.clone() }),
+        "invalid `--shrink`: 998 of a budget of 1000 model calls leaves the search too few for one set of 5 samples"
+    );
+    // Interact shrinks as it searches: its whole budget is the search's.
+    assert!(Params { algo: Algo::Interact, shrink: 1000, beam_budget: 0, ..ok.clone() }.validate().is_ok());
     assert_eq!(e(Params { budget: 3, ..ok }), "invalid `--budget`: 3 inferences cannot evaluate one set of 5 samples");
 }
 
