@@ -75,13 +75,15 @@ pub(super) fn killed_copy(full: &Path, journal: &[u8], run: &Path) -> (PathBuf, 
     (run.to_path_buf(), journal.iter().filter(|&&b| b == b'\n').count() as u64)
 }
 
-/// A run killed at any byte of its journal resumes to the uninterrupted run's summary.
-fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
+/// A run killed at any byte of its journal resumes to the uninterrupted run's summary (at
+/// another concurrency: picks in rounds of `batch`, which the run records).
+fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo, batch: usize) {
     use rand::{RngExt, SeedableRng};
     let dir = tempfile::tempdir().unwrap();
     let full = dir.path().join("full");
     let (s, space) = setup(&full, 8);
-    let cfg = config(&s, algo);
+    let mut cfg = config(&s, algo);
+    cfg.params.batch = batch;
     let reference = block_on(runner::search(&s, &cfg, &space)).unwrap().summary;
     let journal = std::fs::read(full.join("journal.jsonl")).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -89,7 +91,7 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
         [0, 1, journal.len() - 1, journal.len()].into_iter().chain((0..6).map(|_| rng.random_range(0..journal.len())));
     for (k, cut) in cuts.enumerate() {
         let (run, kept) = killed_copy(&full, &journal[..cut], &dir.path().join(format!("crash{k}")));
-        let (s, space) = setup(&run, 8);
+        let (s, space) = setup(&run, 3);
         let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert_eq!(r.summary, reference, "cut at byte {cut}");
         assert_eq!(r.replayed, kept, "every finished observation is replayed, none asked twice");
@@ -100,12 +102,19 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
 
 #[test]
 fn gpts_resumes_after_a_crash_at_any_point() {
-    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts);
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts, 1);
 }
 
 #[test]
 fn interact_resumes_after_a_crash_at_any_point() {
-    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact);
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact, 1);
+}
+
+/// Issue 29: a parallel interact run (every call filled to a width of 8) resumed at another
+/// concurrency equals the uninterrupted run.
+#[test]
+fn parallel_interact_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact, 8);
 }
 
 #[test]

@@ -171,6 +171,57 @@ fn interact_reports_two_pairs_and_a_triple_exactly() {
         assert_eq!(h, block_on(run(&p, &space, &mut FnEval { f: three_modes, asked: vec![] })).unwrap());
     }
 }
+/// Records the observations of every call an evaluator is asked to make.
+struct Widths<E> {
+    inner: E,
+    calls: Vec<u32>,
+}
+
+impl<E: Evaluate> Evaluate for Widths<E> {
+    type Error = E::Error;
+
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, Self::Error> {
+        self.calls.push(asks.iter().map(Ask::len).sum());
+        self.inner.evaluate(asks).await
+    }
+}
+
+/// Issue 29: interact keeps `batch` calls in flight: every call it makes is filled to the width
+/// (all but the last, when the budget has less left), its cores are still the planted ones, and
+/// it is deterministic under a seed.
+#[test]
+fn parallel_interact_fills_every_call_to_its_width() {
+    let space = Space::new(lattice(12, 4), 12);
+    for (seed, batch) in [(0, 8), (1, 16), (2, 8)] {
+        let p = Params { algo: Algo::Interact, budget: 1000, batch, seed, ..Params::default() };
+        let mut e = Widths { inner: FnEval { f: three_modes, asked: vec![] }, calls: vec![] };
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let spent: u32 = e.calls.iter().sum();
+        assert!(u64::from(spent) <= p.budget);
+        let mut left = p.budget;
+        for (i, &n) in e.calls.iter().enumerate() {
+            let full = left >= batch as u64;
+            assert!(
+                !full || 5 * n as usize >= 4 * batch,
+                "seed {seed}: call {i} of {} made {n} calls at width {batch}: {:?}",
+                e.calls.len(),
+                e.calls
+            );
+            left -= u64::from(n);
+        }
+        let mut cores = shrink::minimal_failures(&h, &space, 0.6);
+        cores.sort();
+        let mut planted = vec![bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+        planted.sort();
+        assert_eq!(cores, planted, "seed {seed}");
+        let again = Widths { inner: FnEval { f: three_modes, asked: vec![] }, calls: vec![] };
+        let mut again = again;
+        assert_eq!(h, block_on(run(&p, &space, &mut again)).unwrap());
+        assert_eq!(e.calls, again.calls);
+    }
+}
+
 /// The sim model's law without its I/O: observation `obs` of `set` is wrong with chance
 /// `profile.error_for(set)`, drawn from a ChaCha stream keyed by (seed, set, obs), as the sim
 /// keys its draws by observation. Records every ask.
