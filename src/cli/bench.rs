@@ -542,10 +542,18 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
 /// The timing table: per algorithm its concurrency and batch, its calls and wall time per run,
 /// and the latency limit — budget ÷ concurrency × latency, the least time `--budget` calls take
 /// at that concurrency when each takes `latency_ms` — with the wall time's ratio to it.
-fn print_timing(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], latency_ms: u64) -> std::io::Result<()> {
+fn print_timing(
+    w: &mut impl Write,
+    args: &SearchBenchArgs,
+    results: &[AlgoResult],
+    latency_ms: u64,
+) -> std::io::Result<()> {
     let limit = args.params.budget as f64 / f64::from(args.concurrency) * latency_ms as f64 / 1000.0;
-    writeln!(w, "
-wall time per run at {latency_ms} ms a call; limit: budget ÷ concurrency × latency = {limit:.1} s")?;
+    writeln!(
+        w,
+        "
+wall time per run at {latency_ms} ms a call; limit: budget ÷ concurrency × latency = {limit:.1} s"
+    )?;
     writeln!(
         w,
         "{:<12} {:>11} {:>5} {:>8} {:>18} {:>8}",

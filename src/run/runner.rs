@@ -61,10 +61,7 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: 
     let mut diffs = differences(&view(&was), &view(new));
     // GPTS's beam phase is part of the plan; it may only move when no budget moves it.
     if was.params.algo == crate::search::Algo::Gpts && was.params.beam_budget != new.params.beam_budget {
-        diffs.push(format!(
-            "`params.beam_budget` was {}, now {}",
-            was.params.beam_budget, new.params.beam_budget
-        ));
+        diffs.push(format!("`params.beam_budget` was {}, now {}", was.params.beam_budget, new.params.beam_budget));
     }
     if !diffs.is_empty() {
         return Err(ResumeError::Differs { dir: dir.to_path_buf(), diffs });
@@ -95,12 +92,7 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: 
 /// it does not.
 pub fn extension_note(dir: &Path, was: &RunConfig, now: &Params) -> Option<String> {
     (now.budget > was.params.budget).then(|| {
-        format!(
-            "extending {} from {} to {} model calls",
-            dir.display(),
-            spaced(was.params.budget),
-            spaced(now.budget)
-        )
+        format!("extending {} from {} to {} model calls", dir.display(), spaced(was.params.budget), spaced(now.budget))
     })
 }
 

@@ -561,8 +561,7 @@ async fn search_patterns<'d, E: Evaluate>(
         }
         queue.extend(driver.take_filled());
         // A wrong answer in the screen: the set gets its m observations.
-        let hot: Vec<ConceptSet> =
-            queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
+        let hot: Vec<ConceptSet> = queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
         driver.set_rule(escalate);
         driver.purpose = Some(Purpose::Escalation);
         driver.top_up(&hot).await?;

@@ -137,7 +137,10 @@ fn params_are_validated() {
     let e = |p: Params| p.validate().unwrap_err();
     assert_eq!(e(Params { samples: 0, ..ok.clone() }), "invalid `--samples`: must be at least 1");
     assert_eq!(e(Params { threshold: 1.5, ..ok.clone() }), "invalid `--threshold`: must be between 0 and 1, got 1.5");
-    assert_eq!(e(Params { beam_budget: 2000, ..ok.clone() }), "invalid `--beam-budget`: 2000 exceeds the search's budget 1000");
+    assert_eq!(
+        e(Params { beam_budget: 2000, ..ok.clone() }),
+        "invalid `--beam-budget`: 2000 exceeds the search's budget 1000"
+    );
     assert_eq!(
         e(Params { shrink: 998, ..ok.clone() }),
         "invalid `--shrink`: 998 of a budget of 1000 model calls leaves the search too few for one set of 5 samples"
