@@ -177,6 +177,26 @@ impl<'s> Board<'s> {
         self.argmax_at(covered, |_, s| score(s))
     }
 
+    /// The `k` unexplored sets with the highest scores (none scored −∞) among the open or the
+    /// covered sets, best first; ties go to the earliest in lattice order, as in
+    /// [`Board::argmax`].
+    fn best_at(&self, covered: bool, k: usize, score: impl Fn(usize, ConceptSet) -> f64) -> Vec<ConceptSet> {
+        let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
+        for (i, set) in self.space.sets.iter().enumerate() {
+            if self.explored[i] || self.covered[i] != covered {
+                continue;
+            }
+            let v = score(i, *set);
+            if v == f64::NEG_INFINITY || (best.len() == k && best.last().is_some_and(|(w, _)| v <= *w)) {
+                continue;
+            }
+            let at = best.iter().position(|(w, _)| v > *w).unwrap_or(best.len());
+            best.insert(at, (v, i));
+            best.truncate(k);
+        }
+        best.into_iter().map(|(_, i)| self.space.sets[i]).collect()
+    }
+
     /// [`Board::argmax`] with the set's position in the space handed to the score too.
     fn argmax_at(&self, covered: bool, score: impl Fn(usize, ConceptSet) -> f64) -> Option<(ConceptSet, f64)> {
         let mut best: Option<(usize, f64)> = None;
@@ -435,22 +455,24 @@ impl<'s> PatternSearcher<'s> {
         self.catch_up(history);
         let fit = self.fit(history);
         let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
+        // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
+        // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
+        let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
         for _ in 0..n {
             let di = fit.draw_dilution(self.rng.random::<f64>());
-            let scorer = fit.scorer(
-                &self.patterns,
-                &self.open,
-                di,
-                SCREEN.min(self.params.samples),
-                self.params.samples,
-                self.params.threshold,
-            );
-            let open =
-                self.board
-                    .argmax_at(false, |i, s| {
-                        if picks.contains(&s) { f64::NEG_INFINITY } else { scorer.score(&self.patterns, i) }
-                    })
-                    .filter(|(_, v)| *v > f64::NEG_INFINITY);
+            if !ranked.iter().any(|(d, _)| *d == di) {
+                let scorer = fit.scorer(
+                    &self.patterns,
+                    &self.open,
+                    di,
+                    SCREEN.min(self.params.samples),
+                    self.params.samples,
+                    self.params.threshold,
+                );
+                ranked.push((di, self.board.best_at(false, n, |i, _| scorer.score(&self.patterns, i))));
+            }
+            let best = ranked.iter().find(|(d, _)| *d == di).map(|(_, best)| best);
+            let open = best.and_then(|b| b.iter().find(|s| !picks.contains(s))).map(|&set| (set, 0.0));
             // No open set left (a small lattice): under `fallback`, measure the known families'
             // extent, the superset likeliest to fail first.
             let pick = match open {
