@@ -75,7 +75,8 @@ async fn concurrency_recorded_settings_and_the_shared_cache() {
     let cache = d.join("cache");
     let beam = move |out: &str, extra: &[&str], cache: &Path| {
         let out = d.join(out);
-        let mut cmd = search("openai:vlm-test", "beam", "30", "3");
+        // 40 calls: a 30-call search and the quarter set aside for its shrink phase.
+        let mut cmd = search("openai:vlm-test", "beam", "40", "3");
         cmd.args(extra).arg("--out").arg(&out).arg("--cache-dir").arg(cache);
         (cmd, out)
     };
@@ -310,7 +311,7 @@ async fn a_run_whose_model_calls_all_fail_exits_1() {
     let outcome = tokio::task::spawn_blocking(move || {
         let run = |out: &str, extra: &[&str]| {
             let mut cmd = search("openai:vlm-test", "random", "40", "2");
-            cmd.args(["--concurrency", "2", "--no-cache", "--base-url", &uri]);
+            cmd.args(["--concurrency", "2", "--no-cache", "--base-url", &uri, "--shrink", "0"]);
             cmd.args(extra).arg("--out").arg(d.join(out));
             text(&cmd.output().unwrap())
         };
