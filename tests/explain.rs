@@ -104,7 +104,7 @@ fn probe_starts_from_a_shrunk_runs_cores() {
         "--algo",
         "beam",
         "--budget",
-        "300",
+        "500",
         "--shrink",
         "200",
         "--out",
