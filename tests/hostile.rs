@@ -772,6 +772,8 @@ fn a_huge_batch_is_bounded_by_the_candidates() {
             "2",
             "--batch",
             &max,
+            "--shrink",
+            "0",
             "--out",
             s(&out),
             "--json",
