@@ -104,7 +104,7 @@ fn probe_starts_from_a_shrunk_runs_cores() {
         "--algo",
         "beam",
         "--budget",
-        "300",
+        "500",
         "--shrink",
         "200",
         "--out",
@@ -472,7 +472,11 @@ fn gpts_with_the_rbf_kernel_is_recorded_and_checked_on_resume() {
         serde_json::from_str(&std::fs::read_to_string(run.join("config.json")).unwrap()).unwrap();
     assert_eq!(config["params"]["kernel"], "rbf");
     assert_eq!(phases(&run).len(), 60);
+    // Left out, the kernel is the recorded one (nothing new is asked); another is refused.
     let o = search(&["--algo", "gpts"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(phases(&run).len(), 60);
+    let o = search(&["--algo", "gpts", "--kernel", "dot"]);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("`params.kernel` was \"rbf\", now null"), "{err}");

@@ -152,8 +152,9 @@ fn search_command_resumes_refuses_other_configs_and_validates() {
     let (code, stdout, err) = revelio(&json);
     assert_eq!(code, 0, "{err}");
     let lines = std::fs::read_to_string(Path::new(out).join("journal.jsonl")).unwrap().lines().count();
-    // Every journaled observation replays, the shrink phase's (if the search found anything) too.
-    assert!(lines >= 100, "{lines}");
+    // Every journaled observation replays, the shrink phase's (if the search found anything) too;
+    // the search phase is the budget less the shrink budget (25), every phase within the budget.
+    assert!((75..=100).contains(&lines), "{lines}");
     assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
     let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(printed, serde_json::from_slice::<serde_json::Value>(&summary).unwrap());
@@ -163,7 +164,8 @@ fn search_command_resumes_refuses_other_configs_and_validates() {
     more[7] = "200";
     let (code, _, err) = revelio(&more);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("100 observations replayed"), "{err}");
+    assert!(err.contains(&format!("extending {out} from 100 to 200 model calls")), "{err}");
+    assert!(err.contains("observations replayed"), "{err}");
     more.extend(["--seed", "3"]);
     let (code, _, err) = revelio(&more);
     assert_eq!(code, 1);
@@ -232,8 +234,9 @@ fn sequential_search_with_cores_end_to_end() {
     assert!(table.contains("shrink: "), "{table}");
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(Path::new(out).join("summary.json")).unwrap()).unwrap();
-    assert!(summary["metrics"]["inferences"].as_u64().unwrap() <= 400);
-    assert!(summary["shrink"]["inferences"].as_u64().unwrap() <= 100);
+    let search = summary["metrics"]["inferences"].as_u64().unwrap();
+    assert!(search <= 300, "the search phase is budget − shrink");
+    assert!(search + summary["shrink"]["inferences"].as_u64().unwrap() <= 400, "every phase within the budget");
     let cores = summary["cores"].as_array().unwrap();
     assert!(!cores.is_empty(), "{summary}");
     for c in cores {
@@ -273,16 +276,16 @@ fn the_spelling_of_the_domain_path_does_not_change_the_scenes() {
         vec!["search", file, "--model", "sim:examples/sim/driving_paper.toml", "--renderer", "none", "--algo", "random"]
     };
     let mut first = args("domains/driving.rev");
-    first.extend(["--budget", "20", "--out", out]);
+    first.extend(["--budget", "40", "--out", out]);
     assert_eq!(revelio(&first).0, 0);
     let mut other = args("./domains/../domains/driving.rev");
-    other.extend(["--budget", "20", "--out", out]);
+    other.extend(["--budget", "40", "--out", out]);
     let (code, _, err) = revelio(&other);
     assert_eq!(code, 0, "{err}");
-    // Everything the first run observed — its 20 search inferences and its shrink phase's — is
+    // Everything the first run observed — its 30 search inferences and its shrink phase's — is
     // replayed, nothing asked again.
     let lines = std::fs::read_to_string(dir.path().join("run/journal.jsonl")).unwrap().lines().count();
-    assert!(lines > 20, "the shrink phase ran too");
+    assert!(lines > 30 && lines <= 40, "the shrink phase ran too, within the budget: {lines}");
     assert!(err.contains(&format!("{lines} observations replayed")), "{err}");
 }
 
@@ -440,4 +443,60 @@ fn bench_reports_each_planted_mode_and_its_reach() {
     let header = table.lines().nth(1).unwrap();
     assert!(header.split_whitespace().eq(["mode", "error", "reach", "random", "interact"]), "{table}");
     assert!(table.contains("town_town02 + debris_far") && table.contains("  0.95   100%"), "{table}");
+}
+
+/// Issue 29: resuming never changes the plan silently. The same command with its flags left
+/// out takes the run's recorded values and adds no journal line; a larger `--budget` says so
+/// before its first model call; a smaller one is refused with the count made.
+#[test]
+fn a_resume_takes_the_recorded_plan_and_says_when_it_extends_it() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let profile = dir.path().join("slow.toml");
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sim/driving_paper.toml"))
+        .unwrap()
+        .replace("latency_ms = 0", "latency_ms = 1500");
+    std::fs::write(&profile, text).unwrap();
+    let model = format!("sim:{}", profile.display());
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let base = ["search", "domains/driving.rev", "--model", &model, "--out", out_s];
+    let (code, table, err) = revelio(&[&base[..], &["--renderer", "none", "--budget", "32", "--seed", "3"]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert!(table.starts_with("interact on `driving`"), "the default search: {table}");
+    let lines = || std::fs::read_to_string(out.join("journal.jsonl")).unwrap().lines().count();
+    let made = lines();
+    assert!(made <= 32, "{made} model calls for `--budget 32`");
+    assert!(table.contains(&format!("budget: {made} of 32 model calls (screening ")), "{table}");
+    // No flags: the recorded renderer, budget, seed and width; nothing asked.
+    let (code, _, err) = revelio(&base);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(lines(), made, "a rerun with no flags adds no journal line: {err}");
+    assert!(!err.contains("extending"), "{err}");
+    // Lower: refused with what the run holds.
+    let (code, _, err) = revelio(&[&base[..], &["--budget", "20"]].concat());
+    assert_eq!(code, 1);
+    assert!(err.contains(&format!("it is a run of 32 model calls and has made {made}")), "{err}");
+    // Higher: the extension is said before the first new call (each takes 1.5 s).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_revelio"))
+        .args([&base[..], &["--budget", "1000"]].concat())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut said = None;
+    for line in stderr.lines() {
+        let line = line.unwrap();
+        if line.contains("extending") {
+            said = Some((line, lines()));
+            break;
+        }
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let (line, then) = said.expect("the extension is announced");
+    assert_eq!(line, format!("extending {out_s} from 32 to 1 000 model calls"));
+    assert_eq!(then, made, "no model call had been made when it was said");
 }

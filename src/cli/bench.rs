@@ -47,7 +47,7 @@ pub struct BenchArgs {
 #[derive(clap::Subcommand, Debug)]
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
-    Search(SearchBenchArgs),
+    Search(Box<SearchBenchArgs>),
     /// How long an editor waits for diagnostics from `revelio lsp` (front end per edit, lattice
     /// lints per save)
     Lsp(LspBenchArgs),
@@ -80,11 +80,17 @@ pub struct SearchBenchArgs {
     /// same budget
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
-    /// Shrink each run's failure modes to cores with this many extra inferences (0: off)
+    /// The part of the budget set aside for shrinking each run's failure modes to cores (0: off)
     #[arg(long, value_name = "B", default_value_t = 0)]
     pub shrink: u64,
+    /// Model calls in flight (interact's width unless `--batch` is given)
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub concurrency: u32,
+    /// The sim model's delay per call in milliseconds [default: the profile's `latency_ms`]; the
+    /// timing table compares each run's wall time with the latency limit, budget ÷ concurrency
+    /// × latency
+    #[arg(long, value_name = "MS")]
+    pub latency_ms: Option<u64>,
     /// Algorithms to run, comma-separated [default: all]
     #[arg(long, value_delimiter = ',', value_parser = super::common::algo_parser())]
     pub algos: Vec<Algo>,
@@ -99,11 +105,14 @@ pub struct SearchBenchArgs {
     /// Print JSON
     #[arg(long)]
     pub json: bool,
+    /// The parameters the search flags resolve to (set by the command, not a flag).
+    #[arg(skip)]
+    pub params: Params,
 }
 
 pub fn run(args: BenchArgs) -> ExitCode {
     match args.what {
-        BenchWhat::Search(a) => search(a),
+        BenchWhat::Search(a) => search(*a),
         BenchWhat::Lsp(a) => lsp(a),
     }
 }
@@ -187,6 +196,12 @@ pub struct AlgoResult {
     pub exact: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
+    /// Sets picked per round (interact: the width every call is filled to).
+    pub batch: usize,
+    /// Model calls per run, every phase.
+    pub calls: Stat,
+    /// Wall time per run, seconds.
+    pub wall_s: Stat,
     /// Per planted mode, in the profile's order: how often this algorithm recovered it.
     pub planted: Vec<ModeRecovery>,
 }
@@ -248,11 +263,22 @@ pub(crate) struct RunFigures {
     core_recovered: Option<f64>,
     exact: Option<f64>,
     us: f64,
+    calls: f64,
+    wall_s: f64,
     /// Per planted mode: (some core holds it, it is a core).
     per_mode: Vec<(bool, bool)>,
 }
 
-fn search(args: SearchBenchArgs) -> ExitCode {
+/// One benchmark run's parameters: `algo` and `seed` on `at`; interact's width is the
+/// concurrency unless `--batch` says otherwise, and GPTS's beam phase half its search budget.
+pub(crate) fn run_params(args: &SearchBenchArgs, at: &Params, algo: Algo, seed: u64) -> Params {
+    let batch = args.search.batch.unwrap_or(if algo == Algo::Interact { args.concurrency as usize } else { at.batch });
+    let p = Params { algo, seed, batch, ..at.clone() };
+    Params { beam_budget: p.beam_budget.min(p.search_budget()), ..p }
+}
+
+fn search(mut args: SearchBenchArgs) -> ExitCode {
+    args.params = args.search.params(Algo::Random, None, 1);
     let domain = match crate::cli::load_domain(&args.domain) {
         Ok(d) => d,
         Err(code) => return code,
@@ -265,28 +291,30 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         }
     };
     let profile = match Profile::parse(&text, &args.profile.display().to_string(), &domain) {
-        Ok(p) => p,
+        Ok(p) => Profile { latency_ms: args.latency_ms.unwrap_or(p.latency_ms), ..p },
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    let base = Params { shrink: args.shrink, ..args.search.params() };
+    let base = Params { shrink: args.shrink, ..args.params.clone() };
+    let base = Params { beam_budget: base.search_budget() / 2, ..base };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
     if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
     let mut modes = vec![base.clone()];
-    if args.max_samples.is_some_and(|m| m > args.search.samples) {
+    if args.max_samples.is_some_and(|m| m > args.params.samples) {
         modes.push(sequential);
     }
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = Lattice::enumerate(&domain, base.max_size);
     let (space, _) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
     let tmp = std::env::temp_dir().join(format!("revelio-bench-{}", std::process::id()));
-    let planted = profile.planted(args.search.threshold, |s| space.contains(s));
+    let planted = profile.planted(args.params.threshold, |s| space.contains(s));
     let truth = profile.clone();
+    let latency_ms = profile.latency_ms;
     let model: Arc<dyn Model> = Arc::new(SimModel { profile });
     let domain = Arc::new(domain);
     if let Some(sweep) = &args.sweep {
@@ -302,7 +330,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
     // Per planted mode, its error and reach: the same for every algorithm and sampling mode.
     let truths: Vec<(f64, f64)> = planted
         .iter()
-        .map(|p| (truth.error_for(*p), reach(&space, p.len(), base.max_size, base.budget + base.shrink)))
+        .map(|p| (truth.error_for(*p), reach(&space, p.len(), base.max_size, base.max_calls())))
         .collect();
     let mut results = Vec::new();
     let algos = if args.algos.is_empty() { Algo::ALL.to_vec() } else { args.algos.clone() };
@@ -310,7 +338,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         for mode in &modes {
             let mut rows: Vec<RunFigures> = Vec::new();
             for seed in 0..args.seeds {
-                let params = Params { algo, seed, ..mode.clone() };
+                let params = run_params(&args, mode, algo, seed);
                 let out = tmp.join(format!("{}-{}-{seed}", algo.name(), params.rule().max_samples));
                 match bench_one(&args, &domain, &world, &model, &space, params, out, &planted, &truth) {
                     Ok(r) => rows.push(r),
@@ -347,6 +375,9 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
                 us_per_inference: col(&|r| Some(r.us), count),
+                batch: run_params(&args, mode, algo, 0).batch,
+                calls: col(&|r| Some(r.calls), count),
+                wall_s: col(&|r| Some(r.wall_s), count),
                 planted: planted
                     .iter()
                     .enumerate()
@@ -372,7 +403,8 @@ fn search(args: SearchBenchArgs) -> ExitCode {
         serde_json::to_writer_pretty(&mut w, &results).map_err(std::io::Error::from).and_then(|_| writeln!(w))
     } else {
         print(&mut w, &args, &results, planted.len())
-            .and_then(|()| print_planted(&mut w, &results, args.search.samples, base.budget + base.shrink))
+            .and_then(|()| print_timing(&mut w, &args, &results, latency_ms))
+            .and_then(|()| print_planted(&mut w, &results, args.params.samples, base.max_calls()))
     };
     match written {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
@@ -403,7 +435,7 @@ pub(crate) fn bench_one(
     let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
     let elapsed = started.elapsed();
     let m = &r.summary.metrics;
-    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.search.threshold)).map(|s| s.set).collect();
+    let modes: Vec<_> = r.history.iter().filter(|s| s.is_failure_mode(args.params.threshold)).map(|s| s.set).collect();
     // With confirmation, the reported cores are the confirmed ones and their interval is the
     // fresh observations' (summary.json `cores[].confirmed`).
     let intervals: Vec<[f64; 2]> = if r.summary.shrink.is_some() {
@@ -414,11 +446,11 @@ pub(crate) fn bench_one(
     let cores: Vec<_> = if r.summary.shrink.is_some() {
         r.found.cores.iter().map(|c| c.stats.set).collect()
     } else {
-        crate::search::shrink::minimal_failures(&r.history, space, args.search.threshold)
+        crate::search::shrink::minimal_failures(&r.history, space, args.params.threshold)
     };
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
     // A core is true when its error is above τ − δ (inside the zone either answer is right).
-    let zone_low = args.search.threshold - args.search.delta + 1e-9;
+    let zone_low = args.params.threshold - args.params.delta + 1e-9;
     let per_mode: Vec<(bool, bool)> =
         planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
     let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
@@ -427,9 +459,9 @@ pub(crate) fn bench_one(
         mfr: m.mfr,
         div: m.div,
         failure_modes: modes.len() as f64,
-        false_modes: (modes.len() - true_modes(truth, &modes, args.search.threshold)) as f64,
-        precision: precision(truth, &modes, args.search.threshold),
-        recovered: recovered(&r.history, planted, args.search.threshold),
+        false_modes: (modes.len() - true_modes(truth, &modes, args.params.threshold)) as f64,
+        precision: precision(truth, &modes, args.params.threshold),
+        recovered: recovered(&r.history, planted, args.params.threshold),
         cores: cores.len() as f64,
         core_precision: precision(truth, &cores, zone_low),
         core_counts: (true_modes(truth, &cores, zone_low), cores.len()),
@@ -458,6 +490,8 @@ pub(crate) fn bench_one(
         core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
         exact: share(per_mode.iter().filter(|m| m.1).count()),
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
+        calls: spent as f64,
+        wall_s: elapsed.as_secs_f64(),
         per_mode,
     })
 }
@@ -492,11 +526,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         w,
         "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
         args.seeds,
-        args.search.budget,
-        args.search.samples,
-        args.search.threshold,
-        args.search.lambda,
-        args.search.beam_width,
+        args.params.budget,
+        args.params.samples,
+        args.params.threshold,
+        args.params.lambda,
+        args.params.beam_width,
         args.profile.display()
     )?;
     writeln!(
@@ -506,7 +540,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
          a core is false when its true error is ≤ τ − δ (δ = {}): core precision (pooled over seeds in \
          parentheses), FDP: false cores / cores per run; coverage: cores whose interval holds the true error; \
          borderline: candidates left near τ at the confirmation cap",
-        args.search.delta
+        args.params.delta
     )?;
     let f = |s: &Stat, scale: f64, digits: usize| {
         if s.n == 0 {
@@ -536,7 +570,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         "borderline"
     )?;
     for r in results {
-        let name = label(r, args.search.samples);
+        let name = label(r, args.params.samples);
         writeln!(
             w,
             "{:<12} {:>18} {:>18} {:>17} {:>18} {:>18} {:>14} {:>15} {:>18} {:>16} {:>14} {:>14} {:>16} {:>16} {:>14}  {:.0}",
@@ -563,7 +597,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         )?;
     }
     let pfm =
-        |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.search.samples).map(|r| r.pfm.mean);
+        |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.params.samples).map(|r| r.pfm.mean);
     if let Some(random) = pfm(Algo::Random).filter(|r| *r > 0.0) {
         let ratios: Vec<String> = Algo::ALL
             .iter()
@@ -571,6 +605,42 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             .filter_map(|a| pfm(*a).map(|p| format!("{} {:.1}×", a.name(), p / random)))
             .collect();
         writeln!(w, "PFM vs random (fixed m): {}", ratios.join(", "))?;
+    }
+    Ok(())
+}
+
+/// The timing table: per algorithm its concurrency and batch, its calls and wall time per run,
+/// and the latency limit — budget ÷ concurrency × latency, the least time `--budget` calls take
+/// at that concurrency when each takes `latency_ms` — with the wall time's ratio to it.
+fn print_timing(
+    w: &mut impl Write,
+    args: &SearchBenchArgs,
+    results: &[AlgoResult],
+    latency_ms: u64,
+) -> std::io::Result<()> {
+    let limit = args.params.budget as f64 / f64::from(args.concurrency) * latency_ms as f64 / 1000.0;
+    writeln!(
+        w,
+        "
+wall time per run at {latency_ms} ms a call; limit: budget ÷ concurrency × latency = {limit:.1} s"
+    )?;
+    writeln!(
+        w,
+        "{:<12} {:>11} {:>5} {:>8} {:>18} {:>8}",
+        "algo", "concurrency", "batch", "calls", "wall s", "× limit"
+    )?;
+    for r in results {
+        let ratio = if limit > 0.0 { format!("{:.2}", r.wall_s.mean / limit) } else { "-".into() };
+        writeln!(
+            w,
+            "{:<12} {:>11} {:>5} {:>8.0} {:>18} {:>8}",
+            label(r, args.params.samples),
+            args.concurrency,
+            r.batch,
+            r.calls.mean,
+            format!("{:.1} [{:.1}–{:.1}]", r.wall_s.mean, r.wall_s.ci95[0], r.wall_s.ci95[1]),
+            ratio
+        )?;
     }
     Ok(())
 }

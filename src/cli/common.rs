@@ -96,6 +96,12 @@ impl ModelFlags {
     }
 }
 
+/// Say, before a command's first model call, the most calls it can make (`what`: how that
+/// number comes about). Calls the journal already holds are served from it, not made again.
+pub(crate) fn say_most_calls(command: &str, most: u64, what: &str) {
+    eprintln!("{command}: at most {} model calls ({what})", crate::run::summary::spaced(most));
+}
+
 /// Report a run that ended early; a stopped run says how to go on.
 pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
     // A run error may quote what a run folder holds (names, paths, a provider's reply).
@@ -214,74 +220,85 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
 
 /// The search parameters `search` and `bench search` share: one declaration, one set of
 /// defaults (each command adds its own: the algorithm and seed of one run, or the algorithms
-/// and seeds of a benchmark).
-#[derive(clap::Args, Debug, Clone)]
+/// and seeds of a benchmark). Each is optional so that a resumed run can tell a flag left out,
+/// which takes the value the run recorded, from one given ([`SearchFlags::params`]).
+#[derive(clap::Args, Debug, Clone, Default)]
 pub struct SearchFlags {
-    /// Inference budget (sets evaluated = budget / samples); raise it on an existing run folder
-    /// to extend the run
-    #[arg(long, default_value_t = 1000)]
-    pub budget: u64,
-    /// Observations per concept set (m)
-    #[arg(long, default_value_t = 5)]
-    pub samples: u32,
-    /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode
-    #[arg(long, default_value_t = 0.6)]
-    pub threshold: f64,
-    /// Beam width (beam and the beam phase of GPTS)
-    #[arg(long, default_value_t = 5)]
-    pub beam_width: usize,
-    /// Beam depth (beam and the beam phase of GPTS)
-    #[arg(long, default_value_t = 5)]
-    pub max_depth: usize,
-    /// Beam diversity weight λ in FR − λ·max Jaccard
-    #[arg(long, default_value_t = crate::search::DEFAULT_LAMBDA)]
-    pub lambda: f64,
-    /// GPTS and interact: sets picked per round, evaluated in parallel
-    #[arg(long, default_value_t = 1)]
-    pub batch: usize,
+    /// The most model calls the search makes, every phase included (search, sequential top-ups,
+    /// confirmation, shrink); raise it on an existing run folder to extend the run [default: 1000]
+    #[arg(long)]
+    pub budget: Option<u64>,
+    /// Observations per concept set (m) [default: 5]
+    #[arg(long)]
+    pub samples: Option<u32>,
+    /// Failure threshold τ: a set with failure rate ≥ τ is a failure mode [default: 0.6]
+    #[arg(long)]
+    pub threshold: Option<f64>,
+    /// Beam width (beam and the beam phase of GPTS) [default: 5]
+    #[arg(long)]
+    pub beam_width: Option<usize>,
+    /// Beam depth (beam and the beam phase of GPTS) [default: 5]
+    #[arg(long)]
+    pub max_depth: Option<usize>,
+    /// Beam diversity weight λ in FR − λ·max Jaccard [default: 0.5]
+    #[arg(long)]
+    pub lambda: Option<f64>,
+    /// GPTS and interact: sets picked per round, evaluated in parallel (interact fills every call
+    /// to this width) [default: GPTS 1; interact the concurrency at the run's start]
+    #[arg(long)]
+    pub batch: Option<usize>,
     /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the
-    /// paper's kernel ablation)
-    #[arg(long, default_value = "dot", value_parser = kernel_parser())]
-    pub kernel: Kernel,
-    /// Largest concept set searched
-    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE)]
-    pub max_size: usize,
-    /// Interact: the surrogate (patterns, horseshoe, ridge, linear)
-    #[arg(long, default_value = "patterns")]
-    pub surrogate: Surrogate,
-    /// Interact: supersets of a confirmed core (exclude, fallback, keep)
-    #[arg(long, default_value = "fallback")]
-    pub supersets: Supersets,
+    /// paper's kernel ablation) [default: dot]
+    #[arg(long, value_parser = kernel_parser())]
+    pub kernel: Option<Kernel>,
+    /// Largest concept set searched [default: 5]
+    #[arg(long)]
+    pub max_size: Option<usize>,
+    /// Interact: the surrogate (patterns, horseshoe, ridge, linear) [default: patterns]
+    #[arg(long)]
+    pub surrogate: Option<Surrogate>,
+    /// Interact: supersets of a confirmed core (exclude, fallback, keep) [default: fallback]
+    #[arg(long)]
+    pub supersets: Option<Supersets>,
     /// Indifference zone δ around τ: a reported core is established to fail above τ − δ, a set
-    /// passes once established below τ + δ; in between it is borderline
-    #[arg(long, default_value_t = crate::search::DEFAULT_DELTA)]
-    pub delta: f64,
+    /// passes once established below τ + δ; in between it is borderline [default: 0.1]
+    #[arg(long)]
+    pub delta: Option<f64>,
     /// False discovery rate q of the confirmed cores (e-BH over the candidates' fresh
-    /// confirmation observations)
-    #[arg(long, default_value_t = crate::search::DEFAULT_FDR)]
-    pub fdr: f64,
+    /// confirmation observations) [default: 0.05]
+    #[arg(long)]
+    pub fdr: Option<f64>,
 }
 
 impl SearchFlags {
-    /// The parameters these flags set; GPTS's beam phase gets half the budget unless a command
-    /// says otherwise.
-    pub fn params(&self) -> Params {
+    /// The parameters these flags set for `algo`: a flag left out takes the value of `recorded`
+    /// (a resumed run's), else its default. `batch` is `default_batch` when neither gives one;
+    /// the shrink budget, GPTS's beam budget and sequential sampling are each command's own.
+    pub fn params(&self, algo: Algo, recorded: Option<&Params>, default_batch: usize) -> Params {
+        let d = Params::default();
+        macro_rules! pick {
+            ($f:ident, $default:expr) => {
+                self.$f.or(recorded.map(|r| r.$f)).unwrap_or($default)
+            };
+        }
+        let budget = pick!(budget, d.budget);
         Params {
-            budget: self.budget,
-            samples: self.samples,
-            threshold: self.threshold,
-            beam_width: self.beam_width,
-            max_depth: self.max_depth,
-            lambda: self.lambda,
-            beam_budget: self.budget / 2,
-            batch: self.batch,
-            kernel: self.kernel,
-            max_size: self.max_size,
-            surrogate: self.surrogate,
-            supersets: self.supersets,
-            delta: self.delta,
-            fdr: self.fdr,
-            ..Params::default()
+            algo,
+            budget,
+            samples: pick!(samples, d.samples),
+            threshold: pick!(threshold, d.threshold),
+            beam_width: pick!(beam_width, d.beam_width),
+            max_depth: pick!(max_depth, d.max_depth),
+            lambda: pick!(lambda, d.lambda),
+            beam_budget: budget / 2,
+            batch: pick!(batch, default_batch),
+            kernel: pick!(kernel, d.kernel),
+            max_size: pick!(max_size, crate::lattice::DEFAULT_MAX_SIZE),
+            surrogate: pick!(surrogate, d.surrogate),
+            supersets: pick!(supersets, d.supersets),
+            delta: pick!(delta, d.delta),
+            fdr: pick!(fdr, d.fdr),
+            ..d
         }
     }
 }

@@ -74,6 +74,8 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return fail_run(&e, &args.run_dir),
     };
+    let what = format!("{} sets × {} probe observations", sets.len(), args.samples);
+    super::common::say_most_calls("probe", sets.len() as u64 * u64::from(args.samples), &what);
     let asked = open.ask(&args.run_dir, probe_sets(&open.reask, open.model.clone(), &sets, args.samples, &t));
     match asked {
         Ok(report) => open.finish(&args.run_dir, "probe.json", &report, args.json, |w| print_probe(w, &report)),

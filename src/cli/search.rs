@@ -30,25 +30,27 @@ pub struct SearchArgs {
     /// The model: `sim:PROFILE.toml`, `openai:MODEL`, `anthropic:MODEL`, `gemini:MODEL`, `bedrock:MODEL_ID`
     #[arg(long)]
     pub model: String,
-    /// The search: the paper's random, beam or gpts, or interact (every distinct failure mode
-    /// once as its core; it spends the shrink budget as it goes)
-    #[arg(long, default_value = "gpts", value_parser = algo_parser())]
-    pub algo: Algo,
+    /// The search: interact (every distinct failure mode once as its core, shrinking as it
+    /// goes), or the paper's random, beam or gpts [default: interact]
+    #[arg(long, value_parser = algo_parser())]
+    pub algo: Option<Algo>,
     #[command(flatten)]
     pub search: SearchFlags,
     /// Sequential sampling: a set whose 95 % interval still straddles τ after m observations
     /// gets more, a batch at a time, up to M [default: m, the paper's fixed count]
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
-    /// Inferences for shrinking failure modes to minimal cores after the search, on top of the
-    /// budget; 0 turns it off [default: budget / 4; on a resumed run at least the recorded value]
+    /// The part of the budget set aside for shrinking failure modes to minimal cores (the
+    /// paper's algorithms search with the rest); 0 turns it off, the paper's setting
+    /// [default: budget / 4]
     #[arg(long, value_name = "B")]
     pub shrink: Option<u64>,
-    /// GPTS: inferences for the beam phase [default: budget / 2; on a resumed run, the recorded value]
+    /// GPTS: inferences for the beam phase [default: half the search phase's budget]
     #[arg(long)]
     pub beam_budget: Option<u64>,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// The run's seed [default: 0]
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Most valid concept sets searched over; a larger lattice is refused with the ways out
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
     pub max_sets: u64,
@@ -58,8 +60,9 @@ pub struct SearchArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// `builtin` (wgpu), `none` (no image), `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`
-    #[arg(long, default_value = "builtin")]
-    pub renderer: String,
+    /// [default: builtin]
+    #[arg(long)]
+    pub renderer: Option<String>,
     #[command(flatten)]
     pub model_opts: ModelFlags,
     /// Failure modes shown in the table
@@ -75,31 +78,32 @@ pub fn run(args: SearchArgs) -> ExitCode {
         Ok(d) => d,
         Err(code) => return code,
     };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
-    // What an existing run folder recorded: its beam budget (so a raised `--budget` extends the
-    // run rather than moving the GPTS phase boundary), its shrink budget and its model flags.
+    let out = args.out.clone().unwrap_or_else(|| {
+        let algo = args.algo.unwrap_or(Algo::Interact);
+        PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, algo.name(), args.seed.unwrap_or(0)))
+    });
+    // What an existing run folder recorded: every flag left out takes its recorded value, so the
+    // same command (or a shorter one) never changes the plan of a run.
     let previous = match summary::read_config(&out) {
         Ok(p) => p,
         Err(e) => return fail(&e),
     };
-    let params = Params {
-        algo: args.algo,
-        beam_budget: args
-            .beam_budget
-            .or(previous.as_ref().map(|p| p.params.beam_budget))
-            .unwrap_or(args.search.budget / 2)
-            .min(args.search.budget),
-        seed: args.seed,
-        max_samples: args.max_samples,
-        // Never below the recorded one, so that raising `--budget` alone extends a run.
-        shrink: args.shrink.unwrap_or_else(|| {
-            Params::default_shrink(args.search.budget).max(previous.as_ref().map_or(0, |p| p.params.shrink))
-        }),
-        ..args.search.params()
+    let recorded = previous.as_ref().map(|p| &p.params);
+    let renderer = args.renderer.clone().or(previous.as_ref().map(|p| p.renderer.clone())).unwrap_or("builtin".into());
+    let algo = args.algo.or(recorded.map(|p| p.algo)).unwrap_or(Algo::Interact);
+    let params = args.search.params(algo, recorded, 1);
+    let shrink = args.shrink.or(recorded.map(|p| p.shrink)).unwrap_or_else(|| Params::default_shrink(params.budget));
+    let mut params = Params {
+        seed: args.seed.or(recorded.map(|p| p.seed)).unwrap_or(0),
+        max_samples: args.max_samples.or(recorded.and_then(|p| p.max_samples)),
+        shrink,
+        ..params
     };
+    params.beam_budget = args
+        .beam_budget
+        .or(recorded.map(|p| p.beam_budget))
+        .unwrap_or(params.search_budget() / 2)
+        .min(params.search_budget());
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
         return ExitCode::from(2);
@@ -129,17 +133,22 @@ pub fn run(args: SearchArgs) -> ExitCode {
     settings.batch = args.run.batch_api.then(|| out.clone());
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
-    let Parts { model, renderer, concurrency } =
-        match setup::build_parts(&domain, &args.model, &args.renderer, &settings, cache.as_deref(), concurrency) {
+    let Parts { model, renderer: renderer_parts, concurrency } =
+        match setup::build_parts(&domain, &args.model, &renderer, &settings, cache.as_deref(), concurrency) {
             Ok(p) => p,
             Err(e) => return setup_error(e),
         };
+    // Interact's width: the concurrency at the run's start, recorded so that a resume at another
+    // concurrency replays the same decisions.
+    if algo == Algo::Interact && args.search.batch.is_none() && recorded.is_none() {
+        params.batch = concurrency;
+    }
     if let Some(p) = &previous
         && let Err(e) = setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS)
     {
         return setup_error(e);
     }
-    let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
+    let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let lattice = {
         let mut work = super::progress::Work::new();
@@ -162,11 +171,16 @@ pub fn run(args: SearchArgs) -> ExitCode {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
         return ExitCode::from(1);
     }
-    let mut setup = Setup::new(Arc::new(domain), world, model, renderer, out.clone());
+    let mut setup = Setup::new(Arc::new(domain), world, model, renderer_parts, out.clone());
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
     setup.on_corrupt = args.run.on_corrupt();
+    // Said before the first model call: what an old run's numbers mean now, and an extension.
+    if let Some(p) = &previous {
+        let notes = [runner::old_rule_note(&out, p), runner::extension_note(&out, p, &config.params)];
+        notes.into_iter().flatten().for_each(|n| eprintln!("{}", crate::diag::terminal_safe(&n)));
+    }
     let started = std::time::Instant::now();
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
@@ -276,6 +290,9 @@ pub fn print_summary(
                 n => format!("; {n} borderline"),
             }
         )?;
+    }
+    if let Some(budget) = s.budget {
+        writeln!(w, "budget: {}", s.budget_text(budget))?;
     }
     writeln!(w, "spend: {}", s.spend.line())?;
     let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
@@ -462,6 +479,8 @@ mod tests {
             shrink,
             confirmation: None,
             borderline: vec![],
+            budget: None,
+            calls: None,
             spend: crate::run::summary::Spend {
                 calls: 1000,
                 cached: 12,

@@ -115,6 +115,9 @@ pub fn run(args: TransferArgs) -> ExitCode {
     let (space, _) = runner::search_space(lattice.sets, open.domain.concepts.len(), &world);
     let random = random_sets(&space.sets, &sets, args.random.unwrap_or(sets.len()), open.config.params.seed);
     let all: Vec<ConceptSet> = sets.iter().chain(&random).copied().collect();
+    let what = format!("{} sets × {} observations × {} models", all.len(), args.samples, models.len());
+    let most = all.len() as u64 * u64::from(args.samples) * models.len() as u64;
+    super::common::say_most_calls("transfer", most, &what);
     let (stats, spend) = match open.ask(&args.run_dir, reask::transfer(&open.reask, &models, &all, args.samples)) {
         Ok(x) => x,
         Err(code) => return code,

@@ -102,6 +102,13 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
     setup.on_corrupt = args.run.on_corrupt();
+    if args.top > 0 && args.samples > 0 {
+        let sets = (args.top as usize).min(summary.sets.len()) as u64;
+        let max = args.max_samples.unwrap_or(args.samples).max(args.samples);
+        let how = if max > args.samples { "up to " } else { "" };
+        let what = format!("{sets} sets × {how}{max} observations");
+        super::common::say_most_calls("validate", sets * u64::from(max), &what);
+    }
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
     let v = match rt.block_on(runner::validate(

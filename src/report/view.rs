@@ -442,10 +442,7 @@ fn header(run: &Run) -> Vec<(String, String)> {
         ("Domain".to_string(), format!("{}{file}", s.domain)),
         ("Model".into(), s.model.clone()),
         ("Algorithm".into(), algorithm_text(run)),
-        (
-            "Budget".into(),
-            format!("{} inferences · m = {} per set · τ = {}", grouped(p.budget), p.samples, s.threshold),
-        ),
+        ("Budget".into(), format!("{} · m = {} per set · τ = {}", s.budget_text(p.budget), p.samples, s.threshold)),
         ("Seed".into(), p.seed.to_string()),
         ("Finished".into(), run.finished.map_or_else(|| "–".into(), utc)),
         ("Renderer".into(), run.config.renderer.clone()),
@@ -475,10 +472,16 @@ fn metrics(run: &Run, f: &Findings<'_>) -> Vec<Metric> {
         Metric {
             label: "Distinct cores".into(),
             value: f.cores.len().to_string(),
-            detail: match &run.extras.shrink {
-                Some(sh) => format!("shrunk in {} inferences", grouped(sh.inferences)),
-                None if f.shrunk => "minimal failing subsets".into(),
-                None => "minimal failure modes found".into(),
+            detail: match (&run.summary.calls, &run.extras.shrink) {
+                (Some(c), _) => {
+                    format!(
+                        "explained and confirmed as found, in {} inferences",
+                        grouped(c.explaining + c.confirmation)
+                    )
+                }
+                (None, Some(sh)) => format!("shrunk in {} inferences", grouped(sh.inferences)),
+                (None, None) if f.shrunk => "minimal failing subsets".into(),
+                (None, None) => "minimal failure modes found".into(),
             },
         },
         Metric {

@@ -58,10 +58,20 @@ pub enum ResumeError {
     #[error("cannot resume `{}`: config.json is not a run configuration: {message}", dir.display())]
     BadConfig { dir: PathBuf, message: String },
     #[error(
-        "cannot resume `{}` with `--{flag} {now}`: it already holds a run with {what} {was}; raise the {what} to extend a run, or use another `--out` folder",
+        "cannot resume `{}` with `--budget {now}`: it is a run of {was} model calls and has made {made}; give `--budget {was}` or more (or leave it out), or use another `--out` folder",
         dir.display()
     )]
-    BudgetLowered { dir: PathBuf, flag: &'static str, what: &'static str, was: u64, now: u64 },
+    BudgetLowered { dir: PathBuf, was: u64, now: u64, made: u64 },
+    #[error(
+        "cannot resume `{}` with `--budget {now}`: it was written when `--budget` left out the shrink phase, and its {search} search and {shrink} shrink calls are `--budget {} --shrink {shrink}` now; leave `--budget` out to go on, or give a larger one to extend it",
+        dir.display(), search + shrink
+    )]
+    OldBudgetRule { dir: PathBuf, search: u64, shrink: u64, now: u64 },
+    #[error(
+        "cannot resume `{}` with `--shrink {}`: the run set aside {} for shrinking and gave its search {}; the search may not get less (now {}) nor the shrink phase (raise `--budget` with `--shrink`)",
+        dir.display(), shrink.1, shrink.0, search.0, search.1
+    )]
+    SearchCut { dir: PathBuf, shrink: (u64, u64), search: (u64, u64) },
     #[error("cannot resume: line {line} of `{}` names a set this domain does not have: {message}", dir.join("journal.jsonl").display())]
     UnknownSet { dir: PathBuf, line: usize, message: String },
 }

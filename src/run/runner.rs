@@ -5,11 +5,12 @@
 //! Resuming: the same command on an existing folder replays the journal and continues. A
 //! different configuration is refused, naming the differing fields, except for fields that say
 //! where things are rather than what the run is (the domain file's path, the `--model` spelling,
-//! the recorded model flags) and the budgets: a higher `--budget` extends the run — the algorithm
+//! the recorded model flags) and the budget: a higher `--budget` extends the run — the algorithm
 //! replays its decisions against the journal (sequential top-ups included) and goes on where the
-//! smaller budget stopped — and a higher `--shrink` extends the shrink phase, which shrinks the
-//! failure modes of the (possibly extended) search again, served from the journal where it asks
-//! what it asked before.
+//! smaller budget stopped, then the shrink phase shrinks the failure modes of the extended search
+//! again, served from the journal where it asks what it asked before. A lower one is refused
+//! ([`check_resume`]). The CLI fills the flags a resume leaves out from the record, so the same
+//! command (or a shorter one) never changes the plan.
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -25,34 +26,27 @@ use super::setup::DEFAULT_CONCURRENCY;
 use super::stop::Stop;
 use super::summary::{
     CONSISTENT_FR, CheckedRow, ConfirmSummary, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary,
-    Spend, Summary, ValidatedSet, Validation, validation_file,
+    Spend, Summary, ValidatedSet, Validation, spaced, upgrade, validation_file,
 };
 use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::confirm::{self, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
 use crate::search::shrink::{self, Found};
-use crate::search::{Driver, Params, Rule, SearchError, Searched, SetStats, Space};
+use crate::search::{CallsBy, Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 
-/// Fields of `config.json` a resume may change: where things are, not what the run is.
-const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings"];
+/// Fields of `config.json` a resume may change: where things are, not what the run is (and the
+/// format, which [`upgrade`] reads in today's terms).
+const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings", "format"];
 
-/// Budgets a resume may raise (field of `params` and `--flag`, what it is called): the search
-/// replays its decisions against the journal and goes on where the smaller budget stopped, and
-/// the shrink phase then starts over from the larger search's failure modes — its earlier
-/// observations are served from the journal wherever it asks for them again.
-type BudgetField = (&'static str, &'static str, fn(&Params) -> u64);
-const GROWABLE_BUDGETS: &[BudgetField] =
-    &[("budget", "budget", |p| p.budget), ("shrink", "shrink budget", |p| p.shrink)];
-
-/// Check that `new` may continue the run whose `config.json` is `old`.
-pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Result<(), ResumeError> {
-    let found = old.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
-    if found != RUN_FORMAT {
-        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT });
-    }
-    let was: RunConfig = serde_json::from_value(old.clone())
-        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
+/// Check that `new` may continue the run whose `config.json` is `old`, holding `made` model
+/// calls of the search and its shrink phase. A larger `--budget` extends the run (the search
+/// replays its decisions against the journal and goes on where the smaller budget stopped; the
+/// shrink phase then starts over from the larger search's failure modes, served from the
+/// journal wherever it asks again); a smaller one is refused, and so is a plan that would give
+/// the search phase less than it had.
+pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: u64) -> Result<(), ResumeError> {
+    let was = upgrade(dir, old.clone())?;
     let view = |c: &RunConfig| {
         let mut v = serde_json::to_value(c).expect("configurations serialise");
         if let Some(o) = v.as_object_mut() {
@@ -60,22 +54,64 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig) -> Res
                 o.remove(*f);
             }
         }
-        for (field, ..) in GROWABLE_BUDGETS {
-            v["params"][*field] = serde_json::Value::Null;
+        for field in ["budget", "shrink", "beam_budget"] {
+            v["params"][field] = serde_json::Value::Null;
         }
         v
     };
-    let diffs = differences(&view(&was), &view(new));
+    let mut diffs = differences(&view(&was), &view(new));
+    // GPTS's beam phase is part of the plan; it may only move when no budget moves it.
+    if was.params.algo == crate::search::Algo::Gpts && was.params.beam_budget != new.params.beam_budget {
+        diffs.push(format!("`params.beam_budget` was {}, now {}", was.params.beam_budget, new.params.beam_budget));
+    }
     if !diffs.is_empty() {
         return Err(ResumeError::Differs { dir: dir.to_path_buf(), diffs });
     }
-    for &(flag, what, budget) in GROWABLE_BUDGETS {
-        let (was, now) = (budget(&was.params), budget(&new.params));
-        if now < was {
-            return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), flag, what, was, now });
-        }
+    let (old_p, new_p) = (&was.params, &new.params);
+    if was.format < RUN_FORMAT && new_p.budget < old_p.budget {
+        return Err(ResumeError::OldBudgetRule {
+            dir: dir.to_path_buf(),
+            search: old_p.budget - old_p.shrink,
+            shrink: old_p.shrink,
+            now: new_p.budget,
+        });
+    }
+    if new_p.budget < old_p.budget {
+        return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), was: old_p.budget, now: new_p.budget, made });
+    }
+    if new_p.shrink < old_p.shrink || new_p.search_budget() < old_p.search_budget() {
+        return Err(ResumeError::SearchCut {
+            dir: dir.to_path_buf(),
+            shrink: (old_p.shrink, new_p.shrink),
+            search: (old_p.search_budget(), new_p.search_budget()),
+        });
     }
     Ok(())
+}
+
+/// The line a resume that raises `--budget` prints before its first model call; `None` when
+/// it does not.
+pub fn extension_note(dir: &Path, was: &RunConfig, now: &Params) -> Option<String> {
+    (now.budget > was.params.budget).then(|| {
+        format!("extending {} from {} to {} model calls", dir.display(), spaced(was.params.budget), spaced(now.budget))
+    })
+}
+
+/// The note a resume of a run written under the old budget rule (format 2) prints: what its
+/// numbers mean now.
+pub fn old_rule_note(dir: &Path, was: &RunConfig) -> Option<String> {
+    (was.format < RUN_FORMAT).then(|| {
+        let p = &was.params;
+        format!(
+            "note: `{}` was written when `--budget` left out the shrink phase: its {} search and {} shrink calls are `--budget {} --shrink {}` now (every phase within {} model calls); a larger `--budget` extends it",
+            dir.display(),
+            spaced(p.budget - p.shrink),
+            spaced(p.shrink),
+            p.budget,
+            p.shrink,
+            spaced(p.budget)
+        )
+    })
 }
 
 /// Top-level fields (and nested ones, dotted) that differ between two configurations.
@@ -102,6 +138,8 @@ fn differences(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> 
 /// Open the run folder for `config`: a new folder gets the configuration, an existing one must
 /// match it (a raised budget is written back).
 fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Journal>, RunError> {
+    // A folder of an older format is rewritten in today's terms.
+    let config = &RunConfig { format: RUN_FORMAT, ..config.clone() };
     let journal = Journal::open_with(out, corrupt)?;
     if let Some(note) = journal.set_aside_note() {
         eprintln!("{note}");
@@ -109,7 +147,8 @@ fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Jo
     let write = match journal.config() {
         None => true,
         Some(old) => {
-            check_resume(out, old, config)?;
+            let made = journal.records.iter().filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink)).count();
+            check_resume(out, old, config, made as u64)?;
             *old != serde_json::to_value(config).expect("configurations serialise")
         }
     };
@@ -225,12 +264,12 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     let journal = open_run(&setup.out, config, setup.on_corrupt)?;
     let (dropped_torn_line, set_aside) = (journal.dropped_torn_line, journal.set_aside);
     let mut eval = setup.evaluator(journal.clone(), params.seed, params.threshold, Phase::Search)?;
-    eval.progress = Some(Progress::start(&setup.progress, "search", params.budget + params.shrink, setup.concurrency));
+    eval.progress = Some(Progress::start(&setup.progress, "search", params.max_calls(), setup.concurrency));
     let result = search_and_shrink(params, space, &mut eval).await;
     if let Some(mut p) = eval.progress.take() {
         p.finish();
     }
-    let (history, mut found, shrink, confirmation) = match result {
+    let Searched2 { history, mut found, shrink, calls, confirmation } = match result {
         Ok(r) => r,
         Err(e) => return Err(run_error(e)),
     };
@@ -265,8 +304,9 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             checked: rows,
         });
     }
-    summary.shrink = shrink.map(|(inferences, new_sets)| ShrinkSummary {
-        budget: params.shrink,
+    summary.calls = calls;
+    summary.shrink = shrink.map(|(budget, inferences, new_sets)| ShrinkSummary {
+        budget,
         inferences,
         // Interact shrinks as it searches, under its confirmation rule.
         max_samples: if params.algo == crate::search::Algo::Interact {
@@ -308,30 +348,41 @@ fn run_error(e: SearchError<RunError>) -> RunError {
 /// observed rate is at least τ − 2δ: within δ of the zone).
 type Confirmed = (Vec<Checked>, u64, u64, Vec<Option<SetStats>>);
 
-/// The search, then the shrink phase, then fresh confirmation of the shrink's cores: the
-/// search's history, the shrink's findings, (when it ran) the shrink's inferences and the
-/// subsets it evaluated beyond the search, and the confirmation.
-async fn search_and_shrink(
-    params: &Params,
-    space: &Space,
-    eval: &mut Evaluator,
-) -> Searched<(Vec<SetStats>, Found, Option<(u64, usize)>, Option<Confirmed>), Evaluator> {
-    let history = crate::search::run(params, space, eval).await?;
+/// What [`search_and_shrink`] hands back.
+struct Searched2 {
+    /// The search's history.
+    history: Vec<SetStats>,
+    /// The shrink's findings (the candidates of confirmation).
+    found: Found,
+    /// When the shrink phase ran: its budget, inferences and the subsets it evaluated beyond
+    /// the search.
+    shrink: Option<(u64, u64, usize)>,
+    /// Interact: where the search's calls went.
+    calls: Option<CallsBy>,
+    /// Fresh confirmation of the shrink's cores (when it ran).
+    confirmation: Option<Confirmed>,
+}
+
+/// The search, then the shrink phase, then fresh confirmation of the shrink's cores, all within
+/// `--budget` together.
+async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator) -> Searched<Searched2, Evaluator> {
+    let (history, calls) = crate::search::run_counted(params, space, eval).await?;
     if params.shrink == 0 {
-        return Ok((history, Found::default(), None, None));
+        return Ok(Searched2 { history, found: Found::default(), shrink: None, calls, confirmation: None });
     }
     eval.phase = Phase::Shrink;
     if let Some(p) = &eval.progress {
         p.set_label("shrink");
     }
     let spent: u64 = history.iter().map(|s| u64::from(s.observations())).sum();
-    let mut driver = Driver::with_history(eval, params.shrink_rule(), params.shrink_budget(spent), history.clone());
+    let budget = params.shrink_budget(spent);
+    let mut driver = Driver::with_history(eval, params.shrink_rule(), budget, history.clone());
     let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
-    let shrink = (driver.spent(), driver.history.len() - history.len());
+    let shrink = (budget, driver.spent(), driver.history.len() - history.len());
     let everything = driver.history;
-    // Confirmation: what the search and the shrink phase left of budget + shrink (at least the
+    // Confirmation: what the search and the shrink phase left of `--budget` (at least the
     // reserve), on fresh scenes: a phase of its own, indices past every earlier observation.
-    let budget = (params.budget + params.shrink).saturating_sub(spent + shrink.0);
+    let budget = params.budget.saturating_sub(spent + shrink.1);
     eval.phase = Phase::Confirm;
     if let Some(p) = &eval.progress {
         p.set_label("confirm");
@@ -354,7 +405,8 @@ async fn search_and_shrink(
                 .cloned()
         })
         .collect();
-    Ok((history, found, Some(shrink), Some((checked, confirm_spent, budget, parts))))
+    let confirmation = Some((checked, confirm_spent, budget, parts));
+    Ok(Searched2 { history, found, shrink: Some(shrink), calls, confirmation })
 }
 
 pub fn summarize(
@@ -395,6 +447,8 @@ pub fn summarize(
         shrink: None,
         confirmation: None,
         borderline: Vec::new(),
+        budget: Some(p.budget),
+        calls: None,
         spend,
     }
 }

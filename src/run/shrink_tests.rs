@@ -11,6 +11,7 @@ fn a_run_killed_during_the_shrink_phase_resumes_to_the_same_summary() {
     let full = dir.path().join("full");
     let (s, space) = setup(&full, 8);
     let mut cfg = config(&s, Algo::Gpts);
+    cfg.params.budget = 350;
     cfg.params.shrink = 150;
     let reference = block_on(runner::search(&s, &cfg, &space)).unwrap().summary;
     let shrink = reference.shrink.as_ref().expect("the shrink phase ran");
@@ -40,6 +41,7 @@ fn summary_json_carries_intervals_cores_and_families() {
     let dir = tempfile::tempdir().unwrap();
     let (s, space) = setup(dir.path(), 8);
     let mut cfg = config(&s, Algo::Beam);
+    cfg.params.budget = 350;
     cfg.params.shrink = 150;
     cfg.params.max_samples = Some(15);
     let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
@@ -82,6 +84,36 @@ fn summary_json_carries_intervals_cores_and_families() {
     assert_eq!(shrink_lines, r.summary.shrink.as_ref().unwrap().inferences);
 }
 
+/// Issue 29: `--budget` caps every phase of every algorithm, the shrink phase included; the
+/// paper's algorithms search with `budget − shrink`.
+#[test]
+fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
+    let dir = tempfile::tempdir().unwrap();
+    for algo in Algo::ALL {
+        for max_samples in [None, Some(15)] {
+            let out = dir.path().join(format!("{algo:?}-{max_samples:?}"));
+            let (s, space) = setup(&out, 4);
+            let mut cfg = config(&s, algo);
+            cfg.params.budget = 200;
+            cfg.params.shrink = 50;
+            cfg.params.beam_budget = 75;
+            cfg.params.batch = 4;
+            cfg.params.max_samples = max_samples;
+            let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+            let what = format!("{algo:?} {max_samples:?}");
+            let lines = journal_lines(&out).len() as u64;
+            assert!(lines <= 200, "{what}: {lines} model calls");
+            assert_eq!(lines, r.summary.calls_made(), "{what}");
+            if algo != Algo::Interact {
+                assert!(r.summary.metrics.inferences <= 150, "{what}: the search phase is budget − shrink");
+            }
+            let sh = r.summary.shrink.as_ref().expect("the shrink phase ran");
+            assert_eq!(sh.budget, 200 - r.summary.metrics.inferences, "{what}: the shrink phase gets what is left");
+            assert_eq!(r.summary.budget, Some(200));
+        }
+    }
+}
+
 #[test]
 fn sequential_validation_tops_up_undecided_sets_only() {
     let dir = tempfile::tempdir().unwrap();
@@ -109,7 +141,7 @@ fn sequential_validation_tops_up_undecided_sets_only() {
 /// Raising `--budget` and `--shrink` on a run with sequential sampling and a shrink phase extends
 /// it: the search replays its decisions (top-ups included) and goes on, the shrink phase works on
 /// the larger search's failure modes, and the result is the larger run's. Lowering the shrink
-/// budget is refused as lowering the budget is.
+/// budget, or raising it at the search's expense, is refused as lowering the budget is.
 #[test]
 fn raising_the_budgets_extends_a_sequential_run_with_its_shrink_phase() {
     let dir = tempfile::tempdir().unwrap();
@@ -118,13 +150,13 @@ fn raising_the_budgets_extends_a_sequential_run_with_its_shrink_phase() {
         let (s, space) = setup(&small, 4);
         let mut cfg = config(&s, algo);
         cfg.params.max_samples = Some(15);
-        cfg.params.budget = 100;
+        cfg.params.budget = 140;
         cfg.params.beam_budget = 50;
         cfg.params.shrink = 40;
         let first = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert!(first.summary.shrink.as_ref().is_some_and(|sh| sh.inferences > 0), "{algo:?}: the shrink phase ran");
         let searched = first.summary.metrics.inferences;
-        cfg.params.budget = 250;
+        cfg.params.budget = 290;
         cfg.params.shrink = 80;
         let extended = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert!(extended.replayed >= searched, "{algo:?}: the smaller search's observations are all reused");
@@ -137,6 +169,10 @@ fn raising_the_budgets_extends_a_sequential_run_with_its_shrink_phase() {
         assert!(journal_lines(&big).iter().all(|l| kept.contains(l)), "{algo:?}");
         cfg.params.shrink = 40;
         let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
-        assert!(e.contains("with `--shrink 40`: it already holds a run with shrink budget 80"), "{e}");
+        assert!(e.contains("with `--shrink 40`: the run set aside 80 for shrinking and gave its search 210"), "{e}");
+        // Moving budget from the search to the shrink phase would cut the search short: refused.
+        cfg.params.shrink = 100;
+        let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
+        assert!(e.contains("the search may not get less (now 190)"), "{e}");
     }
 }

@@ -55,8 +55,30 @@ impl Spend {
 
 /// The run folder format this revelio writes and reads. Format 1 (no `format` field) seeded its
 /// scenes from the domain file's path as typed; its scenes cannot be reproduced, so such folders
-/// are refused with a message rather than resumed with different scenes.
-pub const RUN_FORMAT: u64 = 2;
+/// are refused with a message rather than resumed with different scenes. Format 2 spent
+/// `--shrink` on top of `--budget`; format 3 counts every phase in `--budget`. A format 2 folder
+/// reads as the same run in today's terms ([`upgrade`]): its budget plus its shrink budget.
+pub const RUN_FORMAT: u64 = 3;
+
+/// The oldest run folder format this revelio reads ([`upgrade`]).
+pub const OLDEST_READ_FORMAT: u64 = 2;
+
+/// A `config.json` of any format this revelio reads, as a configuration in today's terms; its
+/// `format` stays the one it was written in. Format 2's `budget` was the search's alone (the
+/// shrink phase's `shrink` came on top; `interact` spent both in its search): the same run has
+/// `budget + shrink` now, with `shrink` set aside for shrinking.
+pub fn upgrade(dir: &Path, value: serde_json::Value) -> Result<RunConfig, ResumeError> {
+    let found = value.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
+    if !(OLDEST_READ_FORMAT..=RUN_FORMAT).contains(&found) {
+        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT });
+    }
+    let mut config: RunConfig = serde_json::from_value(value)
+        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
+    if found == 2 {
+        config.params.budget = config.params.budget.saturating_add(config.params.shrink);
+    }
+    Ok(config)
+}
 
 fn run_format_1() -> u64 {
     1
@@ -112,7 +134,8 @@ impl RunConfig {
     }
 }
 
-/// Read a run folder's `config.json`, if it has one (to reuse its settings).
+/// Read a run folder's `config.json`, if it has one (to reuse its settings), in today's terms
+/// ([`upgrade`]).
 pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
     let path = dir.join("config.json");
     if !path.exists() {
@@ -125,13 +148,7 @@ pub fn read_config(dir: &Path) -> Result<Option<RunConfig>, RunError> {
     })?;
     let value: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| JournalError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() })?;
-    let found = value.get("format").and_then(serde_json::Value::as_u64).unwrap_or(1);
-    if found != RUN_FORMAT {
-        return Err(ResumeError::Format { dir: dir.to_path_buf(), found, expected: RUN_FORMAT }.into());
-    }
-    serde_json::from_value(value)
-        .map(Some)
-        .map_err(|e| ResumeError::BadConfig { dir: dir.to_path_buf(), message: e.to_string() }.into())
+    Ok(Some(upgrade(dir, value)?))
 }
 
 /// One evaluated set, by name.
@@ -244,7 +261,7 @@ pub struct CheckedRow {
 /// The shrink phase in `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShrinkSummary {
-    /// Inferences it was given (`--shrink`) and spent.
+    /// Inferences it was given (what the search left of `--budget`) and spent.
     pub budget: u64,
     pub inferences: u64,
     /// Most observations per set in its sequential test (interact: its confirmation rule's, the
@@ -299,13 +316,68 @@ pub struct Summary {
     /// around τ: near the threshold, neither cores nor passing (fresh observations).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub borderline: Vec<CheckedRow>,
+    /// `--budget`: the most model calls of the run, every phase (absent in older runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub budget: Option<u64>,
+    /// Interact: where the search's calls went (screening, escalation, explaining,
+    /// confirmation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calls: Option<crate::search::CallsBy>,
     /// Tokens and money of the run's observations, every phase (its model's usage and
     /// configured prices).
     #[serde(default)]
     pub spend: Spend,
 }
 
+/// A count with spaces between thousands groups: `1 000`.
+pub fn spaced(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(ch);
+    }
+    out
+}
+
 impl Summary {
+    /// Model calls the run made: its search, its shrink phase and fresh confirmation.
+    pub fn calls_made(&self) -> u64 {
+        self.metrics.inferences
+            + self.shrink.as_ref().map_or(0, |s| s.inferences)
+            + self.confirmation.as_ref().map_or(0, |c| c.inferences)
+    }
+
+    /// Where the calls went, against `budget`: `1 000 of 1 000 model calls (screening 402,
+    /// escalation 188, explaining 260, confirmation 90, fresh confirmation 60)`, or `(search 750,
+    /// shrink 180, fresh confirmation 62)`.
+    pub fn budget_text(&self, budget: u64) -> String {
+        let shrink = self.shrink.as_ref().map_or(0, |s| s.inferences);
+        let mut parts: Vec<String> = match &self.calls {
+            Some(c) => [
+                ("screening", c.screening),
+                ("escalation", c.escalation),
+                ("explaining", c.explaining),
+                ("confirmation", c.confirmation),
+            ]
+            .iter()
+            .map(|(what, n)| format!("{what} {}", spaced(*n)))
+            .collect(),
+            None if self.shrink.is_some() => vec![format!("search {}", spaced(self.metrics.inferences))],
+            None => vec![],
+        };
+        if self.shrink.is_some() && (self.calls.is_none() || shrink > 0) {
+            parts.push(format!("shrink {}", spaced(shrink)));
+        }
+        if let Some(c) = &self.confirmation {
+            parts.push(format!("fresh confirmation {}", spaced(c.inferences)));
+        }
+        let parts = if parts.is_empty() { String::new() } else { format!(" ({})", parts.join(", ")) };
+        format!("{} of {} model calls{parts}", spaced(self.calls_made()), spaced(budget))
+    }
+
     /// `(api_error observations, all observations)`.
     pub fn api_errors(&self) -> (u64, u64) {
         (self.metrics.unanswered.get(&Outcome::ApiError).copied().unwrap_or(0), self.metrics.inferences)

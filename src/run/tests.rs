@@ -75,13 +75,15 @@ pub(super) fn killed_copy(full: &Path, journal: &[u8], run: &Path) -> (PathBuf, 
     (run.to_path_buf(), journal.iter().filter(|&&b| b == b'\n').count() as u64)
 }
 
-/// A run killed at any byte of its journal resumes to the uninterrupted run's summary.
-fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
+/// A run killed at any byte of its journal resumes to the uninterrupted run's summary (at
+/// another concurrency: picks in rounds of `batch`, which the run records).
+fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo, batch: usize) {
     use rand::{RngExt, SeedableRng};
     let dir = tempfile::tempdir().unwrap();
     let full = dir.path().join("full");
     let (s, space) = setup(&full, 8);
-    let cfg = config(&s, algo);
+    let mut cfg = config(&s, algo);
+    cfg.params.batch = batch;
     let reference = block_on(runner::search(&s, &cfg, &space)).unwrap().summary;
     let journal = std::fs::read(full.join("journal.jsonl")).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -89,7 +91,7 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
         [0, 1, journal.len() - 1, journal.len()].into_iter().chain((0..6).map(|_| rng.random_range(0..journal.len())));
     for (k, cut) in cuts.enumerate() {
         let (run, kept) = killed_copy(&full, &journal[..cut], &dir.path().join(format!("crash{k}")));
-        let (s, space) = setup(&run, 8);
+        let (s, space) = setup(&run, 3);
         let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
         assert_eq!(r.summary, reference, "cut at byte {cut}");
         assert_eq!(r.replayed, kept, "every finished observation is replayed, none asked twice");
@@ -100,12 +102,19 @@ fn resume_after_a_crash_at_any_point_gives_the_same_summary(algo: Algo) {
 
 #[test]
 fn gpts_resumes_after_a_crash_at_any_point() {
-    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts);
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Gpts, 1);
 }
 
 #[test]
 fn interact_resumes_after_a_crash_at_any_point() {
-    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact);
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact, 1);
+}
+
+/// Issue 29: a parallel interact run (every call filled to a width of 8) resumed at another
+/// concurrency equals the uninterrupted run.
+#[test]
+fn parallel_interact_resumes_after_a_crash_at_any_point() {
+    resume_after_a_crash_at_any_point_gives_the_same_summary(Algo::Interact, 8);
 }
 
 #[test]
@@ -402,7 +411,7 @@ fn raising_the_budget_extends_a_run() {
         // Going back down would silently cut the run short: refused.
         cfg.params.budget = 100;
         let e = block_on(runner::search(&s, &cfg, &space)).err().unwrap().to_string();
-        assert!(e.contains("with `--budget 100`: it already holds a run with budget 250"), "{e}");
+        assert!(e.contains("with `--budget 100`: it is a run of 250 model calls and has made 250"), "{e}");
     }
 }
 
@@ -535,5 +544,44 @@ fn resumes_check_the_endpoint_and_the_folder_format() {
     std::fs::write(old.path().join("config.json"), v.to_string()).unwrap();
     let (o, _) = setup(old.path(), 4);
     let e = block_on(runner::search(&o, &cfg, &space)).err().unwrap().to_string();
-    assert!(e.contains("was written by an older revelio (run folder format 1; this one reads format 2)"), "{e}");
+    assert!(e.contains("was written by an older revelio (run folder format 1; this one reads format 3)"), "{e}");
+}
+
+/// Issue 29: a folder of format 2, whose `--budget` left out the shrink phase, reads as the same
+/// run with `budget + shrink`; resumed so, it adds nothing; resumed with its old `--budget` it is
+/// refused with what changed and how to go on.
+#[test]
+fn a_run_of_the_old_budget_rule_reads_as_budget_plus_shrink() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, space) = setup(dir.path(), 4);
+    let mut cfg = config(&s, Algo::Random);
+    cfg.params.budget = 250;
+    cfg.params.shrink = 50;
+    let first = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    let lines = journal_lines(dir.path());
+    // Written by the older revelio: format 2, `budget` the search's alone.
+    let mut v = serde_json::to_value(&cfg).unwrap();
+    v["format"] = 2.into();
+    v["params"]["budget"] = 200.into();
+    std::fs::write(dir.path().join("config.json"), v.to_string()).unwrap();
+    let read = crate::run::summary::read_config(dir.path()).unwrap().unwrap();
+    assert_eq!((read.format, read.params.budget, read.params.shrink), (2, 250, 50));
+    let (_, summary) = crate::run::summary::load_run(dir.path()).unwrap();
+    assert_eq!(summary.metrics.inferences, first.summary.metrics.inferences, "report and compare read it");
+    let note = runner::old_rule_note(dir.path(), &read).unwrap();
+    assert!(note.contains("its 200 search and 50 shrink calls are `--budget 250 --shrink 50` now"), "{note}");
+    let mut old = cfg.clone();
+    old.params.budget = 200;
+    let e = block_on(runner::search(&s, &old, &space)).err().unwrap().to_string();
+    assert!(
+        e.contains("with `--budget 200`: it was written when `--budget` left out the shrink phase")
+            && e.contains("`--budget 250 --shrink 50` now; leave `--budget` out to go on"),
+        "{e}"
+    );
+    let again = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    assert_eq!(again.summary, first.summary);
+    assert_eq!(journal_lines(dir.path()), lines, "nothing asked again");
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("config.json")).unwrap()).unwrap();
+    assert_eq!((written["format"].as_u64(), written["params"]["budget"].as_u64()), (Some(3), Some(250)));
 }

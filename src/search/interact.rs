@@ -32,6 +32,9 @@
 //! Confirmation and shrinking spend the search's budget: the run as a whole stays within
 //! [`Params::search_budget`]. Every decision is a pure function of the seed and the observed
 //! answers, so a resumed run replays exactly.
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -40,7 +43,7 @@ use crate::ir::ConceptSet;
 use super::patterns::{Fit, Patterns};
 use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
-use super::{Driver, Evaluate, Params, Rule, Searched, SetStats, Space};
+use super::{Driver, Evaluate, Params, Purpose, Rule, Searched, SetStats, Space};
 
 /// Salt for the interact random stream.
 const STREAM: u64 = 0x696e_7465_7261_6374;
@@ -176,6 +179,26 @@ impl<'s> Board<'s> {
         self.argmax_at(covered, |_, s| score(s))
     }
 
+    /// The `k` unexplored sets with the highest scores (none scored −∞) among the open or the
+    /// covered sets, best first; ties go to the earliest in lattice order, as in
+    /// [`Board::argmax`].
+    fn best_at(&self, covered: bool, k: usize, score: impl Fn(usize, ConceptSet) -> f64) -> Vec<ConceptSet> {
+        let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
+        for (i, set) in self.space.sets.iter().enumerate() {
+            if self.explored[i] || self.covered[i] != covered {
+                continue;
+            }
+            let v = score(i, *set);
+            if v == f64::NEG_INFINITY || (best.len() == k && best.last().is_some_and(|(w, _)| v <= *w)) {
+                continue;
+            }
+            let at = best.iter().position(|(w, _)| v > *w).unwrap_or(best.len());
+            best.insert(at, (v, i));
+            best.truncate(k);
+        }
+        best.into_iter().map(|(_, i)| self.space.sets[i]).collect()
+    }
+
     /// [`Board::argmax`] with the set's position in the space handed to the score too.
     fn argmax_at(&self, covered: bool, score: impl Fn(usize, ConceptSet) -> f64) -> Option<(ConceptSet, f64)> {
         let mut best: Option<(usize, f64)> = None;
@@ -277,7 +300,7 @@ fn data(history: &[SetStats]) -> Data {
     data
 }
 
-pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
+pub async fn run<'d, E: Evaluate>(params: &Params, space: &'d Space, driver: &mut Driver<'d, E>) -> Searched<(), E> {
     match params.surrogate.parts() {
         Some(parts) => run_regression(params, space, driver, parts).await,
         None => run_patterns(params, space, driver).await,
@@ -349,6 +372,8 @@ pub struct PatternSearcher<'s> {
     open: Vec<bool>,
     cores: Vec<ConceptSet>,
     rng: ChaCha8Rng,
+    /// How much of the history the board has marked explored.
+    marked: usize,
 }
 
 impl<'s> PatternSearcher<'s> {
@@ -362,7 +387,20 @@ impl<'s> PatternSearcher<'s> {
             board: Board::new(space),
             cores: Vec::new(),
             rng: ChaCha8Rng::seed_from_u64(params.seed ^ STREAM),
+            marked: 0,
         }
+    }
+
+    /// Mark every set of `history` explored.
+    fn catch_up(&mut self, history: &[SetStats]) {
+        self.board.explore_since(history, &mut self.marked);
+    }
+
+    /// Up to `room` new sets to screen beside a call's `asks` (a narrow step of the search):
+    /// [`PatternSearcher::propose`]'s picks, the asked sets left out.
+    pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<ConceptSet> {
+        asks.iter().for_each(|a| self.board.explore(a.set));
+        self.pick(history, room)
     }
 
     pub fn explored(&mut self, set: ConceptSet) {
@@ -411,24 +449,32 @@ impl<'s> PatternSearcher<'s> {
     /// `batch` picks, each the unexplored open set with the best discovery chance per expected
     /// observation under a dilution drawn from its posterior.
     pub fn propose(&mut self, history: &[SetStats]) -> Vec<ConceptSet> {
+        self.pick(history, self.params.batch)
+    }
+
+    /// `n` picks ([`PatternSearcher::propose`]).
+    fn pick(&mut self, history: &[SetStats], n: usize) -> Vec<ConceptSet> {
+        self.catch_up(history);
         let fit = self.fit(history);
-        let mut picks: Vec<ConceptSet> = Vec::with_capacity(self.params.batch);
-        for _ in 0..self.params.batch {
+        let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
+        // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
+        // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
+        let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
+        for _ in 0..n {
             let di = fit.draw_dilution(self.rng.random::<f64>());
-            let scorer = fit.scorer(
-                &self.patterns,
-                &self.open,
-                di,
-                SCREEN.min(self.params.samples),
-                self.params.samples,
-                self.params.threshold,
-            );
-            let open =
-                self.board
-                    .argmax_at(false, |i, s| {
-                        if picks.contains(&s) { f64::NEG_INFINITY } else { scorer.score(&self.patterns, i) }
-                    })
-                    .filter(|(_, v)| *v > f64::NEG_INFINITY);
+            if !ranked.iter().any(|(d, _)| *d == di) {
+                let scorer = fit.scorer(
+                    &self.patterns,
+                    &self.open,
+                    di,
+                    SCREEN.min(self.params.samples),
+                    self.params.samples,
+                    self.params.threshold,
+                );
+                ranked.push((di, self.board.best_at(false, n, |i, _| scorer.score(&self.patterns, i))));
+            }
+            let best = ranked.iter().find(|(d, _)| *d == di).map(|(_, best)| best);
+            let open = best.and_then(|b| b.iter().find(|s| !picks.contains(s))).map(|&set| (set, 0.0));
             // No open set left (a small lattice): under `fallback`, measure the known families'
             // extent, the superset likeliest to fail first.
             let pick = match open {
@@ -485,7 +531,28 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 }
 
 /// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
-async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
+///
+/// Rounds of `batch` picks (the width: by default the concurrency at the run's start, recorded in
+/// the run). The steps after a screen ask about a few sets at a time, so every call is filled to
+/// the width with more screens ([`Driver::fill_to`]); the sets they add are decided on in the
+/// next round, before any new picks. Every fill is a pure function of the seed and the answers.
+async fn run_patterns<'d, E: Evaluate>(
+    params: &Params,
+    space: &'d Space,
+    driver: &mut Driver<'d, E>,
+) -> Searched<(), E> {
+    let result = search_patterns(params, space, driver).await;
+    driver.clear_fill();
+    driver.set_rule(params.rule());
+    driver.purpose = None;
+    result
+}
+
+async fn search_patterns<'d, E: Evaluate>(
+    params: &Params,
+    space: &'d Space,
+    driver: &mut Driver<'d, E>,
+) -> Searched<(), E> {
     let tau = params.threshold;
     let screen = Rule::fixed(SCREEN.min(params.samples), tau);
     // The confirmation decides with the anytime-valid test and its indifference zone (a core
@@ -495,39 +562,58 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
     let confirm = params.confirm_rule().with_zone(params.delta);
     let triage = confirm.with_z(TRIAGE_Z);
     let escalate = Rule { samples: ESCALATE.min(params.samples), ..triage };
-    let search_rule = driver.rule();
-    let mut searcher = PatternSearcher::new(params, space);
-    let mut marked = 0;
+    let searcher = Rc::new(RefCell::new(PatternSearcher::new(params, space)));
+    if params.batch > 1 {
+        let filler = searcher.clone();
+        driver.fill_to(
+            params.batch,
+            screen.samples,
+            Box::new(move |history, asks, room| filler.borrow_mut().fill(history, asks, room)),
+        );
+    }
+    // Screened sets not decided on yet (picks, and the sets calls were filled with).
+    let mut queue: Vec<ConceptSet> = Vec::new();
     loop {
         driver.set_rule(screen);
-        if !driver.can_start() {
-            break;
+        driver.purpose = Some(Purpose::Screening);
+        if queue.is_empty() {
+            if !driver.can_start() {
+                break;
+            }
+            let picks = searcher.borrow_mut().propose(&driver.history);
+            if picks.is_empty() {
+                break;
+            }
+            driver.evaluate(&picks).await?;
+            queue.extend(picks);
         }
-        let picks = searcher.propose(&driver.history);
-        if picks.is_empty() {
-            break;
-        }
-        let stats = driver.evaluate(&picks).await?;
+        queue.extend(driver.take_filled());
         // A wrong answer in the screen: the set gets its m observations.
-        let hot: Vec<ConceptSet> = stats.iter().filter(|s| s.wrong > 0).map(|s| s.set).collect();
+        let hot: Vec<ConceptSet> = queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
         driver.set_rule(escalate);
+        driver.purpose = Some(Purpose::Escalation);
         driver.top_up(&hot).await?;
-        searcher.board.explore_since(&driver.history, &mut marked);
+        queue.extend(driver.take_filled());
         for set in hot {
             let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
-            if !failing || searcher.is_covered(set) {
+            if !failing || searcher.borrow().is_covered(set) {
                 continue;
             }
             driver.set_rule(triage);
             if !driver.can_start() {
                 break;
             }
-            let fit = searcher.fit(&driver.history);
+            driver.purpose = Some(Purpose::Explaining);
+            let candidates = {
+                let s = searcher.borrow();
+                let fit = s.fit(&driver.history);
+                s.candidates(&fit, set)
+            };
             let mut core = None;
             // Passing subsets near τ that a failing set did not significantly exceed.
             let mut flat = Vec::new();
             let mut tried = 0;
-            for p in searcher.candidates(&fit, set) {
+            for p in candidates {
                 if tried == JUMPS {
                     break;
                 }
@@ -548,15 +634,17 @@ async fn run_patterns<E: Evaluate>(params: &Params, space: &Space, driver: &mut 
             // (shrinking on if a part fails after all).
             if let Some(c) = core {
                 driver.set_rule(confirm);
+                driver.purpose = Some(Purpose::Confirmation);
                 core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
             }
-            searcher.board.explore_since(&driver.history, &mut marked);
-            flat.into_iter().for_each(|by| searcher.explain(by));
+            queue.extend(driver.take_filled());
+            let mut s = searcher.borrow_mut();
+            s.catch_up(&driver.history);
+            flat.into_iter().for_each(|by| s.explain(by));
             if let Some(c) = core {
-                searcher.confirm(c);
+                s.confirm(c);
             }
         }
     }
-    driver.set_rule(search_rule);
     Ok(())
 }

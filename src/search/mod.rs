@@ -9,8 +9,9 @@
 //! algorithm from the start against the journal ([`crate::journal`]): finished observations are
 //! served from it, and the run continues exactly where the killed one stopped.
 //!
-//! Budgets count inferences (every observation, answered or not). With the paper's fixed count
-//! an algorithm evaluates at most `budget / samples` sets, each with `samples` observations; with
+//! Budgets count inferences (every observation, answered or not; one model call each), and
+//! `--budget` caps every phase of a search together ([`Params::max_calls`]). With the paper's
+//! fixed count an algorithm evaluates at most `search_budget / samples` sets, each with `samples` observations; with
 //! sequential sampling ([`Rule`]) a set may get up to `max_samples`, and fewer sets fit. No set is
 //! evaluated twice: more observations of a set continue its observation indices.
 //!
@@ -92,7 +93,7 @@ pub const DEFAULT_LAMBDA: f64 = 0.5;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Params {
     pub algo: Algo,
-    /// Inference budget.
+    /// The most model calls the command makes, every phase included ([`Params::max_calls`]).
     pub budget: u64,
     /// Observations per set (m).
     pub samples: u32,
@@ -122,7 +123,8 @@ pub struct Params {
     /// paper's fixed count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_samples: Option<u32>,
-    /// Inferences for shrinking failure modes to cores after the search (0: no shrink phase).
+    /// The part of `budget` set aside for shrinking failure modes to cores after the search (0:
+    /// no shrink phase). The paper's algorithms search with `budget − shrink`.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shrink: u64,
     /// The indifference zone δ around τ of the anytime-valid test ([`cs`]): a reported core is
@@ -161,10 +163,10 @@ fn is_zero(x: &u64) -> bool {
     *x == 0
 }
 
-/// The default shrink budget is this share of the search budget (`--shrink`): 1/4. Shrinking
-/// one failure family of size 4–5 to a pair costs about 60–120 inferences with the sequential
-/// test (each subset 5–20 observations), so a quarter of the paper's 1000 confirms the
-/// strongest 3–5 families — a handful of distinct findings — for 25 % more spend.
+/// The default shrink budget is this share of the budget (`--shrink`): 1/4. Shrinking one failure
+/// family of size 4–5 to a pair costs about 60–120 inferences with the sequential test (each
+/// subset 5–20 observations), so a quarter of 1000 confirms the strongest 3–5 families — a
+/// handful of distinct findings. The paper's setting is `--shrink 0` (a 1000-call search).
 pub const SHRINK_SHARE: u64 = 4;
 
 /// The shrink phase always tests sequentially: up to `--max-samples`, or this many times m when
@@ -246,8 +248,20 @@ impl Params {
         if !self.lambda.is_finite() || self.lambda < 0.0 {
             return bad("lambda", &format!("must be a non-negative number, got {}", self.lambda));
         }
-        if self.beam_budget > self.budget {
-            return bad("beam-budget", &format!("{} exceeds the budget {}", self.beam_budget, self.budget));
+        if self.algo != Algo::Interact && self.shrink > 0 && self.search_budget() < u64::from(self.samples) {
+            return bad(
+                "shrink",
+                &format!(
+                    "{} of a budget of {} model calls leaves the search too few for one set of {} samples",
+                    self.shrink, self.budget, self.samples
+                ),
+            );
+        }
+        if self.beam_budget > self.search_budget() {
+            return bad(
+                "beam-budget",
+                &format!("{} exceeds the search's budget {}", self.beam_budget, self.search_budget()),
+            );
         }
         if self.batch == 0 {
             return bad("batch", "must be at least 1");
@@ -305,24 +319,28 @@ impl Params {
         Rule::sequential(self.samples, max, self.threshold)
     }
 
-    /// What the search may spend: `--budget`, and for `interact`, which shrinks each failure to
-    /// its core as it finds it, the `--shrink` budget too (the shrink phase after it gets what it
-    /// leaves: [`Params::shrink_budget`]). Every algorithm spends at most budget + shrink in all.
+    /// The most model calls the search command makes, every phase included (search, sequential
+    /// top-ups, confirmation, shrink): `--budget`.
+    pub fn max_calls(&self) -> u64 {
+        self.budget
+    }
+
+    /// What the search phase may spend: for the paper's algorithms the budget less the part set
+    /// aside for shrinking (`budget − shrink`, the budget their PFM / MFR / Div are computed
+    /// over); `interact`, which shrinks each failure to its core as it finds it, the whole
+    /// budget less the confirmation reserve (the shrink phase after it gets what it leaves:
+    /// [`Params::shrink_budget`]).
     pub fn search_budget(&self) -> u64 {
         match self.algo {
-            Algo::Interact => self.budget + self.shrink - self.confirm_reserve(),
-            _ => self.budget,
+            Algo::Interact => self.budget.saturating_sub(self.confirm_reserve()),
+            _ => self.budget.saturating_sub(self.shrink),
         }
     }
 
-    /// The shrink phase's budget once the search spent `spent`.
+    /// The shrink phase's budget once the search spent `spent`: what is left of `--budget` less
+    /// the confirmation reserve (for the paper's algorithms at least `--shrink` less it).
     pub fn shrink_budget(&self, spent: u64) -> u64 {
-        match self.algo {
-            Algo::Interact => {
-                (self.budget + self.shrink - self.confirm_reserve()).saturating_sub(spent.max(self.budget))
-            }
-            _ => self.shrink - self.confirm_reserve(),
-        }
+        self.budget.saturating_sub(self.confirm_reserve()).saturating_sub(spent)
     }
 
     /// Inferences kept for fresh confirmation ([`confirm`]) out of the shrink budget:
@@ -344,12 +362,12 @@ impl Params {
         }
     }
 
-    /// Sets the budget pays for with the fixed count.
+    /// Sets the search phase's budget pays for with the fixed count.
     pub fn max_sets(&self) -> usize {
-        (self.budget / u64::from(self.samples)) as usize
+        (self.search_budget() / u64::from(self.samples)) as usize
     }
 
-    /// The default `--shrink` for a search budget.
+    /// The default `--shrink` for a budget.
     pub fn default_shrink(budget: u64) -> u64 {
         budget / SHRINK_SHARE
     }
@@ -405,6 +423,45 @@ impl<E: std::fmt::Display> std::fmt::Display for SearchError<E> {
 /// The result of a search step driven by evaluator `E`.
 pub type Searched<T, E> = Result<T, SearchError<<E as Evaluate>::Error>>;
 
+/// What a search's model calls were for (`--algo interact`): screening new sets, escalating the
+/// ones that answered wrong, explaining a failing set (jumps to likely cores and the triage's
+/// shrinking), and confirming a core under the full rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Purpose {
+    Screening,
+    Escalation,
+    Explaining,
+    Confirmation,
+}
+
+/// Model calls by [`Purpose`].
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CallsBy {
+    pub screening: u64,
+    pub escalation: u64,
+    pub explaining: u64,
+    pub confirmation: u64,
+}
+
+impl CallsBy {
+    fn add(&mut self, purpose: Purpose, n: u64) {
+        *match purpose {
+            Purpose::Screening => &mut self.screening,
+            Purpose::Escalation => &mut self.escalation,
+            Purpose::Explaining => &mut self.explaining,
+            Purpose::Confirmation => &mut self.confirmation,
+        } += n;
+    }
+
+    pub fn total(&self) -> u64 {
+        self.screening + self.escalation + self.explaining + self.confirmation
+    }
+}
+
+/// Fills a call narrower than the width with new sets to screen: given the history, the call's
+/// asks and how many sets fit, the sets to add ([`Driver::fill_to`]).
+pub type Fill<'e> = Box<dyn FnMut(&[SetStats], &[Ask], usize) -> Vec<ConceptSet> + 'e>;
+
 /// Budget, history and the sequential rule, shared by the algorithms and the shrink phase.
 pub struct Driver<'e, E> {
     eval: &'e mut E,
@@ -416,6 +473,16 @@ pub struct Driver<'e, E> {
     /// Inferences this driver may spend.
     budget: u64,
     spent: u64,
+    /// Calls in flight a call is filled to, observations per filling set, and the filler. Not
+    /// dropped with the driver (a driver owns nothing that needs dropping, so the evaluator it
+    /// borrows is free again as soon as it is last used): [`Driver::clear_fill`] drops it.
+    fill: Option<(usize, u32, std::mem::ManuallyDrop<Fill<'e>>)>,
+    /// Sets the filler added, not yet taken by the search ([`Driver::take_filled`]).
+    filled: Vec<ConceptSet>,
+    /// What the calls made now are for, when the algorithm says (interact).
+    pub purpose: Option<Purpose>,
+    /// Calls by purpose (those made with a purpose set).
+    pub calls_by: CallsBy,
 }
 
 impl<'e, E: Evaluate> Driver<'e, E> {
@@ -428,7 +495,70 @@ impl<'e, E: Evaluate> Driver<'e, E> {
     /// from now.
     pub fn with_history(eval: &'e mut E, rule: Rule, budget: u64, history: Vec<SetStats>) -> Self {
         let seen = history.iter().enumerate().map(|(i, s)| (s.set, i)).collect();
-        Driver { eval, history, seen, rule, budget, spent: 0 }
+        Driver {
+            eval,
+            history,
+            seen,
+            rule,
+            budget,
+            spent: 0,
+            fill: None,
+            filled: Vec::new(),
+            purpose: None,
+            calls_by: CallsBy::default(),
+        }
+    }
+
+    /// Fill every call to a multiple of `width` observations (the calls in flight) with new sets
+    /// that `fill` picks, `obs` observations each, as far as the budget goes: so a search whose
+    /// steps ask about a few sets at a time (a shrink, a confirmation) still keeps the model
+    /// busy. The sets added are the search's to decide on: [`Driver::take_filled`].
+    pub fn fill_to(&mut self, width: usize, obs: u32, fill: Fill<'e>) {
+        self.clear_fill();
+        self.fill = Some((width.max(1), obs.max(1), std::mem::ManuallyDrop::new(fill)));
+    }
+
+    /// Stop filling calls, and drop the filler.
+    pub fn clear_fill(&mut self) {
+        if let Some((.., fill)) = self.fill.take() {
+            drop(std::mem::ManuallyDrop::into_inner(fill));
+        }
+    }
+
+    /// The sets the filler added since the last call, in the order they were asked.
+    pub fn take_filled(&mut self) -> Vec<ConceptSet> {
+        std::mem::take(&mut self.filled)
+    }
+
+    /// Make the asked observations (filled, see [`Driver::fill_to`]) and record them.
+    async fn call(&mut self, asks: Vec<Ask>) -> Searched<(), E> {
+        let mut all = asks;
+        let own = all.len();
+        if let Some((width, obs, fill)) = &mut self.fill {
+            let asked: u64 = all.iter().map(|a| u64::from(a.len())).sum();
+            let width = *width as u64;
+            let affordable = self.budget.saturating_sub(self.spent + asked) / u64::from(*obs);
+            let room = ((width - asked % width) % width / u64::from(*obs)).min(affordable) as usize;
+            if room > 0 {
+                for set in fill(&self.history, &all, room) {
+                    if all.len() - own < room && !self.seen.contains_key(&set) && !all.iter().any(|a| a.set == set) {
+                        all.push(Ask { set, obs: 0..*obs });
+                    }
+                }
+            }
+        }
+        let stats = self.eval.evaluate(&all).await.map_err(SearchError::Eval)?;
+        let purpose = self.purpose;
+        let (mine, extra) = (all[..own].to_vec(), all[own..].to_vec());
+        let mut stats = stats.into_iter();
+        self.record(&mine, stats.by_ref().take(own).collect());
+        if !extra.is_empty() {
+            self.purpose = Some(Purpose::Screening);
+            self.record(&extra, stats.collect());
+            self.purpose = purpose;
+            self.filled.extend(extra.iter().map(|a| a.set));
+        }
+        Ok(())
     }
 
     pub fn rule(&self) -> Rule {
@@ -500,8 +630,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
             let chunk = ((self.remaining() / max) as usize).max(1).min(affordable).min(fresh.len() - next);
             let sets = &fresh[next..next + chunk];
             let asks: Vec<Ask> = sets.iter().map(|&set| Ask { set, obs: 0..self.rule.samples }).collect();
-            let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
-            self.record(&asks, stats);
+            self.call(asks).await?;
             self.top_up(sets).await?;
             next += chunk;
         }
@@ -531,8 +660,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
             if asks.is_empty() {
                 return Ok(());
             }
-            let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
-            self.record(&asks, stats);
+            self.call(asks).await?;
         }
     }
 
@@ -545,9 +673,7 @@ impl<'e, E: Evaluate> Driver<'e, E> {
             return Ok(false);
         }
         let n = s.observations();
-        let asks = [Ask { set, obs: n..n + k }];
-        let stats = self.eval.evaluate(&asks).await.map_err(SearchError::Eval)?;
-        self.record(&asks, stats);
+        self.call(vec![Ask { set, obs: n..n + k }]).await?;
         Ok(true)
     }
 
@@ -562,6 +688,9 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         for (ask, s) in asks.iter().zip(stats) {
             debug_assert_eq!(s.observations(), ask.len(), "the evaluator answers what was asked");
             self.spent += u64::from(ask.len());
+            if let Some(p) = self.purpose {
+                self.calls_by.add(p, u64::from(ask.len()));
+            }
             match self.seen.get(&ask.set) {
                 Some(&i) => self.history[i].merge(&s),
                 None => {
@@ -575,6 +704,15 @@ impl<'e, E: Evaluate> Driver<'e, E> {
 
 /// Run the chosen algorithm; returns every evaluated set in evaluation order.
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> Searched<Vec<SetStats>, E> {
+    Ok(run_counted(params, space, eval).await?.0)
+}
+
+/// [`run`], with where the calls went (interact; `None` for the paper's algorithms).
+pub async fn run_counted<E: Evaluate>(
+    params: &Params,
+    space: &Space,
+    eval: &mut E,
+) -> Searched<(Vec<SetStats>, Option<CallsBy>), E> {
     let mut driver = Driver::new(eval, params.rule(), params.search_budget());
     match params.algo {
         Algo::Random => random::run(params, space, &mut driver).await?,
@@ -582,7 +720,8 @@ pub async fn run<E: Evaluate>(params: &Params, space: &Space, eval: &mut E) -> S
         Algo::Gpts => gpts::run(params, space, &mut driver).await?,
         Algo::Interact => interact::run(params, space, &mut driver).await?,
     }
-    Ok(driver.history)
+    let calls = (params.algo == Algo::Interact).then(|| driver.calls_by.clone());
+    Ok((driver.history, calls))
 }
 
 #[cfg(test)]

@@ -137,7 +137,16 @@ fn params_are_validated() {
     let e = |p: Params| p.validate().unwrap_err();
     assert_eq!(e(Params { samples: 0, ..ok.clone() }), "invalid `--samples`: must be at least 1");
     assert_eq!(e(Params { threshold: 1.5, ..ok.clone() }), "invalid `--threshold`: must be between 0 and 1, got 1.5");
-    assert_eq!(e(Params { beam_budget: 2000, ..ok.clone() }), "invalid `--beam-budget`: 2000 exceeds the budget 1000");
+    assert_eq!(
+        e(Params { beam_budget: 2000, ..ok.clone() }),
+        "invalid `--beam-budget`: 2000 exceeds the search's budget 1000"
+    );
+    assert_eq!(
+        e(Params { shrink: 998, ..ok.clone() }),
+        "invalid `--shrink`: 998 of a budget of 1000 model calls leaves the search too few for one set of 5 samples"
+    );
+    // Interact shrinks as it searches: its whole budget is the search's.
+    assert!(Params { algo: Algo::Interact, shrink: 1000, beam_budget: 0, ..ok.clone() }.validate().is_ok());
     assert_eq!(e(Params { budget: 3, ..ok }), "invalid `--budget`: 3 inferences cannot evaluate one set of 5 samples");
 }
 
@@ -165,6 +174,57 @@ fn interact_reports_two_pairs_and_a_triple_exactly() {
         assert_eq!(h, block_on(run(&p, &space, &mut FnEval { f: three_modes, asked: vec![] })).unwrap());
     }
 }
+/// Records the observations of every call an evaluator is asked to make.
+struct Widths<E> {
+    inner: E,
+    calls: Vec<u32>,
+}
+
+impl<E: Evaluate> Evaluate for Widths<E> {
+    type Error = E::Error;
+
+    async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, Self::Error> {
+        self.calls.push(asks.iter().map(Ask::len).sum());
+        self.inner.evaluate(asks).await
+    }
+}
+
+/// Issue 29: interact keeps `batch` calls in flight: every call it makes is filled to the width
+/// (all but the last, when the budget has less left), its cores are still the planted ones, and
+/// it is deterministic under a seed.
+#[test]
+fn parallel_interact_fills_every_call_to_its_width() {
+    let space = Space::new(lattice(12, 4), 12);
+    for (seed, batch) in [(0, 8), (1, 16), (2, 8)] {
+        let p = Params { algo: Algo::Interact, budget: 1000, batch, seed, ..Params::default() };
+        let mut e = Widths { inner: FnEval { f: three_modes, asked: vec![] }, calls: vec![] };
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let spent: u32 = e.calls.iter().sum();
+        assert!(u64::from(spent) <= p.budget);
+        let mut left = p.budget;
+        for (i, &n) in e.calls.iter().enumerate() {
+            let full = left >= batch as u64;
+            assert!(
+                !full || 5 * n as usize >= 4 * batch,
+                "seed {seed}: call {i} of {} made {n} calls at width {batch}: {:?}",
+                e.calls.len(),
+                e.calls
+            );
+            left -= u64::from(n);
+        }
+        let mut cores = shrink::minimal_failures(&h, &space, 0.6);
+        cores.sort();
+        let mut planted = vec![bits(&[2, 5]), bits(&[6, 9]), bits(&[3, 7, 10])];
+        planted.sort();
+        assert_eq!(cores, planted, "seed {seed}");
+        let again = Widths { inner: FnEval { f: three_modes, asked: vec![] }, calls: vec![] };
+        let mut again = again;
+        assert_eq!(h, block_on(run(&p, &space, &mut again)).unwrap());
+        assert_eq!(e.calls, again.calls);
+    }
+}
+
 /// The sim model's law without its I/O: observation `obs` of `set` is wrong with chance
 /// `profile.error_for(set)`, drawn from a ChaCha stream keyed by (seed, set, obs), as the sim
 /// keys its draws by observation. Records every ask.

@@ -50,8 +50,8 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
     }
     for &value in &sweep.values {
         let at = sweep.param.apply(base, value);
-        // The beam phase of GPTS cannot outgrow the budget.
-        let at = Params { beam_budget: at.beam_budget.min(at.budget), ..at };
+        // The beam phase of GPTS cannot outgrow the search phase.
+        let at = Params { beam_budget: at.beam_budget.min(at.search_budget()), ..at };
         if let Err(e) = at.validate() {
             eprintln!("error: `--sweep {}={value}`: {e}", sweep.param.name());
             return ExitCode::from(2);
@@ -59,7 +59,7 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
         for &algo in &algos {
             let mut rows = Vec::new();
             for seed in 0..args.seeds {
-                let params = Params { algo, seed, ..at.clone() };
+                let params = super::run_params(args, &at, algo, seed);
                 let out = b.tmp.join(format!("{}-{value}-{}-{seed}", sweep.param.name(), algo.name()));
                 match bench_one(args, &b.domain, &b.world, &b.model, &b.space, params, out, &b.planted, &b.truth) {
                     Ok(r) => rows.push(r),
@@ -114,7 +114,7 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, sweep: &Sweep, points: &[Po
         "sweep of {} over {} seeds × budget {} against `{}`, renderer none",
         sweep.param.name(),
         args.seeds,
-        args.search.budget,
+        args.params.budget,
         args.profile.display()
     )?;
     writeln!(w, "{:>12}  {:<8}  {:>13}  {:>13}  {:>11}", sweep.param.name(), "algo", "PFM %", "MFR %", "Div")?;
