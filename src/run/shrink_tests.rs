@@ -84,8 +84,8 @@ fn summary_json_carries_intervals_cores_and_families() {
     assert_eq!(shrink_lines, r.summary.shrink.as_ref().unwrap().inferences);
 }
 
-/// Issue 29: `--budget` caps every phase of every algorithm, the shrink phase included; the
-/// paper's algorithms search with `budget − shrink`.
+/// Issue 29: `--budget` caps every phase of every algorithm, the shrink phase and fresh
+/// confirmation included; the paper's algorithms search with `budget − shrink`.
 #[test]
 fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
     let dir = tempfile::tempdir().unwrap();
@@ -108,7 +108,14 @@ fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
                 assert!(r.summary.metrics.inferences <= 150, "{what}: the search phase is budget − shrink");
             }
             let sh = r.summary.shrink.as_ref().expect("the shrink phase ran");
-            assert_eq!(sh.budget, 200 - r.summary.metrics.inferences, "{what}: the shrink phase gets what is left");
+            let reserve = cfg.params.confirm_reserve();
+            assert_eq!(
+                sh.budget,
+                200 - reserve - r.summary.metrics.inferences,
+                "{what}: the shrink phase gets what is left but fresh confirmation's reserve"
+            );
+            let c = r.summary.confirmation.as_ref().expect("fresh confirmation ran");
+            assert_eq!(c.budget, 200 - r.summary.metrics.inferences - sh.inferences, "{what}: confirmation gets the rest");
             assert_eq!(r.summary.budget, Some(200));
         }
     }
