@@ -100,6 +100,10 @@ pub struct Record {
     /// scene finally used.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub resamples: u32,
+    /// Scenes drawn again with the next seed because the set had already shown their image in
+    /// the run (outcome `repeated` when every one tried had); counted apart from `resamples`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub repeats: u32,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -411,6 +415,7 @@ mod tests {
             model: None,
             visibility: vec![],
             resamples: 0,
+            repeats: 0,
         }
     }
 
