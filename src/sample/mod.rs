@@ -38,8 +38,8 @@
 //! between seeds only by its extras (and none in a quarter of the scenes), so it has few
 //! distinct scenes, and a run that must not show a set the same image twice would run out of
 //! them. Its scenes get, drawn last from the same stream ([`vary`]): ego's lateral position
-//! within its lane (the camera and the point it looks at moved sideways by up to
-//! ±[`LATERAL_JITTER_M`]), camera jitter (height ±[`HEIGHT_JITTER_M`], yaw ±[`YAW_JITTER_DEG`],
+//! within its lane (the camera, the point it looks at and ego's own body — stage parts within
+//! [`EGO_BODY_M`] of the camera — moved sideways by up to ±[`LATERAL_JITTER_M`]), camera jitter (height ±[`HEIGHT_JITTER_M`], yaw ±[`YAW_JITTER_DEG`],
 //! pitch ±[`PITCH_JITTER_DEG`]), and a time within the preset: every resolved preset parameter
 //! drawn within ±[`PRESET_JITTER`] of its value (a parameter at 0, such as no fog, stays 0; one
 //! at most 100 stays at most 100), so the sun's altitude and the fog's density vary within what
@@ -73,10 +73,13 @@ use view::{Sight, View};
 pub const MAX_EXTRAS: u64 = 3;
 /// Entity-less sets: ego's lateral offset within its lane, at most (metres).
 pub const LATERAL_JITTER_M: f64 = 0.3;
+/// Entity-less sets: stage parts this close to the camera (horizontally, metres) are ego's own
+/// body (the bonnet, a robot's front) and move sideways with it.
+pub const EGO_BODY_M: f64 = 1.0;
 /// Entity-less sets: camera height offset, at most (metres).
 pub const HEIGHT_JITTER_M: f64 = 0.05;
 /// Entity-less sets: camera yaw, at most (degrees).
-pub const YAW_JITTER_DEG: f64 = 2.0;
+pub const YAW_JITTER_DEG: f64 = 1.5;
 /// Entity-less sets: camera pitch, at most (degrees).
 pub const PITCH_JITTER_DEG: f64 = 1.0;
 /// Entity-less sets: relative change of each preset parameter, at most.
@@ -285,9 +288,15 @@ impl<'d> Sampler<'d> {
 /// the preset parameters in name order.
 fn vary(rng: &mut ChaCha8Rng, scene: &mut Scene) {
     let mut jitter = |max: f64| rng::uniform(rng, -max, max);
-    let c = &mut scene.camera;
     let (lateral, height) = (jitter(LATERAL_JITTER_M), jitter(HEIGHT_JITTER_M));
     let (yaw, pitch) = (jitter(YAW_JITTER_DEG).to_radians(), jitter(PITCH_JITTER_DEG).to_radians());
+    let c = &mut scene.camera;
+    // Ego's own body (a bonnet, a robot's front) moves sideways with it.
+    for part in &mut scene.stage {
+        if (part.at[0] - c.at[0]).hypot(part.at[1] - c.at[1]) < EGO_BODY_M {
+            part.at[1] += lateral;
+        }
+    }
     c.at[1] += lateral;
     c.look_at[1] += lateral;
     c.at[2] += height;
