@@ -10,6 +10,8 @@
 //! interrupted by Ctrl-C after journaling the calls in flight.
 
 pub mod distinct;
+#[cfg(test)]
+mod distinct_tests;
 pub mod eval;
 pub mod observe;
 pub mod progress;

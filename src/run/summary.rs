@@ -286,7 +286,8 @@ pub struct Summary {
     /// Tokens and money of the run's observations, every phase (its model's usage and
     /// configured prices).
     #[serde(default)]
-    pub spend: Spend,    /// Sets some of whose observations found no scene they had not shown (absent: none; and in
+    pub spend: Spend,
+    /// Sets some of whose observations found no scene they had not shown (absent: none; and in
     /// runs made before scenes were kept distinct).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repeated_scenes: Vec<RepeatedRow>,
@@ -317,7 +318,8 @@ pub struct Validation {
     pub consistent: usize,
     /// Tokens and money of the validation's observations.
     #[serde(default)]
-    pub spend: Spend,    /// Sets some of whose validation observations found no scene the set had not shown in the
+    pub spend: Spend,
+    /// Sets some of whose validation observations found no scene the set had not shown in the
     /// run (absent: none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repeated_scenes: Vec<RepeatedRow>,

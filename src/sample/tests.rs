@@ -358,7 +358,8 @@ fn entity_less_sets_vary_their_view_and_preset_by_seed() {
     let weather = set(&d, &["weather_hard_rain", "town_town02"]);
     let scenes: Vec<crate::scene::Scene> = (0..20).map(|seed| sample(&d, weather, seed).unwrap()).collect();
     assert_eq!(scenes[3], sample(&d, weather, 3).unwrap(), "reproducible");
-    let content = |s: &crate::scene::Scene| serde_json::to_string(&crate::scene::Scene { seed: 0, ..s.clone() }).unwrap();
+    let content =
+        |s: &crate::scene::Scene| serde_json::to_string(&crate::scene::Scene { seed: 0, ..s.clone() }).unwrap();
     let distinct: std::collections::HashSet<String> = scenes.iter().map(content).collect();
     assert_eq!(distinct.len(), 20, "20 seeds, 20 distinct scenes");
     // The same preset, unvaried: a set with an entity.
