@@ -78,6 +78,10 @@ pub struct SearchBenchArgs {
     /// same budget
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
+    /// Render every observation's scene with this renderer (`none`, `builtin`), so repeated
+    /// scenes are measured [default: the profile's `renderer`, else none]
+    #[arg(long, value_name = "RENDERER")]
+    pub renderer: Option<String>,
     /// Shrink each run's failure modes to cores with this many extra inferences (0: off)
     #[arg(long, value_name = "B", default_value_t = 0)]
     pub shrink: u64,
@@ -174,6 +178,9 @@ pub struct AlgoResult {
     pub exact: Stat,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
+    /// Observations per run that found no scene their set had not shown (outcome `repeated`:
+    /// not asked, not counted in n).
+    pub repeated: Stat,
     /// Per planted mode, in the profile's order: how often this algorithm recovered it.
     pub planted: Vec<ModeRecovery>,
 }
@@ -230,11 +237,12 @@ pub(crate) struct RunFigures {
     core_recovered: Option<f64>,
     exact: Option<f64>,
     us: f64,
+    repeated: f64,
     /// Per planted mode: (some core holds it, it is a core).
     per_mode: Vec<(bool, bool)>,
 }
 
-fn search(args: SearchBenchArgs) -> ExitCode {
+fn search(mut args: SearchBenchArgs) -> ExitCode {
     let domain = match crate::cli::load_domain(&args.domain) {
         Ok(d) => d,
         Err(code) => return code,
@@ -253,6 +261,12 @@ fn search(args: SearchBenchArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let renderer = args.renderer.clone().unwrap_or_else(|| profile.renderer.clone());
+    if !matches!(renderer.as_str(), "none" | "builtin") {
+        eprintln!("error: invalid `--renderer` `{renderer}`: `revelio bench search` renders with `none` or `builtin`");
+        return ExitCode::from(2);
+    }
+    args.renderer = Some(renderer);
     let base = Params { shrink: args.shrink, ..args.search.params() };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
     if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
@@ -322,6 +336,7 @@ fn search(args: SearchBenchArgs) -> ExitCode {
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
                 us_per_inference: col(&|r| Some(r.us), count),
+                repeated: col(&|r| Some(r.repeated), count),
                 planted: planted
                     .iter()
                     .enumerate()
@@ -371,8 +386,11 @@ pub(crate) fn bench_one(
     truth: &Profile,
 ) -> Result<RunFigures, String> {
     let spec = format!("sim:{}", args.profile.display());
-    let config = RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
-    let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), None, out);
+    let renderer_spec = bench_renderer(args);
+    let renderer = crate::render::build_renderer(renderer_spec, &Default::default())?;
+    let config =
+        RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), renderer_spec, params);
+    let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), renderer, out);
     setup.concurrency = args.concurrency as usize;
     let started = Instant::now();
     let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
@@ -402,8 +420,14 @@ pub(crate) fn bench_one(
         core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
         exact: share(per_mode.iter().filter(|m| m.1).count()),
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
+        repeated: r.summary.repeated_scenes.iter().map(|row| f64::from(row.repeated)).sum(),
         per_mode,
     })
+}
+
+/// The renderer a bench draws with: `--renderer`, else the profile's (resolved in `search`).
+pub(crate) fn bench_renderer(args: &SearchBenchArgs) -> &str {
+    args.renderer.as_deref().unwrap_or("none")
 }
 
 /// How many of `sets` truly fail: their error under the profile is ≥ τ.
@@ -434,14 +458,15 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     let shrink = if args.shrink > 0 { format!(", shrink {}", args.shrink) } else { String::new() };
     writeln!(
         w,
-        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
+        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer {}",
         args.seeds,
         args.search.budget,
         args.search.samples,
         args.search.threshold,
         args.search.lambda,
         args.search.beam_width,
-        args.profile.display()
+        args.profile.display(),
+        bench_renderer(args)
     )?;
     writeln!(
         w,
@@ -491,6 +516,13 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             planted_col(&r.exact),
             r.us_per_inference.mean
         )?;
+    }
+    if bench_renderer(args) != "none" {
+        let rows: Vec<String> = results
+            .iter()
+            .map(|r| format!("{} {:.1}", label(r, args.search.samples), r.repeated.mean))
+            .collect();
+        writeln!(w, "repeated scenes per run (not asked, not in n): {}", rows.join(", "))?;
     }
     let pfm =
         |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.search.samples).map(|r| r.pfm.mean);
