@@ -518,10 +518,8 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
         )?;
     }
     if bench_renderer(args) != "none" {
-        let rows: Vec<String> = results
-            .iter()
-            .map(|r| format!("{} {:.1}", label(r, args.search.samples), r.repeated.mean))
-            .collect();
+        let rows: Vec<String> =
+            results.iter().map(|r| format!("{} {:.1}", label(r, args.search.samples), r.repeated.mean + 0.0)).collect();
         writeln!(w, "repeated scenes per run (not asked, not in n): {}", rows.join(", "))?;
     }
     let pfm =

@@ -72,7 +72,7 @@ pub struct Record {
     /// The scene sampler's seed for this observation (`revelio ask FILE SET --seed SEED` shows
     /// the same scene and sends the same prompt).
     pub seed: u64,
-    /// SHA-256 of the image (or of the scene JSON with `--renderer none`); empty when the image
+    /// SHA-256 of the image (or of the scene JSON, seed left out, with `--renderer none`); empty when the image
     /// generator blocked the scene.
     pub image: String,
     /// SHA-256 of the prompt text.

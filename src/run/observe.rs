@@ -125,7 +125,8 @@ pub struct Stimulus {
     /// The encoded image; `None` without a renderer (the model sees only the prompt) or when the
     /// image generator blocked the scene.
     pub image: Option<Arc<Vec<u8>>>,
-    /// SHA-256 of the image, or of the scene JSON without a renderer; empty when blocked.
+    /// SHA-256 of the image, or without a renderer of the scene JSON with its seed left out
+    /// ([`scene_hash`]); empty when blocked.
     pub image_hash: String,
     /// The image generator's reason when it refused to draw the scene.
     pub blocked: Option<String>,
