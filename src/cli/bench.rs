@@ -45,7 +45,7 @@ pub struct BenchArgs {
 #[derive(clap::Subcommand, Debug)]
 pub enum BenchWhat {
     /// Compare the search algorithms against a sim profile
-    Search(SearchBenchArgs),
+    Search(Box<SearchBenchArgs>),
     /// How long an editor waits for diagnostics from `revelio lsp` (front end per edit, lattice
     /// lints per save)
     Lsp(LspBenchArgs),
@@ -105,7 +105,7 @@ pub struct SearchBenchArgs {
 
 pub fn run(args: BenchArgs) -> ExitCode {
     match args.what {
-        BenchWhat::Search(a) => search(a),
+        BenchWhat::Search(a) => search(*a),
         BenchWhat::Lsp(a) => lsp(a),
     }
 }
