@@ -43,6 +43,10 @@ pub enum Outcome {
     /// An entity a concept placed stayed unseen (hidden or washed out) in every scene tried for
     /// the observation: no model was asked, so it is neither an answer nor a failed call.
     Invisible,
+    /// Every scene tried for the observation showed an image (or, without a renderer, a scene)
+    /// already shown for its set in the run: no model was asked, so one scene is not counted
+    /// twice. Neither an answer nor a failed call.
+    Repeated,
 }
 
 impl Outcome {
@@ -60,12 +64,13 @@ impl Outcome {
             Outcome::ApiError => "api_error",
             Outcome::ImageBlocked => "image_blocked",
             Outcome::Invisible => "invisible",
+            Outcome::Repeated => "repeated",
         }
     }
 
     /// Whether a model was asked (and so the observation is a model call, paid or cached).
     pub fn asked_a_model(self) -> bool {
-        !matches!(self, Outcome::ImageBlocked | Outcome::Invisible)
+        !matches!(self, Outcome::ImageBlocked | Outcome::Invisible | Outcome::Repeated)
     }
 }
 
@@ -112,6 +117,7 @@ mod tests {
             Outcome::ApiError,
             Outcome::ImageBlocked,
             Outcome::Invisible,
+            Outcome::Repeated,
         ];
         for o in all {
             assert_eq!(serde_json::to_value(o).unwrap(), serde_json::Value::from(o.name()), "{o:?}");

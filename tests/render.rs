@@ -189,6 +189,21 @@ fn same_scene_same_bytes() {
     assert_ne!(a, c);
 }
 
+/// Sets of world concepts only (a weather, a town) draw a distinct image for every seed: the
+/// sampler varies ego's place in its lane, the camera and the time within the preset, so a run
+/// that shows a set each image once does not run out of them.
+#[test]
+fn entity_less_sets_draw_distinct_images_over_seeds() {
+    let d = domain("domains/driving.rev");
+    let r = renderer();
+    for names in [&["weather_foggy"][..], &["town_town02", "intersection_ego"][..]] {
+        let Ok(set) = d.parse_set(names) else { panic!("{names:?} is a driving set") };
+        let images: std::collections::HashSet<Vec<u8>> =
+            (0..20).map(|seed| r.render_png(&revelio::sample::sample(&d, set, seed).unwrap()).unwrap()).collect();
+        assert_eq!(images.len(), 20, "{names:?}: 20 seeds, 20 distinct images");
+    }
+}
+
 /// Fog hides what clear air shows: a far container has less contrast with the road.
 #[test]
 fn fog_lowers_contrast_far_away() {

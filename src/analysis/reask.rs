@@ -69,9 +69,9 @@ fn journaled(journal: &Journal, phase: Phase) -> HashMap<LineKey, Record> {
 }
 
 /// Whether a model was asked for the line: not for a scene the image generator blocked or one
-/// whose entity stayed invisible (neither costs a call).
+/// whose entity stayed invisible or whose image repeated one already shown (none costs a call).
 fn asked(rec: &Record) -> bool {
-    !matches!(rec.outcome, Outcome::ImageBlocked | Outcome::Invisible)
+    rec.outcome.asked_a_model()
 }
 
 fn stopped(stop: &Stop) -> Result<(), RunError> {

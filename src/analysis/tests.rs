@@ -33,6 +33,7 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         model: None,
         visibility: Vec::new(),
         resamples: 0,
+        repeats: 0,
     }
 }
 

@@ -80,6 +80,10 @@ pub struct SearchBenchArgs {
     /// same budget
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
+    /// Render every observation's scene with this renderer (`none`, `builtin`), so repeated
+    /// scenes are measured [default: the profile's `renderer`, else none]
+    #[arg(long, value_name = "RENDERER")]
+    pub renderer: Option<String>,
     /// The part of the budget set aside for shrinking each run's failure modes to cores (0: off)
     #[arg(long, value_name = "B", default_value_t = 0)]
     pub shrink: u64,
@@ -202,6 +206,9 @@ pub struct AlgoResult {
     pub calls: Stat,
     /// Wall time per run, seconds.
     pub wall_s: Stat,
+    /// Observations per run that found no scene their set had not shown (outcome `repeated`:
+    /// not asked, not counted in n).
+    pub repeated: Stat,
     /// Per planted mode, in the profile's order: how often this algorithm recovered it.
     pub planted: Vec<ModeRecovery>,
 }
@@ -265,6 +272,7 @@ pub(crate) struct RunFigures {
     us: f64,
     calls: f64,
     wall_s: f64,
+    repeated: f64,
     /// Per planted mode: (some core holds it, it is a core).
     per_mode: Vec<(bool, bool)>,
 }
@@ -297,6 +305,12 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let renderer = args.renderer.clone().unwrap_or_else(|| profile.renderer.clone());
+    if !matches!(renderer.as_str(), "none" | "builtin") {
+        eprintln!("error: invalid `--renderer` `{renderer}`: `revelio bench search` renders with `none` or `builtin`");
+        return ExitCode::from(2);
+    }
+    args.renderer = Some(renderer);
     let base = Params { shrink: args.shrink, ..args.params.clone() };
     let base = Params { beam_budget: base.search_budget() / 2, ..base };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
@@ -378,6 +392,7 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                 batch: run_params(&args, mode, algo, 0).batch,
                 calls: col(&|r| Some(r.calls), count),
                 wall_s: col(&|r| Some(r.wall_s), count),
+                repeated: col(&|r| Some(r.repeated), count),
                 planted: planted
                     .iter()
                     .enumerate()
@@ -428,8 +443,11 @@ pub(crate) fn bench_one(
     truth: &Profile,
 ) -> Result<RunFigures, String> {
     let spec = format!("sim:{}", args.profile.display());
-    let config = RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), "none", params);
-    let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), None, out);
+    let renderer_spec = bench_renderer(args);
+    let renderer = crate::render::build_renderer(renderer_spec, &Default::default())?;
+    let config =
+        RunConfig::new(domain, &args.domain, &spec, model.as_ref(), ModelSettings::default(), renderer_spec, params);
+    let mut setup = Setup::new(domain.clone(), world.clone(), model.clone(), renderer, out);
     setup.concurrency = args.concurrency as usize;
     let started = Instant::now();
     let r = runtime().block_on(runner::search(&setup, &config, space)).map_err(|e| e.to_string())?;
@@ -453,7 +471,7 @@ pub(crate) fn bench_one(
     let zone_low = args.params.threshold - args.params.delta + 1e-9;
     let per_mode: Vec<(bool, bool)> =
         planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
-    let spent = m.inferences + r.summary.shrink.as_ref().map_or(0, |s| s.inferences);
+    let spent = r.summary.calls_made();
     Ok(RunFigures {
         pfm: m.pfm,
         mfr: m.mfr,
@@ -492,8 +510,14 @@ pub(crate) fn bench_one(
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
         calls: spent as f64,
         wall_s: elapsed.as_secs_f64(),
+        repeated: r.summary.repeated_scenes.iter().map(|row| f64::from(row.repeated)).sum(),
         per_mode,
     })
+}
+
+/// The renderer a bench draws with: `--renderer`, else the profile's (resolved in `search`).
+pub(crate) fn bench_renderer(args: &SearchBenchArgs) -> &str {
+    args.renderer.as_deref().unwrap_or("none")
 }
 
 /// How many of `sets` truly fail: their error under the profile is ≥ τ.
@@ -524,14 +548,15 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
     let shrink = if args.shrink > 0 { format!(", shrink {}", args.shrink) } else { String::new() };
     writeln!(
         w,
-        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer none",
+        "{} seeds × budget {} (m = {}{seq}, τ = {}, λ = {}, w = {}{shrink}) against `{}`, renderer {}",
         args.seeds,
         args.params.budget,
         args.params.samples,
         args.params.threshold,
         args.params.lambda,
         args.params.beam_width,
-        args.profile.display()
+        args.profile.display(),
+        bench_renderer(args)
     )?;
     writeln!(
         w,
@@ -595,6 +620,11 @@ fn print(w: &mut impl Write, args: &SearchBenchArgs, results: &[AlgoResult], pla
             f(&r.borderline, 1.0, 1),
             r.us_per_inference.mean
         )?;
+    }
+    if bench_renderer(args) != "none" {
+        let rows: Vec<String> =
+            results.iter().map(|r| format!("{} {:.1}", label(r, args.params.samples), r.repeated.mean + 0.0)).collect();
+        writeln!(w, "repeated scenes per run (not asked, not in n): {}", rows.join(", "))?;
     }
     let pfm =
         |a: Algo| results.iter().find(|r| r.algo == a && r.max_samples == args.params.samples).map(|r| r.pfm.mean);

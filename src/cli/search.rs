@@ -295,6 +295,9 @@ pub fn print_summary(
         writeln!(w, "budget: {}", s.budget_text(budget))?;
     }
     writeln!(w, "spend: {}", s.spend.line())?;
+    if let Some(line) = crate::run::summary::repeated_line(&s.repeated_scenes) {
+        writeln!(w, "{line}")?;
+    }
     let refuted: Vec<&Vec<String>> = s.shrink.iter().flat_map(|sh| sh.refuted.iter().map(|r| &r.concepts)).collect();
     let flat: Vec<&crate::run::summary::NotDistinctRow> = s.shrink.iter().flat_map(|sh| &sh.not_distinct).collect();
     // Refuted and not-distinct failure modes are listed with their reason, not as loose ends.
@@ -489,6 +492,7 @@ mod tests {
                 thinking_tokens: 250_000,
                 cost_usd: 1.43,
             },
+            repeated_scenes: Vec::new(),
         }
     }
 

@@ -180,7 +180,11 @@ pub fn print_validation(w: &mut impl Write, v: &Validation) -> std::io::Result<(
         v.sets.len(),
         100.0 * CONSISTENT_FR
     )?;
-    writeln!(w, "spend: {}", v.spend.line())
+    writeln!(w, "spend: {}", v.spend.line())?;
+    match crate::run::summary::repeated_line(&v.repeated_scenes) {
+        Some(line) => writeln!(w, "{line}"),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]
@@ -215,6 +219,7 @@ mod tests {
                 cost_usd: 0.0542,
                 ..Default::default()
             },
+            repeated_scenes: Vec::new(),
         };
         let mut out = Vec::new();
         print_validation(&mut out, &v).unwrap();

@@ -75,7 +75,7 @@ pub struct Record {
     /// The scene sampler's seed for this observation (`revelio ask FILE SET --seed SEED` shows
     /// the same scene and sends the same prompt).
     pub seed: u64,
-    /// SHA-256 of the image (or of the scene JSON with `--renderer none`); empty when the image
+    /// SHA-256 of the image (or of the scene JSON, seed left out, with `--renderer none`); empty when the image
     /// generator blocked the scene.
     pub image: String,
     /// SHA-256 of the prompt text.
@@ -103,6 +103,10 @@ pub struct Record {
     /// scene finally used.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub resamples: u32,
+    /// Scenes drawn again with the next seed because the set had already shown their image in
+    /// the run (outcome `repeated` when every one tried had); counted apart from `resamples`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub repeats: u32,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -414,6 +418,7 @@ mod tests {
             model: None,
             visibility: vec![],
             resamples: 0,
+            repeats: 0,
         }
     }
 

@@ -96,6 +96,7 @@ fn fixture(renderer: &str) -> Fixture {
                     model: None,
                     visibility: Vec::new(),
                     resamples: 0,
+                    repeats: 0,
                 })
                 .unwrap();
             stats.add(outcome);
@@ -128,6 +129,7 @@ fn validate(f: &Fixture, concepts: &[&str], wrong: u32, answered: u32) {
         sd_fr: 0.0,
         consistent: 0,
         spend: Spend::default(),
+        repeated_scenes: Vec::new(),
     };
     let name = crate::run::summary::validation_file(v.top, v.samples, v.max_samples);
     std::fs::write(f.dir.join(name), serde_json::to_string(&v).unwrap()).unwrap();
@@ -336,6 +338,7 @@ fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() 
         model: None,
         visibility: Vec::new(),
         resamples: 4,
+        repeats: 0,
     };
     let mut text = std::fs::read_to_string(&path).unwrap();
     text.push_str(&serde_json::to_string(&invisible).unwrap());

@@ -9,6 +9,12 @@
 //! seed and its key ([`observation_seed`]), so a range extended later sees the scenes it would
 //! have seen in one go.
 //!
+//! Distinct scenes: the evaluator keeps the run's [`Shown`] register (from the journal on
+//! resume) and draws each observation's scene with [`Observer::distinct_stimulus`], in per-set
+//! [`Turns`], so no set is shown an image twice in the run and which observation re-draws is the
+//! same in every run (see [`super::distinct`]). Observations that could not find a new scene
+//! (`repeated`) are counted per set in [`Evaluator::repeated`].
+//!
 //! Stopping: after `max_api_errors` model calls in a row end in `api_error`, or when the
 //! [`Stop`] handle is triggered (Ctrl-C), no new call starts; calls in flight finish and are
 //! journaled, the journal is synced, and the evaluation ends with [`RunError::Stopped`].
@@ -25,6 +31,7 @@ use crate::outcome::{Outcome, Usage};
 use crate::search::{Ask, Evaluate, SetStats};
 use crate::vlm::Model;
 
+use super::distinct::{Shown, Turns};
 use super::observe::{ObsKey, Observation, ObserveError, Observer};
 // Where these lived before the observe pipeline had its own module.
 pub use super::observe::{DomainWorld, Task, World};
@@ -73,7 +80,7 @@ impl ApiErrorWatch {
         match outcome {
             Outcome::ApiError => *n += 1,
             // No model call was made: it says nothing about the model's API.
-            Outcome::ImageBlocked | Outcome::Invisible => return,
+            Outcome::ImageBlocked | Outcome::Invisible | Outcome::Repeated => return,
             _ => *n = 0,
         }
         if self.max > 0 && *n >= self.max {
@@ -129,6 +136,11 @@ pub struct Evaluator {
     pub replayed: u64,
     /// Tokens and money of every observation evaluated (replayed ones as journaled).
     pub spend: Spend,
+    /// The images each set has shown in the run.
+    shown: Arc<Shown>,
+    /// Per set, the observations (every phase, replayed ones included) that could only have
+    /// shown an image the set had already shown (outcome `repeated`).
+    pub repeated: std::collections::BTreeMap<ConceptSet, u32>,
 }
 
 impl Evaluator {
@@ -155,7 +167,10 @@ impl Evaluator {
                 Replayed { outcome: r.outcome, usage: r.usage, cached: r.cached },
             );
         }
+        let shown = Arc::new(Shown::from_journal(&domain, &c.journal.records));
         Ok(Evaluator {
+            shown,
+            repeated: std::collections::BTreeMap::new(),
             observer: c.observer,
             model: c.model,
             journal: c.journal,
@@ -179,12 +194,28 @@ impl Evaluator {
         })
     }
 
+    /// The sets with `repeated` observations, with how many distinct images each showed.
+    pub fn repeated_rows(&self) -> Vec<super::summary::RepeatedRow> {
+        let domain = self.observer.domain();
+        self.repeated
+            .iter()
+            .map(|(&set, &repeated)| super::summary::RepeatedRow {
+                concepts: domain.set_names(set).into_iter().map(String::from).collect(),
+                repeated,
+                distinct: self.shown.count(set) as u32,
+            })
+            .collect()
+    }
+
     /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
     /// re-tests failure modes and their subsets: not counted as new ones).
     fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
         // A blocked image or an invisible scene made no model call.
         if outcome.asked_a_model() {
             self.spend.add(usage, cached);
+        }
+        if outcome == Outcome::Repeated {
+            *self.repeated.entry(key.set).or_default() += 1;
         }
         if matches!(key.phase, Phase::Shrink | Phase::Confirm) {
             if let Some(p) = &self.progress {
@@ -218,6 +249,7 @@ impl Evaluator {
         let mut out: Vec<Vec<Option<Outcome>>> = requests.iter().map(|(_, r)| vec![None; r.len()]).collect();
         let halt = Arc::new(AtomicBool::new(false));
         let mut tasks: tokio::task::JoinSet<Result<Option<Placed>, ObserveError>> = tokio::task::JoinSet::new();
+        let mut turns = Turns::default();
         for (i, (set, range)) in requests.iter().enumerate() {
             let task = Arc::new(self.observer.task(*set)?);
             for index in range.clone() {
@@ -232,13 +264,19 @@ impl Evaluator {
                 let seed = observation_seed(self.seed, key);
                 let (observer, model, journal) = (self.observer.clone(), self.model.clone(), self.journal.clone());
                 let (sem, stop, halt, task) = (self.semaphore.clone(), self.stop.clone(), halt.clone(), task.clone());
-                let watch = self.api_errors.clone();
+                let (watch, shown) = (self.api_errors.clone(), self.shown.clone());
+                let mut turn = turns.next(*set);
                 tasks.spawn(async move {
+                    // The set's earlier observations claim their scenes first (before this one
+                    // holds a permit, so they can always get one).
+                    turn.wait().await;
                     let _permit = sem.acquire_owned().await.expect("the semaphore is never closed");
                     if stop.requested() || watch.stop.requested() || halt.load(Ordering::SeqCst) {
                         return Ok(None);
                     }
-                    let o = observer.observe_task(model.as_ref(), key, seed, &task, Some(&journal), None).await?;
+                    let stimulus = observer.distinct_stimulus(key.set, seed, Some(&shown)).await?;
+                    turn.pass();
+                    let o = observer.show(model.as_ref(), key, &stimulus, &task, Some(&journal), None).await?;
                     watch.record(o.outcome, &o.record.raw);
                     Ok(Some((i, slot, o)))
                 });

@@ -11,6 +11,9 @@
 
 #[cfg(test)]
 mod confirm_tests;
+pub mod distinct;
+#[cfg(test)]
+mod distinct_tests;
 pub mod eval;
 pub mod observe;
 pub mod progress;

@@ -24,6 +24,14 @@
 //! set's observations (so it counts against the search budget: a set the renderer cannot show
 //! still costs its rendering and cannot be searched forever), but it is neither a failure nor a
 //! success and not a model call.
+//!
+//! Distinct scenes: one scene is one piece of evidence, so a run never shows a set the same image
+//! twice. Given the run's [`Shown`] register, [`Observer::distinct_stimulus`] treats a scene whose
+//! image hash (the scene's content hash without a renderer) the set has already shown like a
+//! hidden one: it samples again with the next seed, up to [`REPEATS`] times. If every scene tried
+//! repeats one, the observation's outcome is `repeated`: no model is asked, and like `invisible`
+//! it takes its slot but counts neither as a failure nor as a success, so a set's n counts
+//! distinct images only.
 use std::sync::Arc;
 
 use crate::hash::sha256_hex as sha256;
@@ -34,11 +42,16 @@ use crate::render::{EntityVisibility, Renderer};
 use crate::scene::Scene;
 use crate::vlm::{Model, Query, Reply, Truth};
 
+use super::distinct::Shown;
 use super::render_pool::RenderPool;
 
 /// How many times a scene with an invisible entity is sampled again before the observation is
 /// recorded as `invisible`.
 pub const RESAMPLES: u32 = 5;
+
+/// How many times a scene whose image the set has already shown in the run is sampled again
+/// before the observation is recorded as `repeated`.
+pub const REPEATS: u32 = 5;
 
 /// Where an observation sits in a run: the journal's key.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -112,7 +125,8 @@ pub struct Stimulus {
     /// The encoded image; `None` without a renderer (the model sees only the prompt) or when the
     /// image generator blocked the scene.
     pub image: Option<Arc<Vec<u8>>>,
-    /// SHA-256 of the image, or of the scene JSON without a renderer; empty when blocked.
+    /// SHA-256 of the image, or without a renderer of the scene JSON with its seed left out
+    /// ([`scene_hash`]); empty when blocked.
     pub image_hash: String,
     /// The image generator's reason when it refused to draw the scene.
     pub blocked: Option<String>,
@@ -122,6 +136,10 @@ pub struct Stimulus {
     pub resamples: u32,
     /// Why the scene is not shown: the entities still not visible after the resamples.
     pub invisible: Option<String>,
+    /// Scenes sampled again because the set had already shown their image in the run.
+    pub repeats: u32,
+    /// Every scene tried repeated an image the set had already shown: it is not shown again.
+    pub repeated: bool,
 }
 
 /// One finished observation.
@@ -189,14 +207,41 @@ impl Observer {
     /// the renderer reports an entity a concept placed as not visible, sample again with the
     /// next seed (at most [`RESAMPLES`] times).
     pub async fn stimulus(&self, set: ConceptSet, seed: u64) -> Result<Stimulus, ObserveError> {
-        let mut resamples = 0;
+        self.distinct_stimulus(set, seed, None).await
+    }
+
+    /// [`Observer::stimulus`], and with `shown`, a scene whose image `set` has already shown
+    /// in the run is sampled again with the next seed too (at most [`REPEATS`] times); the
+    /// image finally shown is registered in `shown`. The seeds tried are `seed`, `seed + 1`, …
+    /// whichever guard asked for the next one.
+    pub async fn distinct_stimulus(
+        &self,
+        set: ConceptSet,
+        seed: u64,
+        shown: Option<&Shown>,
+    ) -> Result<Stimulus, ObserveError> {
+        let (mut resamples, mut repeats) = (0, 0);
         loop {
-            let mut stimulus = self.draw(set, seed.wrapping_add(u64::from(resamples))).await?;
-            stimulus.resamples = resamples;
-            if stimulus.invisible.is_none() || resamples == RESAMPLES {
-                return Ok(stimulus);
+            let mut stimulus = self.draw(set, seed.wrapping_add(u64::from(resamples + repeats))).await?;
+            (stimulus.resamples, stimulus.repeats) = (resamples, repeats);
+            if stimulus.invisible.is_some() {
+                if resamples == RESAMPLES {
+                    return Ok(stimulus);
+                }
+                resamples += 1;
+                continue;
             }
-            resamples += 1;
+            if let Some(shown) = shown.filter(|_| stimulus.blocked.is_none())
+                && !shown.claim(set, &stimulus.image_hash)
+            {
+                if repeats == REPEATS {
+                    stimulus.repeated = true;
+                    return Ok(stimulus);
+                }
+                repeats += 1;
+                continue;
+            }
+            return Ok(stimulus);
         }
     }
 
@@ -218,9 +263,11 @@ impl Observer {
             visibility: Vec::new(),
             resamples: 0,
             invisible: None,
+            repeats: 0,
+            repeated: false,
         };
         match &self.renderer {
-            None => stimulus.image_hash = sha256(&serde_json::to_vec(&stimulus.scene).expect("scenes serialise")),
+            None => stimulus.image_hash = scene_hash(&stimulus.scene),
             Some(r) => match r.render(&stimulus.scene, &stimulus.image_prompt).await {
                 Ok(img) => {
                     stimulus.image_hash = sha256(&img.png);
@@ -239,7 +286,8 @@ impl Observer {
     }
 
     /// The query that shows `stimulus` with `task`'s question; `key` seeds the `sim` model's
-    /// answer (the observation's sampler seed, so a resumed run sees the same simulated reply).
+    /// answer: the image hash (the scene hash without a renderer), so the sim answers as a
+    /// deterministic model would — the same scene, the same answer.
     pub fn query(&self, stimulus: &Stimulus, task: &Task) -> Query {
         Query {
             image: stimulus.image.clone(),
@@ -251,14 +299,14 @@ impl Observer {
                 concepts: self.domain.set_names(stimulus.set).into_iter().map(String::from).collect(),
                 expected: task.expected,
                 option_names: task.option_names.clone(),
-                key: stimulus.seed,
+                key: scene_key(&stimulus.image_hash, stimulus.seed),
                 statements: Vec::new(),
             }),
         }
     }
 
-    /// The outcome and journal line of a reply (`None`: the image was blocked or an entity was
-    /// not visible, nobody asked).
+    /// The outcome and journal line of a reply (`None`: the image was blocked, an entity was
+    /// not visible or the image repeated one the set had shown, nobody asked).
     pub fn record(
         &self,
         key: ObsKey,
@@ -271,6 +319,13 @@ impl Observer {
             (Some(r), _, _) => (Outcome::from_answer(r.answer, task.expected), r.raw.clone()),
             (None, Some(blocked), _) => (Outcome::ImageBlocked, blocked.clone()),
             (None, None, Some(why)) => (Outcome::Invisible, why.clone()),
+            (None, None, None) if stimulus.repeated => (
+                Outcome::Repeated,
+                format!(
+                    "repeated: the {} scenes tried all show an image already shown for the set",
+                    stimulus.repeats + 1
+                ),
+            ),
             (None, None, None) => (Outcome::ImageBlocked, String::new()),
         };
         let record = Record {
@@ -294,6 +349,7 @@ impl Observer {
             model: None,
             visibility: stimulus.visibility.clone(),
             resamples: stimulus.resamples,
+            repeats: stimulus.repeats,
         };
         Observation { key, outcome, reply, record }
     }
@@ -322,23 +378,53 @@ impl Observer {
         on_image: Option<OnImage<'_>>,
     ) -> Result<Observation, ObserveError> {
         let stimulus = self.stimulus(key.set, seed).await?;
+        self.show(model, key, &stimulus, task, journal, on_image).await
+    }
+
+    /// Show a stimulus: the image stored (with a journal) and handed to `on_image`, the model
+    /// asked unless the scene is not shown (blocked, invisible, repeated), the outcome recorded
+    /// and, with a journal, the line appended.
+    pub async fn show(
+        &self,
+        model: &dyn Model,
+        key: ObsKey,
+        stimulus: &Stimulus,
+        task: &Task,
+        journal: Option<&Journal>,
+        on_image: Option<OnImage<'_>>,
+    ) -> Result<Observation, ObserveError> {
         if let (Some(j), Some(png)) = (journal, &stimulus.image) {
             j.store_image(png)?;
         }
         if let (Some(hook), Some(png)) = (on_image, &stimulus.image) {
             hook(png).map_err(ObserveError::Shown)?;
         }
-        let query = self.query(&stimulus, task);
-        let reply = match (&stimulus.blocked, &stimulus.invisible) {
-            (None, None) => Some(model.ask(&query).await),
+        let query = self.query(stimulus, task);
+        let reply = match (&stimulus.blocked, &stimulus.invisible, stimulus.repeated) {
+            (None, None, false) => Some(model.ask(&query).await),
             _ => None,
         };
-        let observation = self.record(key, &stimulus, task, &query, reply);
+        let observation = self.record(key, stimulus, task, &query, reply);
         if let Some(j) = journal {
             j.append(&observation.record)?;
         }
         Ok(observation)
     }
+}
+
+/// The hash that stands for a scene shown without a renderer: SHA-256 of its JSON with the seed
+/// left out, so two seeds that sample the same scene give the same hash (the same scene, shown
+/// twice).
+pub fn scene_hash(scene: &Scene) -> String {
+    let mut content = scene.clone();
+    content.seed = 0;
+    sha256(&serde_json::to_vec(&content).expect("scenes serialise"))
+}
+
+/// The `sim` model's key for a scene: the first 64 bits of its image (or scene) hash; the
+/// sampler seed when there is no hash (a blocked image, which no model is shown).
+pub fn scene_key(image_hash: &str, seed: u64) -> u64 {
+    image_hash.get(..16).and_then(|h| u64::from_str_radix(h, 16).ok()).unwrap_or(seed)
 }
 
 /// The entities a concept placed that `seen` reports as not visible by the domain's thresholds,

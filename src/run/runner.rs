@@ -322,6 +322,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             .map(|(s, by)| NotDistinctRow { set: SetRow::new(&setup.domain, s), by: SetRow::new(&setup.domain, by) })
             .collect(),
     });
+    summary.repeated_scenes = eval.repeated_rows();
     journal.write_json("summary.json", &summary)?;
     Ok(RunReport {
         summary,
@@ -450,6 +451,7 @@ pub fn summarize(
         budget: Some(p.budget),
         calls: None,
         spend,
+        repeated_scenes: Vec::new(),
     }
 }
 
@@ -532,6 +534,7 @@ pub async fn validate(
         mean_fr,
         sd_fr,
         spend: eval.spend.clone(),
+        repeated_scenes: eval.repeated_rows(),
     };
     journal.write_json(&validation_file(top, samples, v.max_samples), &v)?;
     Ok(v)

@@ -287,6 +287,37 @@ pub struct NotDistinctRow {
     pub by: SetRow,
 }
 
+/// A set that could not show a new scene for some of its observations: each of them drew only
+/// images the set had already shown in the run (outcome `repeated`), so its n counts its
+/// distinct images only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RepeatedRow {
+    pub concepts: Vec<String>,
+    /// Observations recorded `repeated` (no model asked).
+    pub repeated: u32,
+    /// Distinct images the set showed in the run (every phase).
+    pub distinct: u32,
+}
+
+/// The line a run prints for its `repeated_scenes` (`None`: every observation had a new scene).
+pub fn repeated_line(rows: &[RepeatedRow]) -> Option<String> {
+    if rows.is_empty() {
+        return None;
+    }
+    let shown: Vec<String> = rows
+        .iter()
+        .take(3)
+        .map(|r| format!("{{{}}} {} distinct, {} repeated", r.concepts.join(", "), r.distinct, r.repeated))
+        .collect();
+    let more = if rows.len() > 3 { format!(", … {} more", rows.len() - 3) } else { String::new() };
+    Some(format!(
+        "{} set{} could not show distinct scenes (n counts distinct images only; `repeated_scenes` in the summary): {}{more}",
+        rows.len(),
+        if rows.len() == 1 { "" } else { "s" },
+        shown.join("; ")
+    ))
+}
+
 /// `summary.json`: a pure function of the configuration and the observations.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
@@ -327,6 +358,10 @@ pub struct Summary {
     /// configured prices).
     #[serde(default)]
     pub spend: Spend,
+    /// Sets some of whose observations found no scene they had not shown (absent: none; and in
+    /// runs made before scenes were kept distinct).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repeated_scenes: Vec<RepeatedRow>,
 }
 
 /// A count with spaces between thousands groups: `1 000`.
@@ -403,6 +438,10 @@ pub struct Validation {
     /// Tokens and money of the validation's observations.
     #[serde(default)]
     pub spend: Spend,
+    /// Sets some of whose validation observations found no scene the set had not shown in the
+    /// run (absent: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repeated_scenes: Vec<RepeatedRow>,
 }
 
 impl Validation {

@@ -2,7 +2,8 @@
 use crate::ir::{Camera, ConceptSet, Domain};
 
 /// A world without oracle or sampler: three options, the expected one fixed per set, and a
-/// scene that only records the set and seed.
+/// scene that only records the set and seed (in `environment.variant` too, so every seed is a
+/// distinct scene).
 pub struct FakeWorld(pub Domain);
 
 impl crate::run::observe::World for FakeWorld {
@@ -22,7 +23,7 @@ impl crate::run::observe::World for FakeWorld {
             concepts: self.0.set_names(set).into_iter().map(String::from).collect(),
             seed,
             world: Default::default(),
-            environment: Default::default(),
+            environment: [("variant".to_string(), seed as f64)].into(),
             entities: vec![],
             extras: vec![],
             stage: vec![],

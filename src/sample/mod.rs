@@ -15,7 +15,9 @@
 //!    where the target stands, and the target is drawn where that meeting is possible. `on_top`
 //!    puts the entity at its target's ground position, on the target's highest face. When
 //!    region and relation cannot both hold, the relation decides: it holds in every scene;
-//! 4. environmental extras (see below).
+//! 4. environmental extras (see below);
+//! 5. for a set that places no entity (only world concepts: a town, a weather, a junction),
+//!    continuous variation of the view (see below).
 //!
 //! Sets that are not valid (`lattice::validate`: constraints, modifier targets, the empty set)
 //! are refused with the reason.
@@ -31,6 +33,19 @@
 //! of its regions that are scenery regions, and a kind with none is never drawn. Extras are not
 //! in the concept set's anchor graph, so they never change the expected answer. A domain with no
 //! `Extra` kind or no scenery region gets no extras.
+//!
+//! **Variation of entity-less sets.** A set such as `{weather_foggy}` would otherwise differ
+//! between seeds only by its extras (and none in a quarter of the scenes), so it has few
+//! distinct scenes, and a run that must not show a set the same image twice would run out of
+//! them. Its scenes get, drawn last from the same stream ([`vary`]): ego's lateral position
+//! within its lane (the camera, the point it looks at and ego's own body — stage parts within
+//! [`EGO_BODY_M`] of the camera — moved sideways by up to ±[`LATERAL_JITTER_M`]), camera jitter (height ±[`HEIGHT_JITTER_M`], yaw ±[`YAW_JITTER_DEG`],
+//! pitch ±[`PITCH_JITTER_DEG`]), and a time within the preset: every resolved preset parameter
+//! drawn within ±[`PRESET_JITTER`] of its value (a parameter at 0, such as no fog, stays 0; one
+//! at most 100 stays at most 100), so the sun's altitude and the fog's density vary within what
+//! the preset names. None of it changes the ground truth (rules read the anchor graph), and a
+//! set with entities keeps exactly the scenes it had (its distances already vary). The backdrop
+//! (the empty set) stays the fixed baseline.
 //!
 //! **Determinism.** The stream is ChaCha8 seeded by SHA-256 of (domain hash, set bits, seed);
 //! nothing iterates a hash map. The same inputs give the same scene on any machine.
@@ -56,6 +71,19 @@ use view::{Sight, View};
 
 /// Most extras in one scene.
 pub const MAX_EXTRAS: u64 = 3;
+/// Entity-less sets: ego's lateral offset within its lane, at most (metres).
+pub const LATERAL_JITTER_M: f64 = 0.3;
+/// Entity-less sets: stage parts this close to the camera (horizontally, metres) are ego's own
+/// body (the bonnet, a robot's front) and move sideways with it.
+pub const EGO_BODY_M: f64 = 1.0;
+/// Entity-less sets: camera height offset, at most (metres).
+pub const HEIGHT_JITTER_M: f64 = 0.05;
+/// Entity-less sets: camera yaw, at most (degrees).
+pub const YAW_JITTER_DEG: f64 = 1.5;
+/// Entity-less sets: camera pitch, at most (degrees).
+pub const PITCH_JITTER_DEG: f64 = 1.0;
+/// Entity-less sets: relative change of each preset parameter, at most.
+pub const PRESET_JITTER: f64 = 0.1;
 /// Layouts tried for a scene whose entities hide one another (see [`view`]).
 const LAYOUTS: usize = 6;
 pub use view::MAX_HIDDEN;
@@ -193,7 +221,7 @@ impl<'d> Sampler<'d> {
         }
         let guarded: Vec<Sight> = sights.into_iter().flatten().collect();
         let extras = self.extras(&mut rng, &mut concrete, &mut placed, &view, &guarded);
-        Ok(Scene {
+        let mut scene = Scene {
             domain: d.name.clone(),
             domain_hash: self.hash.clone(),
             concepts: d.set_names(set).into_iter().map(str::to_owned).collect(),
@@ -204,7 +232,11 @@ impl<'d> Sampler<'d> {
             extras,
             stage: d.stage.iter().flat_map(|s| stage_parts(d, &concrete, s)).collect(),
             camera: d.camera.clone(),
-        })
+        };
+        if n == 0 && !set.is_empty() {
+            vary(&mut rng, &mut scene);
+        }
+        Ok(scene)
     }
 
     /// Draw the scenery extras. They are evaluated on the concrete graph (for their own shape
@@ -249,6 +281,33 @@ impl<'d> Sampler<'d> {
             out.push(scene_entity(d, &e, None, position, shape));
         }
         out
+    }
+}
+
+/// The continuous variation of an entity-less set's scene (see the module docs): the view, then
+/// the preset parameters in name order.
+fn vary(rng: &mut ChaCha8Rng, scene: &mut Scene) {
+    let mut jitter = |max: f64| rng::uniform(rng, -max, max);
+    let (lateral, height) = (jitter(LATERAL_JITTER_M), jitter(HEIGHT_JITTER_M));
+    let (yaw, pitch) = (jitter(YAW_JITTER_DEG).to_radians(), jitter(PITCH_JITTER_DEG).to_radians());
+    let c = &mut scene.camera;
+    // Ego's own body (a bonnet, a robot's front) moves sideways with it.
+    for part in &mut scene.stage {
+        if (part.at[0] - c.at[0]).hypot(part.at[1] - c.at[1]) < EGO_BODY_M {
+            part.at[1] += lateral;
+        }
+    }
+    c.at[1] += lateral;
+    c.look_at[1] += lateral;
+    c.at[2] += height;
+    let (dx, dy) = (c.look_at[0] - c.at[0], c.look_at[1] - c.at[1]);
+    let (sin, cos) = yaw.sin_cos();
+    c.look_at[0] = c.at[0] + dx * cos - dy * sin;
+    c.look_at[1] = c.at[1] + dx * sin + dy * cos;
+    c.look_at[2] += dx.hypot(dy) * pitch.tan();
+    for v in scene.environment.values_mut() {
+        let varied = *v * (1.0 + jitter(PRESET_JITTER));
+        *v = if *v <= 100.0 { varied.min(100.0) } else { varied };
     }
 }
 

@@ -104,7 +104,9 @@ fn environment_follows_weather_and_stage_follows_town() {
     assert_eq!(clear.stage.len(), 4);
     assert_eq!(clear.stage[3].at, [44.0, 11.0, 2.5]);
     let rain = sample(&d, set(&d, &["weather_hard_rain", "town_town02"]), 1).unwrap();
-    assert_eq!(rain.environment["precipitation"], 90.0);
+    // The preset's 90, varied within ±10 % (the set places no entity).
+    let p = rain.environment["precipitation"];
+    assert!((81.0..=99.0).contains(&p) && p != 90.0, "{p}");
     assert_eq!(rain.world["weather"], SceneValue::Enum("hard_rain".into()));
     assert_eq!(rain.stage.len(), 1);
 }
@@ -345,4 +347,36 @@ fn entities_of_a_set_do_not_hide_one_another() {
             }
         }
     }
+}
+
+/// Sets of world concepts only get continuous variation (view, time within the preset), drawn
+/// from the seed: every seed a distinct scene, the same seed the same scene; sets with entities
+/// keep the fixed camera.
+#[test]
+fn entity_less_sets_vary_their_view_and_preset_by_seed() {
+    let d = tiny_domain();
+    let weather = set(&d, &["weather_hard_rain", "town_town02"]);
+    let scenes: Vec<crate::scene::Scene> = (0..20).map(|seed| sample(&d, weather, seed).unwrap()).collect();
+    assert_eq!(scenes[3], sample(&d, weather, 3).unwrap(), "reproducible");
+    let content =
+        |s: &crate::scene::Scene| serde_json::to_string(&crate::scene::Scene { seed: 0, ..s.clone() }).unwrap();
+    let distinct: std::collections::HashSet<String> = scenes.iter().map(content).collect();
+    assert_eq!(distinct.len(), 20, "20 seeds, 20 distinct scenes");
+    // The same preset, unvaried: a set with an entity.
+    let reference = sample(&d, set(&d, &["weather_hard_rain", "town_town02", "pedestrian"]), 0).unwrap();
+    assert_eq!(reference.camera, d.camera);
+    for s in &scenes {
+        let (c, fixed) = (&s.camera, &d.camera);
+        assert!((c.at[1] - fixed.at[1]).abs() <= LATERAL_JITTER_M + 1e-9, "{:?}", c.at);
+        assert!((c.at[2] - fixed.at[2]).abs() <= HEIGHT_JITTER_M + 1e-9, "{:?}", c.at);
+        assert_eq!(c.at[0], fixed.at[0]);
+        for (name, v) in &s.environment {
+            let preset = reference.environment[name];
+            assert!((v - preset).abs() <= PRESET_JITTER * preset + 1e-9 && *v <= preset.max(100.0), "{name} {v}");
+        }
+    }
+    assert!(scenes.iter().any(|s| s.camera.at[1] > 0.0) && scenes.iter().any(|s| s.camera.at[1] < 0.0));
+    let pedestrian = sample(&d, set(&d, &["pedestrian"]), 5).unwrap();
+    assert_eq!(pedestrian.camera, d.camera, "a set with entities keeps the fixed camera");
+    assert_eq!(Sampler::new(&d).backdrop(5).unwrap().camera, d.camera, "the backdrop stays the baseline");
 }

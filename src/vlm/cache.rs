@@ -1,6 +1,12 @@
 //! Content-addressed caches on disk: model replies (keyed by model id with its settings, image
 //! hash and prompt) and generated images. Files are written to a temporary name and renamed, so
 //! a killed run never leaves a half-written entry that a resumed run would trust.
+//!
+//! Within a run the cache never answers a repeat (an observation of a set showing an image the
+//! set has already shown): such an observation never reaches a model, the run records it
+//! `repeated` instead (`run::distinct`). What the cache serves is another run's replies, and a
+//! resumed run's calls that were answered but not journaled (a run killed in flight); the
+//! journal, not the cache, replays a resumed run's journaled observations.
 
 use std::path::PathBuf;
 

@@ -36,8 +36,9 @@ pub struct Truth {
     /// The options' identifiers in the domain (`stop`, `yes`), in the order of the query's
     /// options: a sim profile's planted `answer` names one.
     pub option_names: Vec<String>,
-    /// A deterministic per-observation key (run seed, set, observation index mixed), so a
-    /// simulated answer is the same on a resumed run.
+    /// The scene's key: the first 64 bits of the image hash (the scene hash without a
+    /// renderer), so the `sim` model answers the same scene the same way, as a deterministic
+    /// model would, and a resumed run sees the same simulated answers.
     pub key: u64,
     /// The recognition statements the prompt lists (`revelio probe`), in prompt order; empty
     /// for the plain safety question.

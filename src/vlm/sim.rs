@@ -11,6 +11,8 @@
 //! unparsed = 0.0      # chance of a reply that cannot be parsed
 //! latency_ms = 0      # artificial delay per call, at most 60000 (one minute)
 //! dilution = 0.0      # share of a mode's effect lost per concept in the set beyond the mode's
+//! renderer = "none"  # what `revelio bench search` renders this profile's scenes with:
+//!                     # "none" (default) or "builtin" (repeated scenes then measured)
 //! [[mode]]
 //! concepts = ["debris_far", "town_town02"]  # matches a set that holds all of them
 //! error = 0.9
@@ -29,6 +31,13 @@
 //! model's attention, so a mode's effect fades in crowded scenes (real models' random 4–5-concept
 //! sets fail far less often than the pairs and triples a guided search finds; paper Table 2 and
 //! appendix F). The default 0 keeps a mode's error in every superset.
+//!
+//! **Scenes.** A reply is a pure function of the scene shown ([`crate::vlm::Truth::key`]: the
+//! image hash, or the scene hash without a renderer), as a deterministic model's would be: a
+//! scene shown twice gets the same answer twice, and the profile's rates hold in expectation
+//! over distinct scenes (each scene's draw is independent of every other's). A run never shows
+//! a set one image twice (`run::distinct`), so a set's failure rate is measured over distinct
+//! scenes.
 //!
 //! A wrong answer is a uniformly chosen wrong option, unless the winning mode plants one with
 //! `answer` ("says go instead of slow"): then it is that option. Where the planted option is the
@@ -61,6 +70,8 @@ struct ProfileFile {
     latency_ms: u64,
     #[serde(default)]
     dilution: f64,
+    #[serde(default)]
+    renderer: Option<String>,
     #[serde(default)]
     mode: Vec<ModeFile>,
     #[serde(default)]
@@ -98,6 +109,8 @@ pub struct Profile {
     pub latency_ms: u64,
     /// Share of a mode's excess error lost per concept beyond the mode's (0 = none).
     pub dilution: f64,
+    /// The renderer `revelio bench search` draws this profile's scenes with (`none`, `builtin`).
+    pub renderer: String,
     pub modes: Vec<Mode>,
     /// Chance the model recognises a concept in a probe statement (concepts not listed: 1).
     pub recognition: std::collections::BTreeMap<String, f64>,
@@ -125,6 +138,12 @@ impl Profile {
             return Err(format!(
                 "invalid sim profile `{origin}`: `latency_ms` must be at most {MAX_LATENCY_MS} (one minute), got {}",
                 file.latency_ms
+            ));
+        }
+        let renderer = file.renderer.unwrap_or_else(|| "none".into());
+        if !matches!(renderer.as_str(), "none" | "builtin") {
+            return Err(format!(
+                "invalid sim profile `{origin}`: `renderer` must be \"none\" or \"builtin\", got \"{renderer}\""
             ));
         }
         let mut modes = Vec::with_capacity(file.mode.len());
@@ -163,6 +182,7 @@ impl Profile {
             unparsed,
             latency_ms: file.latency_ms,
             dilution,
+            renderer,
             modes,
             recognition,
             hash,
@@ -370,6 +390,15 @@ error = 0.7
         assert!(close(p.error_for(s(&["fog", "cone"])), 0.1), "no mode: the base error");
         let e = Profile::parse("name = \"t\"\ndilution = 2\n", "p.toml", &d).unwrap_err();
         assert_eq!(e, "invalid sim profile `p.toml`: `dilution` must be between 0 and 1, got 2");
+    }
+
+    #[test]
+    fn a_profile_names_its_bench_renderer() {
+        let d = names_domain(&["a"]);
+        assert_eq!(Profile::parse("name = \"t\"\n", "p.toml", &d).unwrap().renderer, "none");
+        assert_eq!(Profile::parse("name = \"t\"\nrenderer = \"builtin\"\n", "p.toml", &d).unwrap().renderer, "builtin");
+        let e = Profile::parse("name = \"t\"\nrenderer = \"carla\"\n", "p.toml", &d).unwrap_err();
+        assert_eq!(e, "invalid sim profile `p.toml`: `renderer` must be \"none\" or \"builtin\", got \"carla\"");
     }
 
     #[test]

@@ -111,11 +111,12 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
 fn print(w: &mut impl Write, args: &SearchBenchArgs, sweep: &Sweep, points: &[Point]) -> std::io::Result<()> {
     writeln!(
         w,
-        "sweep of {} over {} seeds × budget {} against `{}`, renderer none",
+        "sweep of {} over {} seeds × budget {} against `{}`, renderer {}",
         sweep.param.name(),
         args.seeds,
         args.params.budget,
-        args.profile.display()
+        args.profile.display(),
+        super::bench_renderer(args)
     )?;
     writeln!(w, "{:>12}  {:<8}  {:>13}  {:>13}  {:>11}", sweep.param.name(), "algo", "PFM %", "MFR %", "Div")?;
     for p in points {
