@@ -12,6 +12,7 @@ use std::sync::Arc;
 use crate::diag::TerminalSafe;
 use crate::lattice::Lattice;
 use crate::run::RunError;
+use crate::run::estimate::{self, Estimate};
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, Setup};
 use crate::run::setup::{self, Parts, SetupError};
@@ -153,7 +154,15 @@ pub fn run(args: SearchArgs) -> ExitCode {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
         return ExitCode::from(1);
     }
+    if args.run.dry_run {
+        let prompts = estimate::sample_prompts(world.as_ref(), &space.sets);
+        let image = estimate::image_size(&args.renderer, &domain);
+        // The budget caps every phase; a search may stop short of it.
+        let e = Estimate::new("search", model.as_ref(), config.params.max_calls(), true, &prompts, image);
+        return args.run.print_dry_run(&[e], args.json);
+    }
     let mut setup = Setup::new(Arc::new(domain), world, model, renderer, out.clone());
+    setup.purse = args.run.purse();
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;

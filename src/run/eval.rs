@@ -105,6 +105,8 @@ pub struct EvaluatorConfig {
     pub stop: Stop,
     /// Stop after this many model calls in a row end in `api_error` (0: never).
     pub max_api_errors: u32,
+    /// A concurrency limit shared with other runs (a campaign); `None`: `concurrency` alone.
+    pub gate: Option<Arc<Semaphore>>,
 }
 
 pub struct Evaluator {
@@ -159,7 +161,7 @@ impl Evaluator {
             model: c.model,
             journal: c.journal,
             seed: c.seed,
-            semaphore: Arc::new(Semaphore::new(c.concurrency.max(1))),
+            semaphore: c.gate.unwrap_or_else(|| Arc::new(Semaphore::new(c.concurrency.max(1)))),
             replay,
             phase: c.phase,
             threshold: c.threshold,

@@ -281,6 +281,12 @@ impl Params {
         (self.budget / u64::from(self.samples)) as usize
     }
 
+    /// The most model calls a search with these parameters makes, every phase included (the
+    /// search and its shrink phase): what `--dry-run` counts and what `--budget` caps.
+    pub fn max_calls(&self) -> u64 {
+        self.budget + self.shrink
+    }
+
     /// The default `--shrink` for a search budget.
     pub fn default_shrink(budget: u64) -> u64 {
         budget / SHRINK_SHARE

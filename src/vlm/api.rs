@@ -299,6 +299,17 @@ impl<P: Protocol> Model for ApiModel<P> {
         Some(self.ledger.snapshot())
     }
 
+    fn pricing(&self) -> Option<crate::vlm::cost::Pricing> {
+        let s = &self.settings;
+        Some(crate::vlm::cost::Pricing {
+            prices: Prices { input_per_mtok: s.price_input_per_mtok, output_per_mtok: s.price_output_per_mtok },
+            max_output_tokens: u64::from(s.max_tokens),
+            thinking_budget: s.thinking_budget.map_or(0, u64::from),
+            image_max_side: s.image_max_side,
+            thinking: s.thinking.as_deref().is_some_and(|t| t != "off" && t != "none"),
+        })
+    }
+
     fn concurrency(&self) -> Option<usize> {
         Some(self.settings.concurrency)
     }

@@ -89,6 +89,11 @@ pub trait Model: Send + Sync {
     fn concurrency(&self) -> Option<usize> {
         None
     }
+    /// Its prices and output bounds, for `--dry-run` and `--max-cost` (`None`: it costs
+    /// nothing, like `sim`).
+    fn pricing(&self) -> Option<cost::Pricing> {
+        None
+    }
     /// The base URL the model's requests go to (never a key); `None` for local models (`sim`).
     /// Recorded in a run's `config.json` so a resume against another endpoint is refused.
     fn endpoint(&self) -> Option<String> {

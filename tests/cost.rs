@@ -1,0 +1,122 @@
+//! Cost control through the `revelio` binary against a mock OpenAI-compatible server that bills
+//! like a real one (prompt tokens counted from the request, about 4 bytes a token): a dry run's
+//! count is never below the real run's and its dollars are within 10 % of the spend the run
+//! reports at fixed sampling; `--max-cost` is never passed, stops with exit 1 naming the spend,
+//! and a larger cap resumes; a dry run writes nothing.
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::{Value, json};
+use wiremock::matchers::method;
+use wiremock::{Mock, MockServer, Request, Respond, ResponseTemplate};
+
+fn revelio(args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_revelio"));
+    c.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    c.env("XDG_CACHE_HOME", std::env::temp_dir().join("revelio-tests-unused-cache")).env_remove("OPENAI_API_KEY");
+    c
+}
+
+fn text(o: &Output) -> (i32, String, String) {
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Bills the request's text at about 4 bytes a token, and a reply in the prompt's answer format.
+struct Billing;
+
+const REPLY: &str = "The road ahead looks clear of hazards.\nAnswer: A";
+
+impl Respond for Billing {
+    fn respond(&self, req: &Request) -> ResponseTemplate {
+        let body: Value = serde_json::from_slice(&req.body).unwrap();
+        let mut bytes = 0;
+        for m in body["messages"].as_array().unwrap() {
+            match &m["content"] {
+                Value::String(s) => bytes += s.len(),
+                Value::Array(parts) => {
+                    bytes += parts.iter().filter_map(|p| p["text"].as_str()).map(str::len).sum::<usize>()
+                }
+                _ => {}
+            }
+        }
+        ResponseTemplate::new(200).set_body_json(json!({
+            "choices": [{"message": {"content": REPLY}, "finish_reason": "stop"}],
+            "usage": {"prompt_tokens": bytes.div_ceil(4), "completion_tokens": REPLY.len().div_ceil(4)}
+        }))
+    }
+}
+
+async fn server() -> MockServer {
+    let server = MockServer::start().await;
+    Mock::given(method("POST")).respond_with(Billing).mount(&server).await;
+    server
+}
+
+/// Prices that make a call cost about a cent; `max_tokens` small enough that a cap of a few
+/// calls' worst case is reachable.
+fn model_config(dir: &Path) -> String {
+    let p = dir.join("models.toml");
+    std::fs::write(
+        &p,
+        "[model.\"openai:vlm-test\"]\nprice_input_per_mtok = 50.0\nprice_output_per_mtok = 200.0\nmax_tokens = 64\nconcurrency = 4\n",
+    )
+    .unwrap();
+    p.display().to_string()
+}
+
+fn search(uri: &str, config: &str, out: &Path, extra: &[&str]) -> (i32, String, String) {
+    let o = revelio(&["search", "domains/driving.rev", "--model", "openai:vlm-test", "--renderer", "none"])
+        .args(["--algo", "random", "--budget", "40", "--samples", "4", "--shrink", "0", "--no-cache"])
+        .args(["--base-url", uri, "--model-config", config, "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap();
+    text(&o)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn dry_run_estimates_and_the_spend_cap() {
+    let server = server().await;
+    let dir = tempfile::tempdir().unwrap();
+    let config = model_config(dir.path());
+    let (uri, d) = (server.uri(), dir.path().to_path_buf());
+    let (dry, real, (capped, lines), resumed) = tokio::task::spawn_blocking(move || {
+        let dry = search(&uri, &config, &d.join("dry"), &["--dry-run", "--json"]);
+        let real = search(&uri, &config, &d.join("real"), &["--json"]);
+        let capped = search(&uri, &config, &d.join("capped"), &["--max-cost", "0.05"]);
+        let lines: Vec<Value> = std::fs::read_to_string(d.join("capped/journal.jsonl"))
+            .unwrap_or_default()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        let resumed = search(&uri, &config, &d.join("capped"), &["--max-cost", "10", "--json"]);
+        (dry, real, (capped, lines), resumed)
+    })
+    .await
+    .unwrap();
+    assert_eq!(dry.0, 0, "{}", dry.2);
+    assert!(!dir.path().join("dry").exists(), "a dry run writes nothing");
+    let estimate: Value = serde_json::from_str(&dry.1).unwrap();
+    let estimate = &estimate[0];
+    assert_eq!(real.0, 0, "{}", real.2);
+    let summary: Value = serde_json::from_str(&real.1).unwrap();
+    let (calls, spend) = (summary["spend"]["calls"].as_u64().unwrap(), summary["spend"]["cost_usd"].as_f64().unwrap());
+    assert_eq!(estimate["calls"].as_u64().unwrap(), 40);
+    assert!(estimate["calls"].as_u64().unwrap() >= calls, "{estimate} vs {calls} calls");
+    let estimated = estimate["cost_usd"].as_f64().unwrap();
+    assert!((estimated - spend).abs() <= 0.1 * spend, "estimated ${estimated}, spent ${spend}");
+
+    // The cap: stopped with exit 1 naming the spend, never past it; a larger cap resumes.
+    assert_eq!(capped.0, 1, "{}", capped.2);
+    assert!(capped.2.contains("stopped at the spend cap") && capped.2.contains("larger `--max-cost`"), "{}", capped.2);
+    let paid: f64 = lines.iter().map(|l| l["usage"]["cost_usd"].as_f64().unwrap()).sum();
+    assert!(!lines.is_empty() && paid <= 0.05, "{} lines cost ${paid}", lines.len());
+    assert_eq!(resumed.0, 0, "{}", resumed.2);
+    let resumed: Value = serde_json::from_str(&resumed.1).unwrap();
+    assert_eq!(resumed["metrics"]["inferences"], json!(40));
+}
