@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::diag::TerminalSafe;
+use crate::ir::ConceptSet;
 use crate::lattice::Lattice;
 use crate::run::RunError;
 use crate::run::estimate::{self, Estimate};
@@ -70,21 +71,53 @@ pub struct SearchArgs {
     pub json: bool,
 }
 
-pub fn run(args: SearchArgs) -> ExitCode {
-    let domain = match crate::cli::load_domain(&args.file) {
-        Ok(d) => d,
-        Err(code) => return code,
-    };
-    let out = args
-        .out
+/// A search ready to run: its setup, configuration and search space, and what it would spend
+/// (`--dry-run` prints it). `revelio campaign` prepares each of its cells this way.
+pub(crate) struct Prepared {
+    pub setup: Setup,
+    pub config: RunConfig,
+    pub space: crate::search::Space,
+    pub estimate: Estimate,
+}
+
+/// The run folder a search writes to: `--out`, else `runs/DOMAIN-ALGO-sSEED`.
+fn out_dir(args: &SearchArgs, domain: &crate::ir::Domain) -> PathBuf {
+    args.out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)));
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)))
+}
+
+/// The valid sets of `domain` up to `max_size`, enumerated once per process for each domain and
+/// limit (a campaign prepares many cells of one domain).
+fn valid_sets(domain: &crate::ir::Domain, max_size: usize, max_sets: u64) -> Result<Vec<ConceptSet>, ExitCode> {
+    type Key = (String, usize, u64);
+    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Vec<ConceptSet>>>> =
+        std::sync::OnceLock::new();
+    let key = (domain.identity().to_string(), max_size, max_sets);
+    let seen = SEEN.get_or_init(Default::default);
+    if let Some(sets) = seen.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+        return Ok(sets.clone());
+    }
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
+    };
+    let lattice = lattice.map_err(|too_large| {
+        eprintln!("{}", too_large.plain());
+        ExitCode::from(1)
+    })?;
+    seen.lock().unwrap_or_else(|p| p.into_inner()).insert(key, lattice.sets.clone());
+    Ok(lattice.sets)
+}
+
+/// Everything a search does before its first model call: the domain compiled, the parameters
+/// checked, the model and renderer built, the lattice enumerated. Nothing is written.
+pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
+    let domain = crate::cli::load_domain(&args.file)?;
+    let out = out_dir(args, &domain);
     // What an existing run folder recorded: its beam budget (so a raised `--budget` extends the
     // run rather than moving the GPTS phase boundary), its shrink budget and its model flags.
-    let previous = match summary::read_config(&out) {
-        Ok(p) => p,
-        Err(e) => return fail(&e),
-    };
+    let previous = summary::read_config(&out).map_err(|e| fail(&e))?;
     let params = Params {
         algo: args.algo,
         beam_budget: args
@@ -102,49 +135,32 @@ pub fn run(args: SearchArgs) -> ExitCode {
     };
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
     if params.kernel != Kernel::Dot && params.algo != Algo::Gpts {
         eprintln!("error: invalid `--kernel`: the GP kernel is GPTS's; `--algo {}` has no GP", params.algo.name());
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
     let setup_error = |e: SetupError| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
     };
     let settings = match &previous {
-        Some(p) => match args.model_opts.settings().resume(&p.model_settings, setup::FLAGS) {
-            Ok(s) => s,
-            Err(e) => return setup_error(e),
-        },
+        Some(p) => args.model_opts.settings().resume(&p.model_settings, setup::FLAGS).map_err(setup_error)?,
         None => args.model_opts.settings(),
     };
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer, concurrency } =
-        match setup::build_parts(&domain, &args.model, &args.renderer, &settings, cache.as_deref(), concurrency) {
-            Ok(p) => p,
-            Err(e) => return setup_error(e),
-        };
-    if let Some(p) = &previous
-        && let Err(e) = setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS)
-    {
-        return setup_error(e);
+        setup::build_parts(&domain, &args.model, &args.renderer, &settings, cache.as_deref(), concurrency)
+            .map_err(setup_error)?;
+    if let Some(p) = &previous {
+        setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS).map_err(setup_error)?;
     }
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &args.renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = {
-        let mut work = super::progress::Work::new();
-        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
-    };
-    let lattice = match lattice {
-        Ok(l) => l,
-        Err(too_large) => {
-            eprintln!("{}", too_large.plain());
-            return ExitCode::from(1);
-        }
-    };
-    let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
+    let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
+    let (space, dropped) = runner::search_space(sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(
             "note: {dropped} valid sets have no determined ground truth and are not searched (see `revelio check`)"
@@ -152,21 +168,30 @@ pub fn run(args: SearchArgs) -> ExitCode {
     }
     if space.sets.is_empty() {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
-        return ExitCode::from(1);
+        return Err(ExitCode::from(1));
     }
-    if args.run.dry_run {
-        let prompts = estimate::sample_prompts(world.as_ref(), &space.sets);
-        let image = estimate::image_size(&args.renderer, &domain);
-        // The budget caps every phase; a search may stop short of it.
-        let e = Estimate::new("search", model.as_ref(), config.params.max_calls(), true, &prompts, image);
-        return args.run.print_dry_run(&[e], args.json);
-    }
-    let mut setup = Setup::new(Arc::new(domain), world, model, renderer, out.clone());
-    setup.purse = args.run.purse();
+    let prompts = estimate::sample_prompts(world.as_ref(), &space.sets);
+    let image = estimate::image_size(&args.renderer, &domain);
+    // The budget caps every phase; a search may stop short of it.
+    let estimate = Estimate::new("search", model.as_ref(), config.params.max_calls(), true, &prompts, image);
+    let mut setup = Setup::new(Arc::new(domain), world, model, renderer, out);
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
     setup.on_corrupt = args.run.on_corrupt();
+    setup.purse = args.run.purse();
+    Ok(Prepared { setup, config, space, estimate })
+}
+
+pub fn run(args: SearchArgs) -> ExitCode {
+    let Prepared { setup, config, space, estimate } = match prepare(&args) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    if args.run.dry_run {
+        return args.run.print_dry_run(&[estimate], args.json);
+    }
+    let out = setup.out.clone();
     let started = std::time::Instant::now();
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
