@@ -282,7 +282,7 @@ mod tests {
     fn csv_quotes_fields_and_html_escapes() {
         let c = csv(&sample());
         let line = c.lines().nth(1).unwrap();
-        assert!(line.starts_with("\"runs/a,b\",driving,sim:<x>,gpts,0.0150,"), "{line}");
+        assert!(line.starts_with("\"runs/a,b\",driving,sim:<x>,gpts,3,1000,250,0.0150,"), "{line}");
         assert_eq!(line.split(',').count(), c.lines().next().unwrap().split(',').count() + 1, "one quoted comma");
         let h = html(&sample());
         assert!(h.contains("sim:&lt;x&gt;") && !h.contains("sim:<x>"));
