@@ -55,7 +55,8 @@ pub struct SearchArgs {
     pub max_sets: u64,
     #[command(flatten)]
     pub run: RunFlags,
-    /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
+    /// Run folder; running the same command again resumes it [default:
+    /// runs/DOMAIN-MODEL-ALGO-sSEED, or an existing runs/DOMAIN-ALGO-sSEED of the same model]
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// `builtin` (wgpu), `none` (no image), `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`
@@ -80,11 +81,22 @@ pub(crate) struct Prepared {
     pub estimate: Estimate,
 }
 
-/// The run folder a search writes to: `--out`, else `runs/DOMAIN-ALGO-sSEED`.
+/// The run folder a search writes to: `--out`, else `runs/DOMAIN-MODEL-ALGO-sSEED` (the model
+/// as a campaign names it, [`crate::run::campaign::model_slug`]). A folder under the old default
+/// name, `runs/DOMAIN-ALGO-sSEED`, that holds a run of the same model spec is still found, so an
+/// old command resumes its run rather than starting a second paid one.
 fn out_dir(args: &SearchArgs, domain: &crate::ir::Domain) -> PathBuf {
-    args.out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, args.algo.name(), args.seed)))
+    if let Some(out) = &args.out {
+        return out.clone();
+    }
+    let (algo, seed) = (args.algo.name(), args.seed);
+    let model = crate::run::campaign::model_slug(&args.model);
+    let new = PathBuf::from("runs").join(format!("{}-{model}-{algo}-s{seed}", domain.name));
+    let old = PathBuf::from("runs").join(format!("{}-{algo}-s{seed}", domain.name));
+    match summary::read_config(&old) {
+        Ok(Some(c)) if !new.exists() && c.model_spec == args.model && c.domain == domain.name => old,
+        _ => new,
+    }
 }
 
 /// The valid sets of `domain` up to `max_size`, enumerated once per process for each domain and
