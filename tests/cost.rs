@@ -85,7 +85,7 @@ async fn dry_run_estimates_and_the_spend_cap() {
     let dir = tempfile::tempdir().unwrap();
     let config = model_config(dir.path());
     let (uri, d) = (server.uri(), dir.path().to_path_buf());
-    let (dry, real, (capped, lines), resumed) = tokio::task::spawn_blocking(move || {
+    let (dry, real, (capped, lines, stopped, finished), resumed) = tokio::task::spawn_blocking(move || {
         let dry = search(&uri, &config, &d.join("dry"), &["--dry-run", "--json"]);
         let real = search(&uri, &config, &d.join("real"), &["--json"]);
         let capped = search(&uri, &config, &d.join("capped"), &["--max-cost", "0.05"]);
@@ -94,8 +94,14 @@ async fn dry_run_estimates_and_the_spend_cap() {
             .lines()
             .map(|l| serde_json::from_str(l).unwrap())
             .collect();
+        let runs = |d: &Path| {
+            let o = revelio(&["runs", "--json"]).arg(d).output().unwrap();
+            serde_json::from_slice::<Value>(&o.stdout).unwrap()
+        };
+        let stopped = runs(&d);
         let resumed = search(&uri, &config, &d.join("capped"), &["--max-cost", "10", "--json"]);
-        (dry, real, (capped, lines), resumed)
+        let finished = runs(&d);
+        (dry, real, (capped, lines, stopped, finished), resumed)
     })
     .await
     .unwrap();
@@ -116,6 +122,14 @@ async fn dry_run_estimates_and_the_spend_cap() {
     assert!(capped.2.contains("stopped at the spend cap") && capped.2.contains("larger `--max-cost`"), "{}", capped.2);
     let paid: f64 = lines.iter().map(|l| l["usage"]["cost_usd"].as_f64().unwrap()).sum();
     assert!(!lines.is_empty() && paid <= 0.05, "{} lines cost ${paid}", lines.len());
+    // `revelio runs` says why the capped run stopped, then that it finished.
+    let state = |list: &Value, name: &str| {
+        let run = list.as_array().unwrap().iter().find(|r| r["run"].as_str().unwrap().ends_with(name)).unwrap().clone();
+        run["state"].as_str().unwrap().to_string()
+    };
+    assert!(state(&stopped, "capped").starts_with("stopped: stopped at the spend cap"), "{stopped}");
+    assert_eq!(state(&stopped, "real"), "finished");
+    assert_eq!(state(&finished, "capped"), "finished", "{finished}");
     assert_eq!(resumed.0, 0, "{}", resumed.2);
     let resumed: Value = serde_json::from_str(&resumed.1).unwrap();
     assert_eq!(resumed["metrics"]["inferences"], json!(40));

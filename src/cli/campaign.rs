@@ -173,6 +173,7 @@ pub fn run(args: CampaignArgs) -> ExitCode {
             }
             Err(e) => {
                 eprintln!("{}: error: {}", cell.name, terminal_safe(&e.to_string()));
+                super::common::record_stop(&e, &setup.out);
                 failed.push((cell.name, e));
             }
         }

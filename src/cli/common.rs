@@ -131,6 +131,7 @@ impl ModelFlags {
 pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
     // A run error may quote what a run folder holds (names, paths, a provider's reply).
     eprintln!("error: {}", terminal_safe(&e.to_string()));
+    record_stop(e, out);
     if matches!(e, RunError::Stopped(crate::run::StopReason::CostCap { .. })) {
         eprintln!(
             "note: `{}` holds every finished observation; the same command with a larger `--max-cost` resumes it",
@@ -140,6 +141,19 @@ pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
         eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
     }
     ExitCode::from(e.exit_code())
+}
+
+/// The file in a run folder that says why the last command on it stopped (`revelio runs` reads
+/// it; a search that finishes removes it).
+pub const STOPPED_FILE: &str = "stopped.json";
+
+/// Say in `out` why a command on it stopped early (only in a run folder: one with a
+/// `config.json`). Best effort: the error itself is already reported.
+pub(crate) fn record_stop(e: &RunError, out: &Path) {
+    if out.join("config.json").is_file() {
+        let note = serde_json::json!({ "reason": e.to_string(), "resumable": e.resumable() });
+        let _ = crate::journal::write_atomic(&out.join(STOPPED_FILE), note.to_string().as_bytes());
+    }
 }
 
 /// First Ctrl-C: stop starting model calls, journal the ones in flight, exit 130. Second: exit

@@ -23,6 +23,7 @@ pub mod reask;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod report;
+pub mod runs;
 pub mod search;
 pub mod transfer;
 pub mod validate;
@@ -69,6 +70,9 @@ pub enum Command {
     Campaign(campaign::CampaignArgs),
     /// Compare finished runs: PFM, MFR and Div with intervals (terminal, CSV, HTML)
     Compare(compare::CompareArgs),
+    /// List the run folders under a folder: state (running, finished, stopped and why), model,
+    /// algorithm, budget, seed, calls, spend, cores
+    Runs(runs::RunsArgs),
     /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
     Report(report::ReportArgs),
 }
@@ -101,6 +105,7 @@ pub fn main() -> ExitCode {
         Command::Campaign(a) => campaign::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Report(a) => report::run(a),
+        Command::Runs(a) => runs::run(a),
     }
 }
 

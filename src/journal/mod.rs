@@ -26,7 +26,7 @@
 //! written through [`safe`], which follows no link, reads only regular files and reads no
 //! further than a bound.
 
-mod lock;
+pub mod lock;
 pub mod safe;
 
 use std::fs::File;

@@ -275,6 +275,8 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             .collect(),
     });
     journal.write_json("summary.json", &summary)?;
+    // A run that finished is no longer stopped (`revelio runs`).
+    let _ = std::fs::remove_file(setup.out.join("stopped.json"));
     Ok(RunReport {
         summary,
         history,
