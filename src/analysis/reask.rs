@@ -114,6 +114,7 @@ pub async fn probe(
                 let marks = crate::vlm::statements::parse(&rec.raw, st.len());
                 if asked(rec) {
                     spend.add(&rec.usage, rec.cached);
+                    spend.add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                 }
                 progress.inc(&spend);
                 finished.push(ProbeObs { set: i, outcome: rec.outcome, statements: st, marks });
@@ -158,6 +159,7 @@ pub async fn probe(
             Ok(Ok(Some((o, rec)))) => {
                 if asked(&rec) {
                     spend.add(&rec.usage, rec.cached);
+                    spend.add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                 }
                 progress.inc(&spend);
                 finished.push(o);
@@ -241,6 +243,7 @@ pub async fn transfer(
                         stats[m][i].add(rec.outcome);
                         if asked(rec) {
                             spend[m].add(&rec.usage, rec.cached);
+                            spend[m].add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                             total.add(&rec.usage, rec.cached);
                         }
                         progress.inc(&total);
@@ -309,6 +312,7 @@ pub async fn transfer(
                     stats[m][i].add(rec.outcome);
                     if asked(&rec) {
                         spend[m].add(&rec.usage, rec.cached);
+                        spend[m].add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                         total.add(&rec.usage, rec.cached);
                     }
                     progress.inc(&total);
@@ -369,6 +373,8 @@ async fn futures_all(
                     latency_ms: 0,
                     cached: false,
                     attempts: 0,
+                    rate_limited: 0,
+                    waited_ms: 0,
                 }))
             })
         })

@@ -33,6 +33,9 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         model: None,
         visibility: Vec::new(),
         resamples: 0,
+        attempts: 1,
+        rate_limited: 0,
+        waited_ms: 0,
     }
 }
 

@@ -199,6 +199,8 @@ mod tests {
             latency_ms: 2345,
             cached: false,
             attempts: 2,
+            rate_limited: 0,
+            waited_ms: 0,
         };
         let p = prompt::build("What should the ego vehicle do?", &options);
         insta::assert_snapshot!(report(

@@ -435,6 +435,7 @@ mod tests {
                 output_tokens: 262_000,
                 thinking_tokens: 250_000,
                 cost_usd: 1.43,
+                ..Default::default()
             },
         }
     }

@@ -96,6 +96,9 @@ fn fixture(renderer: &str) -> Fixture {
                     model: None,
                     visibility: Vec::new(),
                     resamples: 0,
+                    attempts: 1,
+                    rate_limited: 0,
+                    waited_ms: 0,
                 })
                 .unwrap();
             stats.add(outcome);
@@ -336,6 +339,9 @@ fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() 
         model: None,
         visibility: Vec::new(),
         resamples: 4,
+        attempts: 1,
+        rate_limited: 0,
+        waited_ms: 0,
     };
     let mut text = std::fs::read_to_string(&path).unwrap();
     text.push_str(&serde_json::to_string(&invisible).unwrap());

@@ -90,6 +90,8 @@ struct Replayed {
     outcome: Outcome,
     usage: Usage,
     cached: bool,
+    /// Attempts, rate-limited retries, milliseconds waited.
+    retries: (u32, u32, u64),
 }
 
 pub struct EvaluatorConfig {
@@ -153,7 +155,12 @@ impl Evaluator {
             })?;
             replay.insert(
                 ObsKey { phase: r.phase, set, index: r.obs },
-                Replayed { outcome: r.outcome, usage: r.usage, cached: r.cached },
+                Replayed {
+                    outcome: r.outcome,
+                    usage: r.usage,
+                    cached: r.cached,
+                    retries: (r.attempts, r.rate_limited, r.waited_ms),
+                },
             );
         }
         Ok(Evaluator {
@@ -182,10 +189,11 @@ impl Evaluator {
 
     /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
     /// re-tests failure modes and their subsets: not counted as new ones).
-    fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
+    fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool, retries: (u32, u32, u64)) {
         // A blocked image or an invisible scene made no model call.
         if outcome.asked_a_model() {
             self.spend.add(usage, cached);
+            self.spend.add_retries(retries.0, retries.1, retries.2);
         }
         if key.phase == Phase::Shrink {
             if let Some(p) = &self.progress {
@@ -227,7 +235,7 @@ impl Evaluator {
                 if let Some(r) = self.replay.get(&key).copied() {
                     out[i][slot] = Some(r.outcome);
                     self.replayed += 1;
-                    self.finished(key, r.outcome, &r.usage, r.cached);
+                    self.finished(key, r.outcome, &r.usage, r.cached, r.retries);
                     continue;
                 }
                 let seed = observation_seed(self.seed, key);
@@ -250,7 +258,8 @@ impl Evaluator {
             match joined {
                 Ok(Ok(Some((i, slot, o)))) => {
                     out[i][slot] = Some(o.outcome);
-                    self.finished(o.key, o.outcome, &o.record.usage, o.record.cached);
+                    let retries = (o.record.attempts, o.record.rate_limited, o.record.waited_ms);
+                    self.finished(o.key, o.outcome, &o.record.usage, o.record.cached, retries);
                 }
                 Ok(Ok(None)) => {}
                 Ok(Err(e)) => {

@@ -322,6 +322,9 @@ impl Observer {
             model: None,
             visibility: stimulus.visibility.clone(),
             resamples: stimulus.resamples,
+            attempts: reply.as_ref().map_or(0, |r| r.attempts),
+            rate_limited: reply.as_ref().map_or(0, |r| r.rate_limited),
+            waited_ms: reply.as_ref().map_or(0, |r| r.waited_ms),
         };
         Observation { key, outcome, reply, record }
     }

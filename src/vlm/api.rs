@@ -210,7 +210,11 @@ impl<P: Protocol> ApiModel<P> {
         let called =
             self.transport.call(|| self.proto.request(&q.prompt, image.as_ref()), |r| judge(&self.proto, r)).await;
         match called.result {
-            Err(e) => error_reply(e, called.attempts, called.latency),
+            Err(e) => {
+                let mut r = error_reply(e, called.attempts, called.latency);
+                (r.rate_limited, r.waited_ms) = (called.rate_limited, called.waited.as_millis() as u64);
+                r
+            }
             Ok(p) => {
                 let prices = Prices {
                     input_per_mtok: self.settings.price_input_per_mtok,
@@ -247,6 +251,8 @@ impl<P: Protocol> ApiModel<P> {
                     latency_ms: called.latency.as_millis() as u64,
                     cached: false,
                     attempts: called.attempts,
+                    rate_limited: called.rate_limited,
+                    waited_ms: called.waited.as_millis() as u64,
                 }
             }
         }
@@ -262,6 +268,8 @@ fn error_reply(message: String, attempts: u32, latency: Duration) -> Reply {
         latency_ms: latency.as_millis() as u64,
         cached: false,
         attempts,
+        rate_limited: 0,
+        waited_ms: 0,
     }
 }
 

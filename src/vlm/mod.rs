@@ -68,6 +68,16 @@ pub struct Reply {
     pub cached: bool,
     /// Attempts made (1 = no retry).
     pub attempts: u32,
+    /// Of the retries, those after a rate limit (HTTP 429).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rate_limited: u32,
+    /// Milliseconds spent waiting between attempts (backoff and `Retry-After`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub waited_ms: u64,
+}
+
+fn is_zero<T: Default + PartialEq>(n: &T) -> bool {
+    *n == T::default()
 }
 
 /// A vision-language model. Implementations must be cheap to share (`Arc<dyn Model>`) and safe
