@@ -134,3 +134,41 @@ async fn dry_run_estimates_and_the_spend_cap() {
     let resumed: Value = serde_json::from_str(&resumed.1).unwrap();
     assert_eq!(resumed["metrics"]["inferences"], json!(40));
 }
+
+/// Retries are not invisible: a provider that rate-limits the first three requests shows them
+/// in the journal (`attempts`), in `summary.json`'s spend and on the final line.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn retries_and_rate_limit_waits_are_reported() {
+    let server = MockServer::start().await;
+    Mock::given(method("POST"))
+        .respond_with(ResponseTemplate::new(429).insert_header("retry-after", "0"))
+        .up_to_n_times(3)
+        .with_priority(1)
+        .mount(&server)
+        .await;
+    Mock::given(method("POST")).respond_with(Billing).with_priority(2).mount(&server).await;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("models.toml"), "[model.\"openai:vlm-test\"]\nconcurrency = 1\n").unwrap();
+    let config = dir.path().join("models.toml").display().to_string();
+    let (uri, d) = (server.uri(), dir.path().to_path_buf());
+    let (json, plain) = tokio::task::spawn_blocking(move || {
+        let json = search(&uri, &config, &d.join("a"), &["--json"]);
+        let plain = search(&uri, &config, &d.join("a"), &[]);
+        (json, plain)
+    })
+    .await
+    .unwrap();
+    assert_eq!(json.0, 0, "{}", json.2);
+    let summary: Value = serde_json::from_str(&json.1).unwrap();
+    assert_eq!(summary["spend"]["retries"], json!(3), "{}", summary["spend"]);
+    assert_eq!(summary["spend"]["rate_limited"], json!(3));
+    let lines: Vec<Value> = std::fs::read_to_string(dir.path().join("a/journal.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(lines.iter().all(|l| l["attempts"].as_u64().is_some()), "every line says its attempts");
+    assert_eq!(lines.iter().map(|l| l["attempts"].as_u64().unwrap() - 1).sum::<u64>(), 3);
+    assert_eq!(plain.0, 0, "{}", plain.2);
+    assert!(plain.1.contains("; 3 retries (3 after a rate limit), "), "the final line, from the journal: {}", plain.1);
+}
