@@ -282,6 +282,7 @@ mod tests {
                 cache_dir: Some(cache.to_path_buf()),
                 ..Default::default()
             },
+            max_cost: None,
         }
     }
 
