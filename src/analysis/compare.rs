@@ -18,6 +18,10 @@ pub struct RunFacts {
     pub domain: String,
     pub model: String,
     pub algo: String,
+    pub seed: u64,
+    /// `--budget` (the search's model calls; the shrink budget is `shrink`).
+    pub budget: u64,
+    pub shrink: u64,
     pub sets: usize,
     pub inferences: u64,
     pub failures: u64,
@@ -44,12 +48,19 @@ pub struct Row {
     pub domain: String,
     pub model: String,
     pub algo: String,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default)]
+    pub budget: u64,
+    #[serde(default)]
+    pub shrink: u64,
     pub pfm: Rate,
     pub mfr: Rate,
     /// `None` with fewer than two failure modes.
     pub div: Option<Rate>,
     pub failure_modes: usize,
-    /// Failure modes with no smaller failure mode inside them.
+    /// Distinct cores: the shrink phase's minimal failure modes for a run that shrank, else
+    /// failure modes with no smaller failure mode inside them.
     pub cores: usize,
     pub sets: usize,
     pub inferences: u64,
@@ -132,6 +143,9 @@ pub fn row(f: &RunFacts) -> Row {
         domain: f.domain.clone(),
         model: f.model.clone(),
         algo: f.algo.clone(),
+        seed: f.seed,
+        budget: f.budget,
+        shrink: f.shrink,
         pfm: wilson(f.failure_modes.len() as u64, f.sets as u64),
         mfr: wilson(f.failures, f.inferences),
         div: diversity(&f.failure_modes),
@@ -175,6 +189,9 @@ mod tests {
             domain: "d".into(),
             model: "m".into(),
             algo: "beam".into(),
+            seed: 0,
+            budget: 50,
+            shrink: 0,
             sets: 10,
             inferences: 50,
             failures: 20,

@@ -114,6 +114,7 @@ pub async fn probe(
                 let marks = crate::vlm::statements::parse(&rec.raw, st.len());
                 if asked(rec) {
                     spend.add(&rec.usage, rec.cached);
+                    spend.add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                 }
                 progress.inc(&spend);
                 finished.push(ProbeObs { set: i, outcome: rec.outcome, statements: st, marks });
@@ -139,7 +140,7 @@ pub async fn probe(
                 // The visibility guard: a scene the image generator blocked, or one whose entity
                 // stayed invisible, is recorded as such and shown to no model.
                 let reply = match (&stimulus.blocked, &stimulus.invisible) {
-                    (None, None) => Some(model.ask(&query).await),
+                    (None, None) => Some(observer.ask(model.as_ref(), &query).await?),
                     _ => None,
                 };
                 let o = observer.record(key, &stimulus, &task, &query, reply);
@@ -158,13 +159,17 @@ pub async fn probe(
             Ok(Ok(Some((o, rec)))) => {
                 if asked(&rec) {
                     spend.add(&rec.usage, rec.cached);
+                    spend.add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                 }
                 progress.inc(&spend);
                 finished.push(o);
             }
             Ok(Ok(None)) => {}
             Ok(Err(e)) => {
-                r.stop.request(StopReason::Interrupted);
+                r.stop.request(match &e {
+                    RunError::Stopped(reason) => reason.clone(),
+                    _ => StopReason::Interrupted,
+                });
                 first_error.get_or_insert(e);
             }
             Err(e) => {
@@ -238,6 +243,7 @@ pub async fn transfer(
                         stats[m][i].add(rec.outcome);
                         if asked(rec) {
                             spend[m].add(&rec.usage, rec.cached);
+                            spend[m].add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                             total.add(&rec.usage, rec.cached);
                         }
                         progress.inc(&total);
@@ -266,15 +272,35 @@ pub async fn transfer(
                 }
                 let query = observer.query(&stimulus, &task);
                 let shown = stimulus.blocked.is_none() && stimulus.invisible.is_none();
-                let asked = futures_all(&targets, &query, !shown).await;
+                let asked = futures_all(&observer, &targets, &query, !shown).await;
                 let mut out = Vec::new();
+                let mut capped = None;
                 for ((m, _, id), reply) in targets.iter().zip(asked) {
+                    // A call the spend cap kept back is not an observation: nothing is journaled.
+                    let reply = match reply {
+                        Ok(r) => r,
+                        Err(e) => {
+                            capped.get_or_insert(e);
+                            continue;
+                        }
+                    };
                     let mut o = observer.record(key, &stimulus, &task, &query, reply);
                     o.record.model = Some(id.clone());
                     journal.append(&o.record)?;
                     out.push((*m, o.record));
                 }
-                Ok((i, out))
+                match capped {
+                    // The other targets' answers are journaled; the cap ends the command.
+                    Some(e) if out.is_empty() => Err(e.into()),
+                    Some(e) => {
+                        stop.request(match RunError::from(e) {
+                            RunError::Stopped(r) => r,
+                            _ => StopReason::Interrupted,
+                        });
+                        Ok((i, out))
+                    }
+                    None => Ok((i, out)),
+                }
             });
         }
     }
@@ -286,13 +312,17 @@ pub async fn transfer(
                     stats[m][i].add(rec.outcome);
                     if asked(&rec) {
                         spend[m].add(&rec.usage, rec.cached);
+                        spend[m].add_retries(rec.attempts, rec.rate_limited, rec.waited_ms);
                         total.add(&rec.usage, rec.cached);
                     }
                     progress.inc(&total);
                 }
             }
             Ok(Err(e)) => {
-                r.stop.request(StopReason::Interrupted);
+                r.stop.request(match &e {
+                    RunError::Stopped(reason) => reason.clone(),
+                    _ => StopReason::Interrupted,
+                });
                 first_error.get_or_insert(e);
             }
             Err(e) => {
@@ -309,21 +339,23 @@ pub async fn transfer(
     Ok((stats, spend))
 }
 
-/// Ask every target concurrently (a scene that is not shown asks none).
+/// Ask every target concurrently (a scene that is not shown asks none), each under the spend
+/// cap (a call it keeps back is an error in its place).
 async fn futures_all(
+    observer: &Arc<Observer>,
     targets: &[(usize, Arc<dyn Model>, String)],
     query: &crate::vlm::Query,
     not_shown: bool,
-) -> Vec<Option<crate::vlm::Reply>> {
+) -> Vec<Result<Option<crate::vlm::Reply>, crate::run::ObserveError>> {
     if not_shown {
-        return targets.iter().map(|_| None).collect();
+        return targets.iter().map(|_| Ok(None)).collect();
     }
     let mut set = tokio::task::JoinSet::new();
     for (k, (_, model, _)) in targets.iter().enumerate() {
-        let (model, query) = (model.clone(), query.clone());
-        set.spawn(async move { (k, model.ask(&query).await) });
+        let (model, query, observer) = (model.clone(), query.clone(), observer.clone());
+        set.spawn(async move { (k, observer.ask(model.as_ref(), &query).await) });
     }
-    let mut out: BTreeMap<usize, crate::vlm::Reply> = BTreeMap::new();
+    let mut out: BTreeMap<usize, Result<crate::vlm::Reply, crate::run::ObserveError>> = BTreeMap::new();
     while let Some(j) = set.join_next().await {
         if let Ok((k, reply)) = j {
             out.insert(k, reply);
@@ -332,15 +364,19 @@ async fn futures_all(
     // `Model::ask` never fails; a task that died anyway is a failed call, asked again on resume.
     (0..targets.len())
         .map(|k| {
-            Some(out.remove(&k).unwrap_or_else(|| crate::vlm::Reply {
-                raw: "the model call ended abnormally".into(),
-                thinking: None,
-                answer: crate::outcome::Answer::ApiError,
-                usage: Default::default(),
-                latency_ms: 0,
-                cached: false,
-                attempts: 0,
-            }))
+            out.remove(&k).map(|r| r.map(Some)).unwrap_or_else(|| {
+                Ok(Some(crate::vlm::Reply {
+                    raw: "the model call ended abnormally".into(),
+                    thinking: None,
+                    answer: crate::outcome::Answer::ApiError,
+                    usage: Default::default(),
+                    latency_ms: 0,
+                    cached: false,
+                    attempts: 0,
+                    rate_limited: 0,
+                    waited_ms: 0,
+                }))
+            })
         })
         .collect()
 }

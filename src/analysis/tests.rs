@@ -34,6 +34,9 @@ fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
         visibility: Vec::new(),
         resamples: 0,
         repeats: 0,
+        attempts: 1,
+        rate_limited: 0,
+        waited_ms: 0,
     }
 }
 

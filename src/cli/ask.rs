@@ -40,6 +40,10 @@ pub struct AskArgs {
     pub save: Option<PathBuf>,
     #[command(flatten)]
     pub model_opts: super::common::ModelFlags,
+    /// Do not send the call when its worst case (its input, `max_tokens` and any thinking
+    /// budget) could cost more than this many US dollars
+    #[arg(long, value_name = "USD", value_parser = super::common::parse_usd)]
+    pub max_cost: Option<f64>,
 }
 
 pub fn run(args: AskArgs) -> ExitCode {
@@ -85,7 +89,9 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let Parts { model, renderer, .. } =
         setup::build_parts(domain, &args.model, &args.renderer, &args.model_opts.settings(), cache.as_deref(), None)
             .map_err(|e| (e.exit_code(), e.to_string()))?;
-    let observer = Observer::new(Arc::new(domain.clone()), Arc::new(DomainWorld::new(domain)), renderer);
+    let purse = args.max_cost.map(|cap| Arc::new(crate::vlm::cost::Purse::new(cap, 0.0)));
+    let observer =
+        Observer::new(Arc::new(domain.clone()), Arc::new(DomainWorld::new(domain)), renderer).with_purse(purse);
     let task = observer.task(set).map_err(|e| (1, e.to_string()))?;
     let key = ObsKey { phase: Phase::Search, set, index: 0 };
     // The image is written before the model is asked, so a failed call still leaves it.
@@ -206,6 +212,8 @@ mod tests {
             latency_ms: 2345,
             cached: false,
             attempts: 2,
+            rate_limited: 0,
+            waited_ms: 0,
         };
         let p = prompt::build("What should the ego vehicle do?", &options);
         insta::assert_snapshot!(report(
@@ -281,6 +289,7 @@ mod tests {
                 cache_dir: Some(cache.to_path_buf()),
                 ..Default::default()
             },
+            max_cost: None,
         }
     }
 

@@ -36,9 +36,48 @@ pub struct RunFlags {
     /// and go on (without it, such a line stops the command and the journal is left as it is)
     #[arg(long)]
     pub set_aside_corrupt: bool,
+    /// Stop before spending more than this many US dollars on model calls in this run folder
+    /// (its earlier commands included): each call reserves its worst case first; a run stopped
+    /// at the cap resumes with a larger one
+    #[arg(long, value_name = "USD", value_parser = parse_usd)]
+    pub max_cost: Option<f64>,
+    /// Print the model calls, tokens and dollars the command would spend, and stop (nothing is
+    /// written, no model is called)
+    #[arg(long)]
+    pub dry_run: bool,
+}
+
+/// `--max-cost`: a non-negative, finite number of dollars.
+pub(crate) fn parse_usd(s: &str) -> Result<f64, String> {
+    match s.trim_start_matches('$').parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a number of US dollars, like `5` or `0.50`, got `{s}`")),
+    }
 }
 
 impl RunFlags {
+    /// The spend cap `--max-cost` sets (the run folder's earlier spend is added when it opens).
+    pub fn purse(&self) -> Option<std::sync::Arc<crate::vlm::cost::Purse>> {
+        self.max_cost.map(|cap| std::sync::Arc::new(crate::vlm::cost::Purse::new(cap, 0.0)))
+    }
+
+    /// Print a dry run's estimates (to stdout, or as JSON) and the total line.
+    pub fn print_dry_run(&self, all: &[crate::run::estimate::Estimate], json: bool) -> ExitCode {
+        if json {
+            write_stdout(&format!("{}\n", serde_json::to_string_pretty(all).expect("estimates serialise")));
+        } else {
+            let mut text = String::new();
+            for e in all {
+                text.push_str(&terminal_safe(&e.line()));
+                text.push('\n');
+            }
+            text.push_str(&crate::run::estimate::total_line(all));
+            text.push('\n');
+            write_stdout(&text);
+        }
+        ExitCode::SUCCESS
+    }
+
     /// What a corrupt journal line does.
     pub fn on_corrupt(&self) -> crate::journal::OnCorrupt {
         if self.set_aside_corrupt { crate::journal::OnCorrupt::SetAside } else { crate::journal::OnCorrupt::Refuse }
@@ -106,10 +145,29 @@ pub(crate) fn say_most_calls(command: &str, most: u64, what: &str) {
 pub(crate) fn fail_run(e: &RunError, out: &Path) -> ExitCode {
     // A run error may quote what a run folder holds (names, paths, a provider's reply).
     eprintln!("error: {}", terminal_safe(&e.to_string()));
-    if e.resumable() {
+    record_stop(e, out);
+    if matches!(e, RunError::Stopped(crate::run::StopReason::CostCap { .. })) {
+        eprintln!(
+            "note: `{}` holds every finished observation; the same command with a larger `--max-cost` resumes it",
+            out.display()
+        );
+    } else if e.resumable() {
         eprintln!("note: `{}` holds every finished observation; the same command resumes it", out.display());
     }
     ExitCode::from(e.exit_code())
+}
+
+/// The file in a run folder that says why the last command on it stopped (`revelio runs` reads
+/// it; a search that finishes removes it).
+pub const STOPPED_FILE: &str = "stopped.json";
+
+/// Say in `out` why a command on it stopped early (only in a run folder: one with a
+/// `config.json`). Best effort: the error itself is already reported.
+pub(crate) fn record_stop(e: &RunError, out: &Path) {
+    if out.join("config.json").is_file() {
+        let note = serde_json::json!({ "reason": e.to_string(), "resumable": e.resumable() });
+        let _ = crate::journal::write_atomic(&out.join(STOPPED_FILE), note.to_string().as_bytes());
+    }
 }
 
 /// First Ctrl-C: stop starting model calls, journal the ones in flight, exit 130. Second: exit

@@ -2,7 +2,7 @@
 //! runs (domain, model, algorithm, PFM, MFR, Div with 95 % intervals, failure modes, minimal
 //! failure modes, spend), as a terminal table, a CSV file and a standalone HTML page.
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use crate::analysis::compare::{Rate, Row, RunFacts, row};
@@ -34,6 +34,9 @@ pub fn rows(dirs: &[PathBuf]) -> Result<Vec<Row>, crate::run::RunError> {
                 domain: s.domain.clone(),
                 model: config.model.clone(),
                 algo: s.algo.name().to_string(),
+                seed: config.params.seed,
+                budget: config.params.budget,
+                shrink: config.params.shrink,
                 sets: s.metrics.sets,
                 inferences: s.metrics.inferences,
                 failures: s.metrics.failures,
@@ -79,6 +82,11 @@ pub fn run(args: CompareArgs) -> ExitCode {
     }
 }
 
+/// `1000+250`: the search budget and the shrink budget.
+fn budget_text(r: &Row) -> String {
+    if r.shrink > 0 { format!("{}+{}", r.budget, r.shrink) } else { r.budget.to_string() }
+}
+
 fn rate(r: &Rate) -> String {
     format!("{:.1}% [{:.1}, {:.1}]", 100.0 * r.value, 100.0 * r.low, 100.0 * r.high)
 }
@@ -95,16 +103,29 @@ pub fn print_table(w: &mut impl Write, rows: &[Row]) -> std::io::Result<()> {
     let mw = safe.iter().map(|[_, model, ..]| model.len()).max().unwrap_or(5).max(5);
     writeln!(
         w,
-        "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  run",
-        "domain", "model", "algo", "PFM [95% CI]", "MFR [95% CI]", "Div [95% CI]", "modes", "cores", "calls", "cost"
+        "{:<8}  {:<mw$}  {:<8}  {:>4}  {:>11}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  run",
+        "domain",
+        "model",
+        "algo",
+        "seed",
+        "budget",
+        "PFM [95% CI]",
+        "MFR [95% CI]",
+        "Div [95% CI]",
+        "modes",
+        "cores",
+        "calls",
+        "spend"
     )?;
     for (r, [domain, model, algo, run]) in rows.iter().zip(&safe) {
         writeln!(
             w,
-            "{:<8}  {:<mw$}  {:<6}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  {}",
+            "{:<8}  {:<mw$}  {:<8}  {:>4}  {:>11}  {:>22}  {:>22}  {:>18}  {:>5}  {:>5}  {:>6}  {:>9}  {}",
             domain,
             model,
             algo,
+            r.seed,
+            budget_text(r),
             rate(&r.pfm),
             rate(&r.mfr),
             div(&r.div),
@@ -125,16 +146,19 @@ fn field(s: &str) -> String {
 
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "run,domain,model,algo,pfm,pfm_low,pfm_high,mfr,mfr_low,mfr_high,div,div_low,div_high,failure_modes,cores,sets,inferences,calls,cost_usd\n",
+        "run,domain,model,algo,seed,budget,shrink,pfm,pfm_low,pfm_high,mfr,mfr_low,mfr_high,div,div_low,div_high,failure_modes,cores,sets,inferences,calls,cost_usd\n",
     );
     for r in rows {
         let d = |f: fn(&Rate) -> f64| r.div.as_ref().map_or_else(String::new, |x| format!("{:.4}", f(x)));
         s.push_str(&format!(
-            "{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{:.4}\n",
+            "{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{:.4}\n",
             field(&r.run),
             field(&r.domain),
             field(&r.model),
             field(&r.algo),
+            r.seed,
+            r.budget,
+            r.shrink,
             r.pfm.value,
             r.pfm.low,
             r.pfm.high,
@@ -159,9 +183,30 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// The page `compare --html FILE` writes: links to each run's report relative to FILE's folder.
 pub fn html(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>Revelio: runs compared</title>\n<style>\nbody{font-family:system-ui,sans-serif;margin:2rem;color:#222}\ntable{border-collapse:collapse}\nth,td{padding:.35rem .7rem;border-bottom:1px solid #ddd;text-align:right;white-space:nowrap}\nth{background:#f4f4f4}\ntd.t,th.t{text-align:left}\n.ci{color:#777;font-size:.85em}\n</style>\n</head>\n<body>\n<h1>Runs compared</h1>\n<p>PFM: share of evaluated sets that are failure modes; MFR: share of inferences answered wrongly; Div: mean pairwise Jaccard distance of the failure modes. Brackets: 95&nbsp;% intervals (Wilson for PFM and MFR, jackknife for Div). Cores: failure modes with no smaller failure mode inside them.</p>\n<table>\n<thead><tr><th class=\"t\">domain</th><th class=\"t\">model</th><th class=\"t\">algorithm</th><th>PFM</th><th>MFR</th><th>Div</th><th>failure modes</th><th>cores</th><th>calls</th><th>cost</th><th class=\"t\">run</th></tr></thead>\n<tbody>\n",
+    html_in(rows, Path::new("."), "Runs compared")
+}
+
+/// Where a run's report is, seen from a page in `dir`: relative when the run lies below it,
+/// else absolute.
+fn report_link(dir: &Path, run: &str) -> String {
+    let report = Path::new(run).join("report").join("index.html");
+    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    match abs(&report).strip_prefix(abs(dir)) {
+        Ok(rel) => rel.display().to_string(),
+        Err(_) => abs(&report).display().to_string(),
+    }
+}
+
+/// The comparison page for a page in `dir` (`compare --html`'s folder, a campaign's `out`):
+/// the table — fitting a 1280-px window, long model ids wrapping — a link to each run's report,
+/// and the spend per model.
+pub fn html_in(rows: &[Row], dir: &Path, title: &str) -> String {
+    let mut s = format!(
+        "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>Revelio: {}</title>\n<style>\nbody{{font-family:system-ui,sans-serif;margin:1.5rem;color:#222;max-width:1240px}}\ntable{{border-collapse:collapse;width:100%;table-layout:auto;font-size:.9rem}}\nth,td{{padding:.3rem .45rem;border-bottom:1px solid #ddd;text-align:right;vertical-align:top}}\nth{{background:#f4f4f4}}\ntd.t,th.t{{text-align:left}}\ntd.m{{overflow-wrap:anywhere;min-width:8rem;max-width:16rem}}\ntd.n{{white-space:nowrap}}\n.ci{{color:#777;font-size:.85em;white-space:nowrap}}\n</style>\n</head>\n<body>\n<h1>{}</h1>\n<table>\n<thead><tr><th class=\"t\">domain</th><th class=\"t\">model</th><th class=\"t\">algorithm</th><th>seed</th><th>budget</th><th>PFM</th><th>MFR</th><th>Div</th><th>failure modes</th><th>cores</th><th>calls</th><th>spend</th><th class=\"t\">run</th></tr></thead>\n<tbody>\n",
+        esc(title),
+        esc(title)
     );
     let cell = |r: &Rate| {
         format!("{:.1}%<br><span class=\"ci\">[{:.1}, {:.1}]</span>", 100.0 * r.value, 100.0 * r.low, 100.0 * r.high)
@@ -171,11 +216,14 @@ pub fn html(rows: &[Row]) -> String {
             || "-".to_string(),
             |x| format!("{:.2}<br><span class=\"ci\">[{:.2}, {:.2}]</span>", x.value, x.low, x.high),
         );
+        let run = Path::new(&r.run).file_name().map_or_else(|| r.run.clone(), |n| n.to_string_lossy().into_owned());
         s.push_str(&format!(
-            "<tr><td class=\"t\">{}</td><td class=\"t\">{}</td><td class=\"t\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>${:.4}</td><td class=\"t\">{}</td></tr>\n",
+            "<tr><td class=\"t\">{}</td><td class=\"t m\">{}</td><td class=\"t\">{}</td><td>{}</td><td class=\"n\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>${:.4}</td><td class=\"t m\"><a href=\"{}\">{}</a></td></tr>\n",
             esc(&r.domain),
             esc(&r.model),
             esc(&r.algo),
+            r.seed,
+            esc(&budget_text(r)),
             cell(&r.pfm),
             cell(&r.mfr),
             d,
@@ -183,10 +231,26 @@ pub fn html(rows: &[Row]) -> String {
             r.cores,
             r.calls,
             r.cost_usd,
-            esc(&r.run)
+            esc(&report_link(dir, &r.run)),
+            esc(&run)
         ));
     }
-    s.push_str("</tbody>\n</table>\n</body>\n</html>\n");
+    s.push_str("</tbody>\n</table>\n");
+    let mut per_model: Vec<(&str, u64, f64)> = Vec::new();
+    for r in rows {
+        match per_model.iter_mut().find(|(m, ..)| *m == r.model) {
+            Some(e) => {
+                e.1 += r.calls;
+                e.2 += r.cost_usd;
+            }
+            None => per_model.push((&r.model, r.calls, r.cost_usd)),
+        }
+    }
+    s.push_str("<h2>Spend per model</h2>\n<table>\n<thead><tr><th class=\"t\">model</th><th>calls</th><th>spend</th></tr></thead>\n<tbody>\n");
+    for (m, calls, cost) in &per_model {
+        s.push_str(&format!("<tr><td class=\"t m\">{}</td><td>{calls}</td><td>${cost:.4}</td></tr>\n", esc(m)));
+    }
+    s.push_str("</tbody>\n</table>\n<p>PFM: share of evaluated sets that are failure modes; MFR: share of inferences answered wrongly; Div: mean pairwise Jaccard distance of the failure modes. Brackets: 95&nbsp;% intervals (Wilson for PFM and MFR, jackknife for Div). Budget: the search's model calls + the shrink phase's. Cores: for a run that shrank its failure modes, the distinct minimal failure modes the shrink phase confirmed (a smallest set that still fails); for one that did not, its failure modes with no smaller failure mode inside them. Calls and spend: every phase of the run.</p>\n</body>\n</html>\n");
     s
 }
 
@@ -201,6 +265,9 @@ mod tests {
             domain: "driving".into(),
             model: "sim:<x>".into(),
             algo: "gpts".into(),
+            seed: 3,
+            budget: 1000,
+            shrink: 250,
             sets: 200,
             inferences: 1000,
             failures: 250,
@@ -215,11 +282,14 @@ mod tests {
     fn csv_quotes_fields_and_html_escapes() {
         let c = csv(&sample());
         let line = c.lines().nth(1).unwrap();
-        assert!(line.starts_with("\"runs/a,b\",driving,sim:<x>,gpts,0.0150,"), "{line}");
+        assert!(line.starts_with("\"runs/a,b\",driving,sim:<x>,gpts,3,1000,250,0.0150,"), "{line}");
         assert_eq!(line.split(',').count(), c.lines().next().unwrap().split(',').count() + 1, "one quoted comma");
         let h = html(&sample());
         assert!(h.contains("sim:&lt;x&gt;") && !h.contains("sim:<x>"));
         assert!(h.contains("<td>3</td><td>2</td>"), "3 failure modes, 2 cores");
+        assert!(h.contains("<td>3</td><td class=\"n\">1000+250</td>"), "seed and budget");
+        assert!(h.contains("href=\"runs/a,b/report/index.html\""), "a link to the run's report");
+        assert!(h.contains("td.m{overflow-wrap:anywhere"), "long model ids wrap");
         let mut t = Vec::new();
         print_table(&mut t, &sample()).unwrap();
         let t = String::from_utf8(t).unwrap();

@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 
 pub mod ask;
 pub mod bench;
+pub mod campaign;
 pub mod check;
 pub mod common;
 pub mod compare;
@@ -23,6 +24,7 @@ pub mod reask;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod report;
+pub mod runs;
 pub mod search;
 pub mod transfer;
 pub mod validate;
@@ -67,8 +69,13 @@ pub enum Command {
     Probe(probe::ProbeArgs),
     /// Replay a run's top sets on other models with the same images (failure-mode transfer)
     Transfer(transfer::TransferArgs),
+    /// Run a grid of searches (domains × models × algorithms × seeds) from a TOML file
+    Campaign(campaign::CampaignArgs),
     /// Compare finished runs: PFM, MFR and Div with intervals (terminal, CSV, HTML)
     Compare(compare::CompareArgs),
+    /// List the run folders under a folder: state (running, finished, stopped and why), model,
+    /// algorithm, budget, seed, calls, spend, cores
+    Runs(runs::RunsArgs),
     /// Write a run's static HTML report (images, replies, cores, plots) and CSV tables
     Report(report::ReportArgs),
 }
@@ -99,8 +106,10 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Probe(a) => probe::run(a),
         Command::Transfer(a) => transfer::run(a),
+        Command::Campaign(a) => campaign::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Report(a) => report::run(a),
+        Command::Runs(a) => runs::run(a),
     }
 }
 

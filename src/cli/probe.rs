@@ -17,7 +17,8 @@ use crate::search::interval::pct;
 use crate::vlm::Model;
 
 use super::common::{ModelFlags, RunFlags, fail_run};
-use super::reask::{open_run, probe_order};
+use super::reask::{open_parts, probe_order};
+use crate::run::estimate::Estimate;
 
 #[derive(clap::Args, Debug)]
 pub struct ProbeArgs {
@@ -66,7 +67,30 @@ pub fn run(args: ProbeArgs) -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
-    let open = match open_run(&args.run_dir, &args.model_opts, crate::run::setup::FLAGS, &args.run, args.json) {
+    let parts = match open_parts(&args.run_dir, &args.model_opts, crate::run::setup::FLAGS, &args.run) {
+        Ok(o) => o,
+        Err(code) => return code,
+    };
+    if args.run.dry_run {
+        let sets = match probe_order(&parts.domain, &parts.summary, args.top as usize) {
+            Ok(s) => s,
+            Err(e) => return fail_run(&e, &args.run_dir),
+        };
+        let world = parts.world();
+        let prompts: Vec<String> = sets
+            .iter()
+            .filter_map(|&set| {
+                let t = crate::run::World::task(&world, set).ok()?;
+                let st = reask::statements(&parts.domain, set, parts.config.params.seed);
+                let texts: Vec<String> = st.into_iter().map(|s| s.text).collect();
+                Some(crate::vlm::prompt::build_probe(&t.question, &t.options, &texts))
+            })
+            .collect();
+        let calls = sets.len() as u64 * u64::from(args.samples);
+        let e = Estimate::new("probe", parts.model.as_ref(), calls, false, &prompts, parts.image_size());
+        return args.run.print_dry_run(&[e], args.json);
+    }
+    let open = match parts.journal(&args.run_dir, &args.run, args.json) {
         Ok(o) => o,
         Err(code) => return code,
     };

@@ -32,17 +32,27 @@ pub(crate) struct OpenRun {
     pub reask: Reask,
 }
 
-/// Open `dir` as `validate` does: the recorded domain (unchanged), model and renderer, with
-/// where their requests go taken from `model_opts` and the environment only (the model must
-/// stay the same, its endpoint too unless `--base-url` is given).
-/// `names` spells the flags of `model_opts` in messages.
-pub(crate) fn open_run(
+/// A finished run's configuration, domain, model and renderer, before its journal is opened (a
+/// dry run stops here: nothing is written); [`RunParts::journal`] opens it.
+pub(crate) struct RunParts {
+    pub config: RunConfig,
+    pub summary: Summary,
+    pub domain: Domain,
+    pub model: Arc<dyn Model>,
+    renderer: Option<Arc<dyn crate::render::Renderer>>,
+    concurrency: usize,
+}
+
+/// Open `dir` as `validate` does, but for the journal: the recorded domain (unchanged), model
+/// and renderer, with where their requests go taken from `model_opts` and the environment only
+/// (the model must stay the same, its endpoint too unless `--base-url` is given). `names`
+/// spells the flags of `model_opts` in messages.
+pub(crate) fn open_parts(
     dir: &Path,
     model_opts: &ModelFlags,
     names: setup::FlagNames,
     run: &RunFlags,
-    quiet: bool,
-) -> Result<OpenRun, ExitCode> {
+) -> Result<RunParts, ExitCode> {
     let (config, summary) = summary::load_run(dir).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
@@ -72,24 +82,47 @@ pub(crate) fn open_run(
         return Err(setup_error(SetupError::ModelChanged { now: model.id(), was }));
     }
     setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), names).map_err(setup_error)?;
-    let journal = Journal::open_with(dir, run.on_corrupt()).map_err(|e| {
-        eprintln!("error: {e}");
-        ExitCode::from(1)
-    })?;
-    if let Some(note) = journal.set_aside_note() {
-        eprintln!("{note}");
+    Ok(RunParts { config, summary, domain, model, renderer, concurrency })
+}
+
+impl RunParts {
+    /// The run's oracle and sampler (a dry run reads its prompts).
+    pub(crate) fn world(&self) -> DomainWorld {
+        DomainWorld::new(&self.domain)
     }
-    let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let domain = Arc::new(domain);
-    let reask = Reask {
-        observer: Arc::new(Observer::new(domain.clone(), world, renderer)),
-        journal: Arc::new(journal),
-        seed: config.params.seed,
-        concurrency,
-        stop: Stop::default(),
-        progress: runner::cli_progress(quiet),
-    };
-    Ok(OpenRun { config, summary, domain, model, reask })
+
+    /// The image the run's renderer draws (`None`: no image).
+    pub(crate) fn image_size(&self) -> Option<(u32, u32)> {
+        crate::run::estimate::image_size(&self.config.renderer, &self.domain)
+    }
+
+    /// The journal opened (and locked): the run ready for more observations, under the spend
+    /// cap of `--max-cost` with the folder's earlier spend counted in.
+    pub(crate) fn journal(self, dir: &Path, run: &RunFlags, quiet: bool) -> Result<OpenRun, ExitCode> {
+        let RunParts { config, summary, domain, model, renderer, concurrency } = self;
+        let journal = Journal::open_with(dir, run.on_corrupt()).map_err(|e| {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        })?;
+        if let Some(note) = journal.set_aside_note() {
+            eprintln!("{note}");
+        }
+        let purse = run.purse();
+        if let Some(p) = &purse {
+            p.add_spent(runner::journal_spend(&journal));
+        }
+        let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
+        let domain = Arc::new(domain);
+        let reask = Reask {
+            observer: Arc::new(Observer::new(domain.clone(), world, renderer).with_purse(purse)),
+            journal: Arc::new(journal),
+            seed: config.params.seed,
+            concurrency,
+            stop: Stop::default(),
+            progress: runner::cli_progress(quiet),
+        };
+        Ok(OpenRun { config, summary, domain, model, reask })
+    }
 }
 
 impl OpenRun {

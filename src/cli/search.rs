@@ -10,8 +10,10 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::diag::TerminalSafe;
+use crate::ir::ConceptSet;
 use crate::lattice::Lattice;
 use crate::run::RunError;
+use crate::run::estimate::{self, Estimate};
 use crate::run::observe::{DomainWorld, World};
 use crate::run::runner::{self, Setup};
 use crate::run::setup::{self, Parts, SetupError};
@@ -56,7 +58,8 @@ pub struct SearchArgs {
     pub max_sets: u64,
     #[command(flatten)]
     pub run: RunFlags,
-    /// Run folder; running the same command again resumes it [default: runs/DOMAIN-ALGO-sSEED]
+    /// Run folder; running the same command again resumes it [default:
+    /// runs/DOMAIN-MODEL-ALGO-sSEED, or an existing runs/DOMAIN-ALGO-sSEED of the same model]
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// `builtin` (wgpu), `none` (no image), `imagegen:gemini:MODEL`, `imagegen:openai:MODEL`
@@ -73,21 +76,66 @@ pub struct SearchArgs {
     pub json: bool,
 }
 
-pub fn run(args: SearchArgs) -> ExitCode {
-    let domain = match crate::cli::load_domain(&args.file) {
-        Ok(d) => d,
-        Err(code) => return code,
+/// A search ready to run: its setup, configuration and search space, and what it would spend
+/// (`--dry-run` prints it). `revelio campaign` prepares each of its cells this way.
+pub(crate) struct Prepared {
+    pub setup: Setup,
+    pub config: RunConfig,
+    pub space: crate::search::Space,
+    pub estimate: Estimate,
+    /// The configuration an existing run folder recorded (a resume).
+    pub previous: Option<RunConfig>,
+}
+
+/// The run folder a search writes to: `--out`, else `runs/DOMAIN-MODEL-ALGO-sSEED` (the model
+/// as a campaign names it, [`crate::run::campaign::model_slug`]). A folder under the old default
+/// name, `runs/DOMAIN-ALGO-sSEED`, that holds a run of the same model spec is still found, so an
+/// old command resumes its run rather than starting a second paid one.
+fn out_dir(args: &SearchArgs, domain: &crate::ir::Domain) -> PathBuf {
+    if let Some(out) = &args.out {
+        return out.clone();
+    }
+    let (algo, seed) = (args.algo.unwrap_or(Algo::Interact).name(), args.seed.unwrap_or(0));
+    let model = crate::run::campaign::model_slug(&args.model);
+    let new = PathBuf::from("runs").join(format!("{}-{model}-{algo}-s{seed}", domain.name));
+    let old = PathBuf::from("runs").join(format!("{}-{algo}-s{seed}", domain.name));
+    match summary::read_config(&old) {
+        Ok(Some(c)) if !new.exists() && c.model_spec == args.model && c.domain == domain.name => old,
+        _ => new,
+    }
+}
+
+/// The valid sets of `domain` up to `max_size`, enumerated once per process for each domain and
+/// limit (a campaign prepares many cells of one domain).
+fn valid_sets(domain: &crate::ir::Domain, max_size: usize, max_sets: u64) -> Result<Vec<ConceptSet>, ExitCode> {
+    type Key = (String, usize, u64);
+    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Vec<ConceptSet>>>> =
+        std::sync::OnceLock::new();
+    let key = (domain.identity().to_string(), max_size, max_sets);
+    let seen = SEEN.get_or_init(Default::default);
+    if let Some(sets) = seen.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+        return Ok(sets.clone());
+    }
+    let lattice = {
+        let mut work = super::progress::Work::new();
+        Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
     };
-    let out = args.out.clone().unwrap_or_else(|| {
-        let algo = args.algo.unwrap_or(Algo::Interact);
-        PathBuf::from("runs").join(format!("{}-{}-s{}", domain.name, algo.name(), args.seed.unwrap_or(0)))
-    });
-    // What an existing run folder recorded: every flag left out takes its recorded value, so the
-    // same command (or a shorter one) never changes the plan of a run.
-    let previous = match summary::read_config(&out) {
-        Ok(p) => p,
-        Err(e) => return fail(&e),
-    };
+    let lattice = lattice.map_err(|too_large| {
+        eprintln!("{}", too_large.plain());
+        ExitCode::from(1)
+    })?;
+    seen.lock().unwrap_or_else(|p| p.into_inner()).insert(key, lattice.sets.clone());
+    Ok(lattice.sets)
+}
+
+/// Everything a search does before its first model call: the domain compiled, the parameters
+/// checked (a flag left out takes the value an existing run folder recorded, so the same command,
+/// or a shorter one, never changes the plan of a run), the model and renderer built, the lattice
+/// enumerated. Nothing is written.
+pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
+    let domain = crate::cli::load_domain(&args.file)?;
+    let out = out_dir(args, &domain);
+    let previous = summary::read_config(&out).map_err(|e| fail(&e))?;
     let recorded = previous.as_ref().map(|p| &p.params);
     let renderer = args.renderer.clone().or(previous.as_ref().map(|p| p.renderer.clone())).unwrap_or("builtin".into());
     let algo = args.algo.or(recorded.map(|p| p.algo)).unwrap_or(Algo::Interact);
@@ -106,62 +154,45 @@ pub fn run(args: SearchArgs) -> ExitCode {
         .min(params.search_budget());
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
     if params.kernel != Kernel::Dot && params.algo != Algo::Gpts {
         eprintln!("error: invalid `--kernel`: the GP kernel is GPTS's; `--algo {}` has no GP", params.algo.name());
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
     if args.run.batch_api && params.algo != Algo::Random {
         eprintln!(
             "error: `--batch-api` needs `--algo random`: `--algo {}` picks each set from the answers to the last, which a batch gives hours later",
             params.algo.name()
         );
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
     let setup_error = |e: SetupError| {
         eprintln!("error: {e}");
         ExitCode::from(e.exit_code())
     };
     let mut settings = match &previous {
-        Some(p) => match args.model_opts.settings().resume(&p.model_settings, setup::FLAGS) {
-            Ok(s) => s,
-            Err(e) => return setup_error(e),
-        },
+        Some(p) => args.model_opts.settings().resume(&p.model_settings, setup::FLAGS).map_err(setup_error)?,
         None => args.model_opts.settings(),
     };
     settings.batch = args.run.batch_api.then(|| out.clone());
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer: renderer_parts, concurrency } =
-        match setup::build_parts(&domain, &args.model, &renderer, &settings, cache.as_deref(), concurrency) {
-            Ok(p) => p,
-            Err(e) => return setup_error(e),
-        };
+        setup::build_parts(&domain, &args.model, &renderer, &settings, cache.as_deref(), concurrency)
+            .map_err(setup_error)?;
     // Interact's width: the concurrency at the run's start, recorded so that a resume at another
     // concurrency replays the same decisions.
     if algo == Algo::Interact && args.search.batch.is_none() && recorded.is_none() {
         params.batch = concurrency;
     }
-    if let Some(p) = &previous
-        && let Err(e) = setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS)
-    {
-        return setup_error(e);
+    if let Some(p) = &previous {
+        setup::check_endpoint(&settings, p.endpoint.as_deref(), model.as_ref(), setup::FLAGS).map_err(setup_error)?;
     }
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let lattice = {
-        let mut work = super::progress::Work::new();
-        Lattice::build(&domain, config.params.max_size, args.max_sets, &mut |w, d, t| work.report(w, d, t))
-    };
-    let lattice = match lattice {
-        Ok(l) => l,
-        Err(too_large) => {
-            eprintln!("{}", too_large.plain());
-            return ExitCode::from(1);
-        }
-    };
-    let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world.as_ref());
+    let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
+    let (space, dropped) = runner::search_space(sets, domain.concepts.len(), world.as_ref());
     if dropped > 0 {
         eprintln!(
             "note: {dropped} valid sets have no determined ground truth and are not searched (see `revelio check`)"
@@ -169,13 +200,30 @@ pub fn run(args: SearchArgs) -> ExitCode {
     }
     if space.sets.is_empty() {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
-        return ExitCode::from(1);
+        return Err(ExitCode::from(1));
     }
-    let mut setup = Setup::new(Arc::new(domain), world, model, renderer_parts, out.clone());
+    let prompts = estimate::sample_prompts(world.as_ref(), &space.sets);
+    let image = estimate::image_size(&renderer, &domain);
+    // The budget caps every phase; a search may stop short of it.
+    let estimate = Estimate::new("search", model.as_ref(), config.params.max_calls(), true, &prompts, image);
+    let mut setup = Setup::new(Arc::new(domain), world, model, renderer_parts, out);
     setup.concurrency = concurrency;
     setup.progress = runner::cli_progress(args.json);
     setup.max_api_errors = args.run.max_api_errors;
     setup.on_corrupt = args.run.on_corrupt();
+    setup.purse = args.run.purse();
+    Ok(Prepared { setup, config, space, estimate, previous })
+}
+
+pub fn run(args: SearchArgs) -> ExitCode {
+    let Prepared { setup, config, space, estimate, previous } = match prepare(&args) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    if args.run.dry_run {
+        return args.run.print_dry_run(&[estimate], args.json);
+    }
+    let out = setup.out.clone();
     // Said before the first model call: what an old run's numbers mean now, and an extension.
     if let Some(p) = &previous {
         let notes = [runner::old_rule_note(&out, p), runner::extension_note(&out, p, &config.params)];
@@ -491,6 +539,7 @@ mod tests {
                 output_tokens: 262_000,
                 thinking_tokens: 250_000,
                 cost_usd: 1.43,
+                ..Default::default()
             },
             repeated_scenes: Vec::new(),
         }

@@ -23,7 +23,8 @@ use crate::search::interval::pct;
 use crate::vlm::Model;
 
 use super::common::{ModelFlags, RunFlags, fail_run};
-use super::reask::{open_run, top_sets};
+use super::reask::{RunParts, open_parts, top_sets};
+use crate::run::estimate::{self, Estimate};
 
 #[derive(clap::Args, Debug)]
 pub struct TransferArgs {
@@ -72,6 +73,38 @@ fn random_sets(space: &[ConceptSet], exclude: &[ConceptSet], k: usize, seed: u64
     pool
 }
 
+/// `--dry-run`: every model's calls (the run's own included) and what they come to.
+fn dry_run(args: &TransferArgs, parts: &RunParts) -> ExitCode {
+    let cache = args.model_opts.cache();
+    let settings = args.model_opts.settings();
+    let mut models: Vec<Arc<dyn Model>> = vec![parts.model.clone()];
+    for spec in &args.models {
+        match setup::build_parts(&parts.domain, spec, "none", &settings, cache.as_deref(), None) {
+            Ok(p) => models.push(p.model),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(e.exit_code());
+            }
+        }
+    }
+    let sets = match top_sets(&parts.domain, &parts.summary, args.top as usize) {
+        Ok(s) => s,
+        Err(e) => return fail_run(&e, &args.run_dir),
+    };
+    let world = parts.world();
+    let lattice = Lattice::enumerate(&parts.domain, parts.config.params.max_size);
+    let (space, _) = runner::search_space(lattice.sets, parts.domain.concepts.len(), &world);
+    let random = random_sets(&space.sets, &sets, args.random.unwrap_or(sets.len()), parts.config.params.seed);
+    let all: Vec<ConceptSet> = sets.iter().chain(&random).copied().collect();
+    let prompts = estimate::sample_prompts(&world, &all);
+    let calls = all.len() as u64 * u64::from(args.samples);
+    let estimates: Vec<Estimate> = models
+        .iter()
+        .map(|m| Estimate::new("transfer", m.as_ref(), calls, false, &prompts, parts.image_size()))
+        .collect();
+    args.run.print_dry_run(&estimates, args.json)
+}
+
 pub fn run(args: TransferArgs) -> ExitCode {
     let source_flags = ModelFlags {
         base_url: args.run_base_url.clone(),
@@ -82,7 +115,14 @@ pub fn run(args: TransferArgs) -> ExitCode {
         no_cache: args.model_opts.no_cache,
         ..Default::default()
     };
-    let open = match open_run(&args.run_dir, &source_flags, setup::RUN_FLAGS, &args.run, args.json) {
+    let parts = match open_parts(&args.run_dir, &source_flags, setup::RUN_FLAGS, &args.run) {
+        Ok(o) => o,
+        Err(code) => return code,
+    };
+    if args.run.dry_run {
+        return dry_run(&args, &parts);
+    }
+    let open = match parts.journal(&args.run_dir, &args.run, args.json) {
         Ok(o) => o,
         Err(code) => return code,
     };

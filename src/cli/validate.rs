@@ -94,6 +94,26 @@ pub fn run(args: ValidateArgs) -> ExitCode {
     if let Err(e) = setup::check_endpoint(&settings, config.endpoint.as_deref(), model.as_ref(), setup::FLAGS) {
         return setup_error(e);
     }
+    if args.run.dry_run {
+        let sets = match super::reask::top_sets(&domain, &summary, args.top as usize) {
+            Ok(s) => s,
+            Err(e) => return fail_run(&e, &args.run_dir),
+        };
+        let world = DomainWorld::new(&domain);
+        let prompts = crate::run::estimate::sample_prompts(&world, &sets);
+        let most = args.max_samples.unwrap_or(args.samples).max(args.samples);
+        let calls = sets.len() as u64 * u64::from(most);
+        let image = crate::run::estimate::image_size(&config.renderer, &domain);
+        let e = crate::run::estimate::Estimate::new(
+            "validate",
+            model.as_ref(),
+            calls,
+            most > args.samples,
+            &prompts,
+            image,
+        );
+        return args.run.print_dry_run(&[e], args.json);
+    }
     let mut config = config;
     config.model_settings = settings;
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
@@ -109,6 +129,7 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         let what = format!("{sets} sets × {how}{max} observations");
         super::common::say_most_calls("validate", sets * u64::from(max), &what);
     }
+    setup.purse = args.run.purse();
     let rt = runtime();
     watch_ctrl_c(&rt, &setup.stop);
     let v = match rt.block_on(runner::validate(

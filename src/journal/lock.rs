@@ -17,6 +17,13 @@ pub struct RunLock {
     _file: File,
 }
 
+/// Whether a process holds `dir`'s lock now (a run in progress). Read-only: the lock file is
+/// not created, and a shared lock is taken and let go at once when free.
+pub fn held(dir: &Path) -> bool {
+    let Ok(file) = File::open(dir.join(LOCK_FILE)) else { return false };
+    matches!(file.try_lock_shared(), Err(TryLockError::WouldBlock))
+}
+
 impl RunLock {
     /// Lock `dir` (which must exist) or say who holds it.
     pub fn acquire(dir: &Path) -> Result<RunLock, JournalError> {
@@ -50,4 +57,21 @@ impl RunLock {
 fn command_line() -> String {
     let args: Vec<String> = std::env::args().skip(1).take(2).collect();
     if args.is_empty() { String::new() } else { format!(", `revelio {}`", args.join(" ")) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn held_sees_a_lock_without_taking_it() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(!held(dir.path()), "no lock file");
+        let lock = RunLock::acquire(dir.path()).unwrap();
+        assert!(held(dir.path()));
+        drop(lock);
+        assert!(!held(dir.path()));
+        let again = RunLock::acquire(dir.path());
+        assert!(again.is_ok(), "looking did not keep it");
+    }
 }

@@ -26,7 +26,7 @@
 //! written through [`safe`], which follows no link, reads only regular files and reads no
 //! further than a bound.
 
-mod lock;
+pub mod lock;
 pub mod safe;
 
 use std::fs::File;
@@ -107,6 +107,20 @@ pub struct Record {
     /// the run (outcome `repeated` when every one tried had); counted apart from `resamples`.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub repeats: u32,
+    /// Attempts the model call took (1: no retry; 0: no call was made, a cached reply, or a
+    /// journal written before it was recorded).
+    #[serde(default)]
+    pub attempts: u32,
+    /// Of the retries, those after a rate limit (HTTP 429).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rate_limited: u32,
+    /// Milliseconds spent waiting between attempts.
+    #[serde(default, skip_serializing_if = "is_zero_u64")]
+    pub waited_ms: u64,
+}
+
+fn is_zero_u64(n: &u64) -> bool {
+    *n == 0
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -419,6 +433,9 @@ mod tests {
             visibility: vec![],
             resamples: 0,
             repeats: 0,
+            attempts: 1,
+            rate_limited: 0,
+            waited_ms: 0,
         }
     }
 

@@ -57,6 +57,10 @@ pub struct Called<T> {
     pub attempts: u32,
     /// From the first byte sent to the final result, retries and waits included.
     pub latency: Duration,
+    /// Retries after a rate limit (HTTP 429).
+    pub rate_limited: u32,
+    /// Time spent waiting between attempts (backoff and `Retry-After`).
+    pub waited: Duration,
 }
 
 /// Retry, timeout and size bounds.
@@ -180,11 +184,17 @@ impl Transport {
     ) -> Called<T> {
         let mut started: Option<Instant> = None;
         let mut attempt = 0;
+        let (mut rate_limited, mut waited) = (0u32, Duration::ZERO);
         loop {
             attempt += 1;
             let verdict = {
                 let Ok(_permit) = self.gate.sem.acquire().await else {
-                    return self.end(Err("the request gate was closed".into()), attempt, started);
+                    return self.end(
+                        Err("the request gate was closed".into()),
+                        attempt,
+                        started,
+                        (rate_limited, waited),
+                    );
                 };
                 if let Some(l) = &self.gate.rpm {
                     l.until_ready().await;
@@ -192,11 +202,16 @@ impl Transport {
                 let start = *started.get_or_insert_with(Instant::now);
                 let left = self.limits.deadline.saturating_sub(start.elapsed());
                 if left.is_zero() {
-                    return self.end(Err(deadline_message(self.limits.deadline)), attempt - 1, started);
+                    return self.end(
+                        Err(deadline_message(self.limits.deadline)),
+                        attempt - 1,
+                        started,
+                        (rate_limited, waited),
+                    );
                 }
                 let req = match build() {
                     Ok(r) => r,
-                    Err(e) => return self.end(Err(e), attempt, started),
+                    Err(e) => return self.end(Err(e), attempt, started, (rate_limited, waited)),
                 };
                 let timeout = self.limits.timeout.min(left);
                 match tokio::time::timeout(timeout, self.send(method.clone(), req)).await {
@@ -210,13 +225,13 @@ impl Transport {
                 }
             };
             let (reason, after) = match verdict {
-                Verdict::Done(t) => return self.end(Ok(t), attempt, started),
-                Verdict::Fail(m) => return self.end(Err(m), attempt, started),
+                Verdict::Done(t) => return self.end(Ok(t), attempt, started, (rate_limited, waited)),
+                Verdict::Fail(m) => return self.end(Err(m), attempt, started, (rate_limited, waited)),
                 Verdict::Retry { reason, after } => (reason, after),
             };
             if attempt >= self.limits.attempts {
                 let msg = format!("{reason} (gave up after {attempt} attempts)");
-                return self.end(Err(msg), attempt, started);
+                return self.end(Err(msg), attempt, started, (rate_limited, waited));
             }
             let wait = after.unwrap_or_else(|| backoff(&self.limits, attempt));
             let elapsed = started.map_or(Duration::ZERO, |s| s.elapsed());
@@ -226,14 +241,30 @@ impl Transport {
                     wait.as_secs_f64(),
                     self.limits.deadline.as_secs_f64()
                 );
-                return self.end(Err(msg), attempt, started);
+                return self.end(Err(msg), attempt, started, (rate_limited, waited));
             }
+            if reason.starts_with("HTTP 429") {
+                rate_limited += 1;
+            }
+            waited += wait;
             tokio::time::sleep(wait).await;
         }
     }
 
-    fn end<T>(&self, result: Result<T, String>, attempts: u32, started: Option<Instant>) -> Called<T> {
-        Called { result, attempts: attempts.max(1), latency: started.map_or(Duration::ZERO, |s| s.elapsed()) }
+    fn end<T>(
+        &self,
+        result: Result<T, String>,
+        attempts: u32,
+        started: Option<Instant>,
+        (rate_limited, waited): (u32, Duration),
+    ) -> Called<T> {
+        Called {
+            result,
+            attempts: attempts.max(1),
+            latency: started.map_or(Duration::ZERO, |s| s.elapsed()),
+            rate_limited,
+            waited,
+        }
     }
 
     async fn send(&self, method: reqwest::Method, req: Request) -> Result<Response, Failed> {

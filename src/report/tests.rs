@@ -97,6 +97,9 @@ fn fixture(renderer: &str) -> Fixture {
                     visibility: Vec::new(),
                     resamples: 0,
                     repeats: 0,
+                    attempts: 1,
+                    rate_limited: 0,
+                    waited_ms: 0,
                 })
                 .unwrap();
             stats.add(outcome);
@@ -339,6 +342,9 @@ fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() 
         visibility: Vec::new(),
         resamples: 4,
         repeats: 0,
+        attempts: 1,
+        rate_limited: 0,
+        waited_ms: 0,
     };
     let mut text = std::fs::read_to_string(&path).unwrap();
     text.push_str(&serde_json::to_string(&invisible).unwrap());

@@ -98,6 +98,8 @@ struct Replayed {
     outcome: Outcome,
     usage: Usage,
     cached: bool,
+    /// Attempts, rate-limited retries, milliseconds waited.
+    retries: (u32, u32, u64),
 }
 
 pub struct EvaluatorConfig {
@@ -113,6 +115,8 @@ pub struct EvaluatorConfig {
     pub stop: Stop,
     /// Stop after this many model calls in a row end in `api_error` (0: never).
     pub max_api_errors: u32,
+    /// A concurrency limit shared with other runs (a campaign); `None`: `concurrency` alone.
+    pub gate: Option<Arc<Semaphore>>,
 }
 
 pub struct Evaluator {
@@ -164,7 +168,12 @@ impl Evaluator {
             })?;
             replay.insert(
                 ObsKey { phase: r.phase, set, index: r.obs },
-                Replayed { outcome: r.outcome, usage: r.usage, cached: r.cached },
+                Replayed {
+                    outcome: r.outcome,
+                    usage: r.usage,
+                    cached: r.cached,
+                    retries: (r.attempts, r.rate_limited, r.waited_ms),
+                },
             );
         }
         let shown = Arc::new(Shown::from_journal(&domain, &c.journal.records));
@@ -175,7 +184,7 @@ impl Evaluator {
             model: c.model,
             journal: c.journal,
             seed: c.seed,
-            semaphore: Arc::new(Semaphore::new(c.concurrency.max(1))),
+            semaphore: c.gate.unwrap_or_else(|| Arc::new(Semaphore::new(c.concurrency.max(1)))),
             replay,
             phase: c.phase,
             threshold: c.threshold,
@@ -209,10 +218,11 @@ impl Evaluator {
 
     /// Book one finished observation: spend, progress, the failure-mode count (the shrink phase
     /// re-tests failure modes and their subsets: not counted as new ones).
-    fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool) {
+    fn finished(&mut self, key: ObsKey, outcome: Outcome, usage: &Usage, cached: bool, retries: (u32, u32, u64)) {
         // A blocked image or an invisible scene made no model call.
         if outcome.asked_a_model() {
             self.spend.add(usage, cached);
+            self.spend.add_retries(retries.0, retries.1, retries.2);
         }
         if outcome == Outcome::Repeated {
             *self.repeated.entry(key.set).or_default() += 1;
@@ -258,7 +268,7 @@ impl Evaluator {
                 if let Some(r) = self.replay.get(&key).copied() {
                     out[i][slot] = Some(r.outcome);
                     self.replayed += 1;
-                    self.finished(key, r.outcome, &r.usage, r.cached);
+                    self.finished(key, r.outcome, &r.usage, r.cached, r.retries);
                     continue;
                 }
                 let seed = observation_seed(self.seed, key);
@@ -287,7 +297,8 @@ impl Evaluator {
             match joined {
                 Ok(Ok(Some((i, slot, o)))) => {
                     out[i][slot] = Some(o.outcome);
-                    self.finished(o.key, o.outcome, &o.record.usage, o.record.cached);
+                    let retries = (o.record.attempts, o.record.rate_limited, o.record.waited_ms);
+                    self.finished(o.key, o.outcome, &o.record.usage, o.record.cached, retries);
                 }
                 Ok(Ok(None)) => {}
                 Ok(Err(e)) => {

@@ -14,6 +14,8 @@ mod confirm_tests;
 pub mod distinct;
 #[cfg(test)]
 mod distinct_tests;
+pub mod campaign;
+pub mod estimate;
 pub mod eval;
 pub mod observe;
 pub mod progress;
@@ -90,12 +92,24 @@ pub enum RunError {
     #[error(transparent)]
     Resume(#[from] ResumeError),
     #[error(transparent)]
-    Observe(#[from] ObserveError),
+    Observe(ObserveError),
     /// A search algorithm failed (its message).
     #[error("{0}")]
     Search(String),
     #[error("{}", stopped_message(.0))]
     Stopped(StopReason),
+}
+
+impl From<ObserveError> for RunError {
+    /// A call the spend cap kept back stops the run like Ctrl-C: what is in flight is journaled.
+    fn from(e: ObserveError) -> RunError {
+        match e {
+            ObserveError::CostCap { cap, spent } => {
+                RunError::Stopped(StopReason::CostCap { cap: format!("{cap:.4}"), spent: format!("{spent:.4}") })
+            }
+            e => RunError::Observe(e),
+        }
+    }
 }
 
 fn stopped_message(r: &StopReason) -> String {
@@ -104,6 +118,9 @@ fn stopped_message(r: &StopReason) -> String {
         StopReason::ApiErrors { count, last } => {
             format!("stopped after {count} model calls in a row failed; the last: {last}")
         }
+        StopReason::CostCap { cap, spent } => format!(
+            "stopped at the spend cap: ${spent} spent of `--max-cost {cap}` (the next call could pass it); the calls in flight were journaled"
+        ),
     }
 }
 

@@ -40,6 +40,7 @@ use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
 use crate::render::{EntityVisibility, Renderer};
 use crate::scene::Scene;
+use crate::vlm::cost::Purse;
 use crate::vlm::{Model, Query, Reply, Truth};
 
 use super::distinct::Shown;
@@ -168,6 +169,9 @@ pub enum ObserveError {
     /// The caller's hook on the image shown failed (`ask --save` could not write it).
     #[error("{0}")]
     Shown(String),
+    /// `--max-cost`: the call's worst case would pass the cap; it was not sent.
+    #[error("the spend cap of ${cap:.4} is reached (${spent:.4} spent)")]
+    CostCap { cap: f64, spent: f64 },
 }
 
 /// What a caller does with the image an observation shows, before the model is asked (so a
@@ -179,6 +183,8 @@ pub struct Observer {
     domain: Arc<Domain>,
     world: Arc<dyn World>,
     renderer: Option<Arc<dyn Renderer>>,
+    /// `--max-cost`: every call reserves its worst case here first ([`Observer::ask`]).
+    purse: Option<Arc<Purse>>,
 }
 
 impl Observer {
@@ -187,7 +193,29 @@ impl Observer {
     /// the model calls.
     pub fn new(domain: Arc<Domain>, world: Arc<dyn World>, renderer: Option<Arc<dyn Renderer>>) -> Observer {
         let renderer = renderer.map(|r| if r.blocking() { RenderPool::wrap(r) } else { r });
-        Observer { domain, world, renderer }
+        Observer { domain, world, renderer, purse: None }
+    }
+
+    /// The same pipeline with every model call under the spend cap `purse`.
+    pub fn with_purse(mut self, purse: Option<Arc<Purse>>) -> Observer {
+        self.purse = purse;
+        self
+    }
+
+    /// Ask `model` one query, under the spend cap when there is one: the call's worst case is
+    /// reserved first ([`crate::vlm::cost::Pricing::worst_case`]) and the call is not sent when
+    /// it would pass the cap. A model without prices (`sim`) is never capped.
+    pub async fn ask(&self, model: &dyn Model, query: &Query) -> Result<Reply, ObserveError> {
+        let (Some(purse), Some(pricing)) = (&self.purse, model.pricing()) else {
+            return Ok(model.ask(query).await);
+        };
+        let image = query.image.as_deref().map(|b| crate::vlm::cost::png_size(b).unwrap_or((4096, 4096)));
+        let Some(reservation) = purse.reserve(pricing.worst_case(&query.prompt, image)) else {
+            return Err(ObserveError::CostCap { cap: purse.cap(), spent: purse.spent() });
+        };
+        let reply = model.ask(query).await;
+        purse.settle(reservation, if reply.cached { 0.0 } else { reply.usage.cost_usd });
+        Ok(reply)
     }
 
     pub fn domain(&self) -> &Arc<Domain> {
@@ -350,6 +378,9 @@ impl Observer {
             visibility: stimulus.visibility.clone(),
             resamples: stimulus.resamples,
             repeats: stimulus.repeats,
+            attempts: reply.as_ref().map_or(0, |r| r.attempts),
+            rate_limited: reply.as_ref().map_or(0, |r| r.rate_limited),
+            waited_ms: reply.as_ref().map_or(0, |r| r.waited_ms),
         };
         Observation { key, outcome, reply, record }
     }
@@ -401,7 +432,7 @@ impl Observer {
         }
         let query = self.query(stimulus, task);
         let reply = match (&stimulus.blocked, &stimulus.invisible, stimulus.repeated) {
-            (None, None, false) => Some(model.ask(&query).await),
+            (None, None, false) => Some(self.ask(model, &query).await?),
             _ => None,
         };
         let observation = self.record(key, stimulus, task, &query, reply);

@@ -1,10 +1,13 @@
 //! Progress of a run on stderr: an indicatif bar on a terminal; elsewhere (nohup, CI logs, a
 //! pipe) a plain line every few seconds and one at the end, so a log shows the run is alive and
-//! how far it got. Both show the effective concurrency.
+//! how far it got. Both name the phase, say what it counts (a search its failure modes, a
+//! validation the sets failing at FR ≥ 80 %; probe and transfer count none) and show the
+//! effective concurrency.
 use std::io::{IsTerminal, Write};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use super::estimate::thousands;
 use super::summary::Spend;
 
 /// Where progress goes.
@@ -33,15 +36,28 @@ struct State {
     started: Instant,
 }
 
+/// What a phase's count of failing sets is called (`None`: the phase counts none).
+fn counted(label: &str) -> Option<&'static str> {
+    match label {
+        "search" | "shrink" => Some("failure modes"),
+        "validate" => Some("sets failing at FR ≥ 80%"),
+        _ => None,
+    }
+}
+
 impl State {
+    fn count(&self) -> String {
+        counted(self.label).map_or_else(String::new, |what| format!("{} {what} · ", self.failure_modes))
+    }
+
     fn line(&self) -> String {
         format!(
-            "{}: {}/{} inferences · {} failure modes · {} tokens · ${:.4} · concurrency {} · {:.0}s",
+            "{}: {}/{} inferences · {}{} tokens · ${:.4} · concurrency {} · {:.0}s",
             self.label,
-            self.done,
-            self.total,
-            self.failure_modes,
-            self.tokens,
+            thousands(self.done),
+            thousands(self.total),
+            self.count(),
+            thousands(self.tokens),
             self.cost_usd,
             self.concurrency,
             self.started.elapsed().as_secs_f64()
@@ -50,8 +66,11 @@ impl State {
 
     fn message(&self) -> String {
         format!(
-            "{} failure modes · {} tokens · ${:.4} · concurrency {}",
-            self.failure_modes, self.tokens, self.cost_usd, self.concurrency
+            "{}{} tokens · ${:.4} · concurrency {}",
+            self.count(),
+            thousands(self.tokens),
+            self.cost_usd,
+            self.concurrency
         )
     }
 }
@@ -100,9 +119,12 @@ impl Progress {
             ProgressTo::Stderr { .. } if std::io::stderr().is_terminal() => {
                 let bar = indicatif::ProgressBar::new(total);
                 bar.set_style(
-                    indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} inferences · {msg} · ETA {eta}")
-                        .expect("the template is valid"),
+                    indicatif::ProgressStyle::with_template(
+                        "{prefix}: {bar:30} {pos}/{len} inferences · {msg} · ETA {eta}",
+                    )
+                    .expect("the template is valid"),
                 );
+                bar.set_prefix(label);
                 bar.set_message(state.lock().unwrap_or_else(|p| p.into_inner()).message());
                 return Progress { state, bar: Some(bar), plain: None };
             }
@@ -127,6 +149,7 @@ impl Progress {
         let mut s = self.state.lock().unwrap_or_else(|p| p.into_inner());
         f(&mut s);
         if let Some(bar) = &self.bar {
+            bar.set_prefix(s.label);
             bar.set_position(s.done);
             bar.set_message(s.message());
         }

@@ -18,6 +18,7 @@ use crate::ir::{ConceptSet, Domain};
 use crate::journal::{Journal, OnCorrupt, Phase};
 use crate::render::Renderer;
 use crate::vlm::Model;
+use crate::vlm::cost::Purse;
 
 use super::eval::{Evaluator, EvaluatorConfig};
 use super::observe::{Observer, World};
@@ -174,6 +175,11 @@ pub struct Setup {
     pub max_api_errors: u32,
     /// What a corrupt journal line does (`--set-aside-corrupt`).
     pub on_corrupt: OnCorrupt,
+    /// `--max-cost`: the spend cap every model call reserves its worst case in (a campaign
+    /// shares one among its cells). The run folder's earlier spend is counted in when it opens.
+    pub purse: Option<Arc<Purse>>,
+    /// A concurrency limit shared with other runs (a campaign's cells); `None`: the run's own.
+    pub gate: Option<Arc<tokio::sync::Semaphore>>,
 }
 
 impl Setup {
@@ -197,12 +203,17 @@ impl Setup {
             stop: Stop::default(),
             max_api_errors: MAX_API_ERRORS,
             on_corrupt: OnCorrupt::Refuse,
+            purse: None,
+            gate: None,
         }
     }
 
     fn evaluator(&self, journal: Arc<Journal>, seed: u64, threshold: f64, phase: Phase) -> Result<Evaluator, RunError> {
         Evaluator::new(EvaluatorConfig {
-            observer: Arc::new(Observer::new(self.domain.clone(), self.world.clone(), self.renderer.clone())),
+            observer: Arc::new(
+                Observer::new(self.domain.clone(), self.world.clone(), self.renderer.clone())
+                    .with_purse(self.purse.clone()),
+            ),
             model: self.model.clone(),
             journal,
             seed,
@@ -211,8 +222,24 @@ impl Setup {
             phase,
             stop: self.stop.clone(),
             max_api_errors: self.max_api_errors,
+            gate: self.gate.clone(),
         })
     }
+
+    /// Open the run folder for `config` and count its earlier spend into the cap.
+    fn open(&self, config: &RunConfig) -> Result<Arc<Journal>, RunError> {
+        let journal = open_run(&self.out, config, self.on_corrupt)?;
+        if let Some(p) = &self.purse {
+            p.add_spent(journal_spend(&journal));
+        }
+        Ok(journal)
+    }
+}
+
+/// Dollars the model calls journaled in a run folder cost (every phase and model; cache hits
+/// are free).
+pub fn journal_spend(journal: &Journal) -> f64 {
+    journal.records.iter().filter(|r| !r.cached).map(|r| r.usage.cost_usd).sum()
 }
 
 /// The message for a finished run (or validation) in which at least [`super::API_ERROR_SHARE_LIMIT`]
@@ -261,7 +288,7 @@ pub fn search_space(sets: Vec<ConceptSet>, dim: usize, world: &dyn World) -> (Sp
 pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<RunReport, RunError> {
     let params = &config.params;
     params.validate().map_err(RunError::Usage)?;
-    let journal = open_run(&setup.out, config, setup.on_corrupt)?;
+    let journal = setup.open(config)?;
     let (dropped_torn_line, set_aside) = (journal.dropped_torn_line, journal.set_aside);
     let mut eval = setup.evaluator(journal.clone(), params.seed, params.threshold, Phase::Search)?;
     eval.progress = Some(Progress::start(&setup.progress, "search", params.max_calls(), setup.concurrency));
@@ -324,6 +351,8 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     });
     summary.repeated_scenes = eval.repeated_rows();
     journal.write_json("summary.json", &summary)?;
+    // A run that finished is no longer stopped (`revelio runs`).
+    let _ = std::fs::remove_file(setup.out.join("stopped.json"));
     Ok(RunReport {
         summary,
         history,
@@ -502,7 +531,7 @@ pub async fn validate(
         .collect::<Result<Vec<_>, String>>()
         .map_err(|e| RunError::Search(format!("cannot validate `{}`: {e}", setup.out.display())))?;
     let chosen = top_sets(&history, top);
-    let journal = open_run(&setup.out, config, setup.on_corrupt)?;
+    let journal = setup.open(config)?;
     let mut eval = setup.evaluator(journal.clone(), config.params.seed, CONSISTENT_FR, Phase::Validate)?;
     let most = chosen.len() as u64 * u64::from(rule.max_samples);
     eval.progress = Some(Progress::start(&setup.progress, "validate", most, setup.concurrency));

@@ -11,6 +11,8 @@ pub enum StopReason {
     Interrupted,
     /// `count` model calls in a row ended in `api_error`; `last` is the last one's message.
     ApiErrors { count: u32, last: String },
+    /// `--max-cost`: the next call's worst case would pass the cap of `cap` dollars.
+    CostCap { cap: String, spent: String },
 }
 
 /// A shared stop request; cheap to clone. The first reason given wins.

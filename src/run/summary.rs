@@ -31,9 +31,26 @@ pub struct Spend {
     pub output_tokens: u64,
     pub thinking_tokens: u64,
     pub cost_usd: f64,
+    /// Attempts beyond the first, over all calls (absent in runs written before they were
+    /// counted).
+    #[serde(default)]
+    pub retries: u64,
+    /// Of the retries, those after a rate limit (HTTP 429).
+    #[serde(default)]
+    pub rate_limited: u64,
+    /// Seconds spent waiting between attempts.
+    #[serde(default)]
+    pub retry_wait_s: f64,
 }
 
 impl Spend {
+    /// Count one call's retries and waits (from its journal line).
+    pub fn add_retries(&mut self, attempts: u32, rate_limited: u32, waited_ms: u64) {
+        self.retries += u64::from(attempts.saturating_sub(1));
+        self.rate_limited += u64::from(rate_limited);
+        self.retry_wait_s += waited_ms as f64 / 1000.0;
+    }
+
     pub fn add(&mut self, u: &Usage, cached: bool) {
         self.calls += 1;
         self.cached += u64::from(cached);
@@ -46,8 +63,16 @@ impl Spend {
     /// `1 234 input / 567 output tokens, $0.0123` (and the cache hits, if any).
     pub fn line(&self) -> String {
         let cached = if self.cached > 0 { format!(" ({} cached)", self.cached) } else { String::new() };
+        let retries = if self.retries > 0 {
+            format!(
+                "; {} retries ({} after a rate limit), {:.1} s waiting",
+                self.retries, self.rate_limited, self.retry_wait_s
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "{} calls{cached}, {} input / {} output tokens ({} thinking), ${:.4}",
+            "{} calls{cached}, {} input / {} output tokens ({} thinking), ${:.4}{retries}",
             self.calls, self.input_tokens, self.output_tokens, self.thinking_tokens, self.cost_usd
         )
     }

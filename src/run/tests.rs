@@ -449,6 +449,29 @@ fn progress_goes_to_plain_lines_when_there_is_no_terminal() {
     let last = text.lines().last().unwrap_or_default();
     assert!(last.starts_with("search: 200/200 inferences · "), "{text}");
     assert!(last.contains(" · concurrency 3 · "), "{last}");
+    assert!(last.contains(" failure modes · "), "a search counts its failure modes: {last}");
+}
+
+/// Issue 30: progress lines of probe and transfer counted "0 failure modes" they never look
+/// for; a phase says what it counts, or counts nothing.
+#[test]
+fn progress_lines_say_what_the_phase_counts() {
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let _guard = rt.enter();
+    let line = |label: &'static str| {
+        let to = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let mut p = crate::run::progress::Progress::start(
+            &crate::run::progress::ProgressTo::Lines { every: std::time::Duration::from_secs(60), to: to.clone() },
+            label,
+            1500,
+            4,
+        );
+        p.finish();
+        String::from_utf8(to.lock().unwrap().clone()).unwrap()
+    };
+    assert!(line("probe").starts_with("probe: 0/1,500 inferences · 0 tokens · "), "{}", line("probe"));
+    assert!(!line("transfer").contains("failure modes"), "{}", line("transfer"));
+    assert!(line("validate").contains(" · 0 sets failing at FR ≥ 80% · "), "{}", line("validate"));
 }
 
 /// Issue 12: a blocked image is an outcome of its own — journaled, no model call, not an

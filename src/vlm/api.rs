@@ -229,8 +229,16 @@ impl<P: Protocol> ApiModel<P> {
         let called =
             self.transport.call(|| self.proto.request(&q.prompt, image.as_ref()), |r| judge(&self.proto, r)).await;
         match called.result {
-            Err(e) => error_reply(e, called.attempts, called.latency),
-            Ok(p) => reply_from(q, p, self.prices(), called.latency, called.attempts),
+            Err(e) => {
+                let mut r = error_reply(e, called.attempts, called.latency);
+                (r.rate_limited, r.waited_ms) = (called.rate_limited, called.waited.as_millis() as u64);
+                r
+            }
+            Ok(p) => {
+                let mut r = reply_from(q, p, self.prices(), called.latency, called.attempts);
+                (r.rate_limited, r.waited_ms) = (called.rate_limited, called.waited.as_millis() as u64);
+                r
+            }
         }
     }
 
@@ -282,7 +290,17 @@ pub fn reply_from(q: &Query, p: Parsed, prices: Prices, latency: Duration, attem
         Stop::Blocked(_) => (text, Answer::Blocked),
         Stop::Refusal(msg) => (if text.is_empty() { msg } else { text }, Answer::Refusal),
     };
-    Reply { raw, thinking, answer, usage, latency_ms: latency.as_millis() as u64, cached: false, attempts }
+    Reply {
+        raw,
+        thinking,
+        answer,
+        usage,
+        latency_ms: latency.as_millis() as u64,
+        cached: false,
+        attempts,
+        rate_limited: 0,
+        waited_ms: 0,
+    }
 }
 
 /// The reply of a call that got no answer: an `api_error` carrying the message.
@@ -295,6 +313,8 @@ pub fn error_reply(message: String, attempts: u32, latency: Duration) -> Reply {
         latency_ms: latency.as_millis() as u64,
         cached: false,
         attempts,
+        rate_limited: 0,
+        waited_ms: 0,
     }
 }
 
@@ -315,6 +335,17 @@ impl<P: Protocol> Model for ApiModel<P> {
 
     fn spend(&self) -> Option<Spend> {
         Some(self.ledger.snapshot())
+    }
+
+    fn pricing(&self) -> Option<crate::vlm::cost::Pricing> {
+        let s = &self.settings;
+        Some(crate::vlm::cost::Pricing {
+            prices: Prices { input_per_mtok: s.price_input_per_mtok, output_per_mtok: s.price_output_per_mtok },
+            max_output_tokens: u64::from(s.max_tokens),
+            thinking_budget: s.thinking_budget.map_or(0, u64::from),
+            image_max_side: s.image_max_side,
+            thinking: s.thinking.as_deref().is_some_and(|t| t != "off" && t != "none"),
+        })
     }
 
     fn concurrency(&self) -> Option<usize> {

@@ -50,6 +50,8 @@ impl ReplyCache {
         reply.usage.cost_usd = 0.0;
         reply.latency_ms = 0;
         reply.attempts = 0;
+        reply.rate_limited = 0;
+        reply.waited_ms = 0;
         Some(reply)
     }
 
@@ -78,6 +80,8 @@ mod tests {
             latency_ms: 1234,
             cached: false,
             attempts: 2,
+            rate_limited: 1,
+            waited_ms: 500,
         }
     }
 

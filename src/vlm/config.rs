@@ -1,5 +1,6 @@
 //! Per-model settings (`--model-config FILE.toml`): generation parameters, image encoding,
-//! rate limits, retry bounds and prices. See `examples/models/paper.toml`.
+//! rate limits, retry bounds and prices. See `examples/models/paper.toml`. A model the docs name
+//! that is given no price here is priced at its list price ([`crate::vlm::cost`]).
 //!
 //! ```toml
 //! [default]                      # applies to every model
@@ -253,6 +254,13 @@ fn select(file: File, spec: &str, thinking: Option<&str>) -> Result<Resolved, St
     let mut s = file.default.layer(own);
     if let Some(t) = thinking {
         s.thinking = Some(t.to_string());
+    }
+    // A documented model's list price when the file gives neither price.
+    if let (None, None, Some(p)) =
+        (s.price_input_per_mtok, s.price_output_per_mtok, crate::vlm::cost::builtin_prices(spec))
+    {
+        s.price_input_per_mtok = Some(p.input_per_mtok);
+        s.price_output_per_mtok = Some(p.output_per_mtok);
     }
     s.resolve(spec)
 }

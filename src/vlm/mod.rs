@@ -69,6 +69,16 @@ pub struct Reply {
     pub cached: bool,
     /// Attempts made (1 = no retry).
     pub attempts: u32,
+    /// Of the retries, those after a rate limit (HTTP 429).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rate_limited: u32,
+    /// Milliseconds spent waiting between attempts (backoff and `Retry-After`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub waited_ms: u64,
+}
+
+fn is_zero<T: Default + PartialEq>(n: &T) -> bool {
+    *n == T::default()
 }
 
 /// A vision-language model. Implementations must be cheap to share (`Arc<dyn Model>`) and safe
@@ -88,6 +98,11 @@ pub trait Model: Send + Sync {
     /// Requests this model lets be in flight at once (its resolved `concurrency` setting);
     /// `None` for models without a limit of their own (`sim`).
     fn concurrency(&self) -> Option<usize> {
+        None
+    }
+    /// Its prices and output bounds, for `--dry-run` and `--max-cost` (`None`: it costs
+    /// nothing, like `sim`).
+    fn pricing(&self) -> Option<cost::Pricing> {
         None
     }
     /// The base URL the model's requests go to (never a key); `None` for local models (`sim`).

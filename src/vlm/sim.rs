@@ -239,6 +239,8 @@ impl SimModel {
                 latency_ms: 0,
                 cached: false,
                 attempts: 1,
+                rate_limited: 0,
+                waited_ms: 0,
             };
         };
         let mut rng = ChaCha8Rng::seed_from_u64(truth.key);
@@ -279,7 +281,17 @@ impl SimModel {
             thinking_tokens: 0,
             cost_usd: 0.0,
         };
-        Reply { raw, thinking: None, answer, usage, latency_ms: self.profile.latency_ms, cached: false, attempts: 1 }
+        Reply {
+            raw,
+            thinking: None,
+            answer,
+            usage,
+            latency_ms: self.profile.latency_ms,
+            cached: false,
+            attempts: 1,
+            rate_limited: 0,
+            waited_ms: 0,
+        }
     }
 }
 
