@@ -1200,7 +1200,7 @@ fn a_summary_naming_forty_thousand_concepts_is_refused() {
     };
     for (summary, says) in [
         (in_one_set, "a set of 40000 names repeats one or is larger than any domain allows"),
-        (in_pairs, "it names more than 128 concepts"),
+        (in_pairs, "it names more than 512 concepts"),
     ] {
         std::fs::write(&path, summary.to_string()).unwrap();
         let o = revelio_in_3gb(&["report", s(&run)]);

@@ -38,14 +38,19 @@ pub fn run(args: LatticeArgs) -> ExitCode {
     let counts = diagram.counts();
     if args.list && diagram.total() > u128::from(args.max_sets) {
         let validity = Validity::new(&domain);
-        let too_large = lattice::count_within(&domain, &validity, max, args.max_sets, &mut lattice::quiet)
-            .err()
-            .unwrap_or_else(|| lattice::TooLarge { domain: domain.name.clone(), max_size: max, limit: args.max_sets, fits: None });
+        let too_large =
+            lattice::count_within(&domain, &validity, max, args.max_sets, &mut lattice::quiet).err().unwrap_or_else(
+                || lattice::TooLarge { domain: domain.name.clone(), max_size: max, limit: args.max_sets, fits: None },
+            );
         eprintln!("{}", too_large.plain());
         return ExitCode::from(1);
     }
     let out = &mut io::BufWriter::new(io::stdout().lock());
-    let result = if args.list { write_list(&diagram, &domain, args.json, out) } else { write_counts(&domain, &counts, args.json, out) };
+    let result = if args.list {
+        write_list(&diagram, &domain, args.json, out)
+    } else {
+        write_counts(&domain, &counts, args.json, out)
+    };
     match result.and_then(|()| out.flush()) {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`revelio lattice --list … | head`) is the reader's choice, not an error.
@@ -63,7 +68,8 @@ pub fn write_counts(domain: &Domain, counts: &[u128], json: bool, out: &mut impl
     let total = counts.iter().fold(0u128, |a, c| a.saturating_add(*c));
     if json {
         // A count past 64 bits (hundreds of concepts, large sets) is written as a string of digits.
-        let num = |n: u128| u64::try_from(n).map_or_else(|_| serde_json::json!(n.to_string()), |n| serde_json::json!(n));
+        let num =
+            |n: u128| u64::try_from(n).map_or_else(|_| serde_json::json!(n.to_string()), |n| serde_json::json!(n));
         let sizes: Vec<_> = (1..=max_size).map(|k| serde_json::json!({ "size": k, "sets": num(counts[k]) })).collect();
         let v = serde_json::json!({
             "domain": domain.name,

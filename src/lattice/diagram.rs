@@ -158,9 +158,8 @@ impl Diagram {
             Rule::Requires { concept, any } => *concept == c || any.contains(c),
             Rule::Modifier { m, providers, .. } => *m == c || providers.contains(c),
         };
-        let by_concept: Vec<Vec<usize>> = (0..n)
-            .map(|c| (0..rules.len()).filter(|&r| touches(&rules[r], ConceptId(c as u32))).collect())
-            .collect();
+        let by_concept: Vec<Vec<usize>> =
+            (0..n).map(|c| (0..rules.len()).filter(|&r| touches(&rules[r], ConceptId(c as u32))).collect()).collect();
         let initial = |r: &Rule| match r {
             Rule::AtMost { .. } => 0,
             Rule::Requires { .. } => OPEN,
@@ -266,7 +265,8 @@ impl Diagram {
     }
 
     fn root_counts(&self, counts: &[Vec<u128>]) -> Vec<u128> {
-        let mut c = counts[0].get(..self.max_size + 1).map(<[u128]>::to_vec).unwrap_or_else(|| vec![0; self.max_size + 1]);
+        let mut c =
+            counts[0].get(..self.max_size + 1).map(<[u128]>::to_vec).unwrap_or_else(|| vec![0; self.max_size + 1]);
         c[0] = 0;
         c
     }

@@ -23,9 +23,9 @@
 //! largest set size that fits. Long work reports to a [`Progress`] callback: the core cannot
 //! print, the command line draws it.
 
+mod diagram;
 #[cfg(test)]
 pub(crate) mod testkit;
-mod diagram;
 mod validity;
 
 use std::cmp::Ordering;
@@ -257,7 +257,7 @@ impl Lattice {
     /// The index of `set` in [`Lattice::sets`].
     pub fn position(&self, set: ConceptSet) -> Option<usize> {
         let bucket = self.of_size(set.len());
-        let i = bucket.binary_search_by(|s| canonical_cmp(*s, set)).ok()?;
+        let i = bucket.binary_search_by(|s| lexicographic_cmp(*s, set)).ok()?;
         Some(self.offsets[set.len()] + i)
     }
 
@@ -279,14 +279,17 @@ impl Lattice {
 
 /// Canonical order of concept sets: by size, then lexicographically by sorted concept indices.
 pub fn canonical_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
-    a.len().cmp(&b.len()).then_with(|| {
-        let Some(lowest) = a.symmetric_difference(b).first() else {
-            return Ordering::Equal;
-        };
-        // Both sets agree below the lowest differing bit; the one holding it lists it first,
-        // while the other lists a higher index at that position.
-        if a.contains(lowest) { Ordering::Less } else { Ordering::Greater }
-    })
+    a.len().cmp(&b.len()).then_with(|| lexicographic_cmp(a, b))
+}
+
+/// The canonical order of two sets of the same size.
+fn lexicographic_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
+    let Some(lowest) = a.symmetric_difference(b).first() else {
+        return Ordering::Equal;
+    };
+    // Both sets agree below the lowest differing bit; the one holding it lists it first,
+    // while the other lists a higher index at that position.
+    if a.contains(lowest) { Ordering::Less } else { Ordering::Greater }
 }
 
 /// Call `visit` on every valid set of 1 to `max_size` concepts, in lexicographic order of sorted
@@ -308,7 +311,10 @@ pub fn try_for_each_valid<B>(
     if max_size == 0 {
         return ControlFlow::Continue(());
     }
-    dfs(validity, ConceptSet::EMPTY, 0, n, max_size, &mut visit)
+    // The concepts from each index on: what can still repair a requirement.
+    let suffix: Vec<ConceptSet> =
+        (0..=n).map(|c| validity.universe().intersection(ConceptSet::from_concept(ConceptId(c)))).collect();
+    dfs(validity, &suffix, ConceptSet::EMPTY, 0, n, max_size, &mut visit)
 }
 
 /// Call `visit` on every valid set of exactly `size` concepts, in canonical order, until it
@@ -323,6 +329,7 @@ pub fn try_for_each_of_size<B>(
 
 fn dfs<B>(
     v: &Validity,
+    suffix: &[ConceptSet],
     set: ConceptSet,
     next: u32,
     n: u32,
@@ -338,9 +345,8 @@ fn dfs<B>(
             visit(s)?;
         }
         if room > 1 {
-            let remaining = v.universe().intersection(ConceptSet::from_concept(ConceptId(c + 1)));
-            if !v.hopeless(s, remaining) {
-                dfs(v, s, c + 1, n, room - 1, visit)?;
+            if !v.hopeless(s, suffix[c as usize + 1]) {
+                dfs(v, suffix, s, c + 1, n, room - 1, visit)?;
             }
         }
     }
@@ -602,9 +608,10 @@ mod tests {
 
     #[test]
     fn diagram_counts_of_the_shipped_domains_are_the_enumerated_ones() {
-        for (name, text) in
-            [("driving.rev", include_str!("../../domains/driving.rev")), ("indoor.rev", include_str!("../../domains/indoor.rev"))]
-        {
+        for (name, text) in [
+            ("driving.rev", include_str!("../../domains/driving.rev")),
+            ("indoor.rev", include_str!("../../domains/indoor.rev")),
+        ] {
             let d = crate::check::compile_source(name, text).unwrap();
             let v = Validity::new(&d);
             let counted = count(&v, 5, u64::MAX, &mut quiet);

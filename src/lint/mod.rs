@@ -502,10 +502,7 @@ fn concept_lints_of(
             out.push(Diagnostic {
                 code: "R0100",
                 severity: Severity::Warning,
-                message: format!(
-                    "concept `{}` appears in no valid set of up to {} concepts",
-                    c.name, max_size
-                ),
+                message: format!("concept `{}` appears in no valid set of up to {} concepts", c.name, max_size),
                 span: Some(c.span),
                 label: "in no valid set".into(),
                 related: vec![],

@@ -54,8 +54,14 @@ mod tests {
         let d = [7u8; 32];
         let a: Vec<u64> = (0..4).map(|_| scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64()).collect();
         assert!(a.windows(2).all(|w| w[0] == w[1]));
-        assert_ne!(scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(), scene_rng(&d, ConceptSet::from_bits(5), 10).next_u64());
-        assert_ne!(scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(), scene_rng(&d, ConceptSet::from_bits(4), 9).next_u64());
+        assert_ne!(
+            scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(),
+            scene_rng(&d, ConceptSet::from_bits(5), 10).next_u64()
+        );
+        assert_ne!(
+            scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(),
+            scene_rng(&d, ConceptSet::from_bits(4), 9).next_u64()
+        );
     }
 
     #[test]

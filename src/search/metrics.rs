@@ -182,7 +182,10 @@ mod tests {
     #[test]
     fn diversity_needs_two_modes() {
         assert_eq!(diversity(&[ConceptSet::from_bits(1)]), None);
-        assert_eq!(diversity(&[ConceptSet::from_bits(1), ConceptSet::from_bits(2), ConceptSet::from_bits(1)]), Some(2.0 / 3.0));
+        assert_eq!(
+            diversity(&[ConceptSet::from_bits(1), ConceptSet::from_bits(2), ConceptSet::from_bits(1)]),
+            Some(2.0 / 3.0)
+        );
         assert_eq!(mean_sd(&[1.0, 3.0]), (2.0, 2f64.sqrt()));
     }
 }

@@ -84,7 +84,10 @@ pub fn run(args: &ScaleBenchArgs) -> ExitCode {
 }
 
 fn print(w: &mut impl Write, max_size: usize, rows: &[Row]) -> std::io::Result<()> {
-    writeln!(w, "| concepts | valid sets (≤ {max_size}) | `check` with lints | lints | `lattice` count | diagram nodes |")?;
+    writeln!(
+        w,
+        "| concepts | valid sets (≤ {max_size}) | `check` with lints | lints | `lattice` count | diagram nodes |"
+    )?;
     writeln!(w, "|---|---|---|---|---|---|")?;
     for r in rows {
         let mb = r.check_mb.map_or("—".to_string(), |m| format!("{m:.0} MB"));
