@@ -169,8 +169,8 @@ impl ConceptSet {
     #[inline]
     fn zip(self, o: Self, f: impl Fn(u64, u64) -> u64) -> Self {
         let mut w = [0; WORDS];
-        for i in 0..WORDS {
-            w[i] = f(self.0[i], o.0[i]);
+        for (i, x) in w.iter_mut().enumerate() {
+            *x = f(self.0[i], o.0[i]);
         }
         ConceptSet(w)
     }

@@ -167,7 +167,7 @@ impl Diagram {
         };
         let mut states: Vec<Vec<u16>> = vec![rules.iter().map(initial).collect()];
         let mut levels = Vec::with_capacity(n + 1);
-        for c in 0..n {
+        for (c, touched) in by_concept.iter().enumerate() {
             let id = ConceptId(c as u32);
             let mut next: HashMap<Vec<u16>, u32> = HashMap::new();
             let mut next_states: Vec<Vec<u16>> = Vec::new();
@@ -176,7 +176,7 @@ impl Diagram {
                 let mut children = [DEAD; 2];
                 'child: for (take, child) in [false, true].into_iter().zip(&mut children) {
                     let mut s = state.clone();
-                    for &r in &by_concept[c] {
+                    for &r in touched {
                         match rules[r].step(s[r], id, take) {
                             Some(v) => s[r] = v,
                             None => continue 'child,

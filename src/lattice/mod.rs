@@ -344,10 +344,8 @@ fn dfs<B>(
         if v.closure_ok(s) {
             visit(s)?;
         }
-        if room > 1 {
-            if !v.hopeless(s, suffix[c as usize + 1]) {
-                dfs(v, suffix, s, c + 1, n, room - 1, visit)?;
-            }
+        if room > 1 && !v.hopeless(s, suffix[c as usize + 1]) {
+            dfs(v, suffix, s, c + 1, n, room - 1, visit)?;
         }
     }
     ControlFlow::Continue(())
