@@ -19,7 +19,7 @@ pub(crate) mod testkit;
 pub use identity::DomainId;
 
 /// Maximum number of concepts a domain may declare (the width of a [`ConceptSet`]).
-pub const MAX_CONCEPTS: usize = 128;
+pub const MAX_CONCEPTS: usize = 512;
 
 pub use crate::diag::Span;
 
@@ -54,71 +54,190 @@ id_type! {
     PresetId;
 }
 
-/// A set of concepts as a fixed-width bitset (bit i = concept i). Ordered and hashable so that
-/// sets can be used as map keys; the canonical order of sets is defined in `lattice`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
-pub struct ConceptSet(pub u128);
+/// Words in a [`ConceptSet`].
+const WORDS: usize = MAX_CONCEPTS / 64;
+
+/// A set of concepts as a fixed-width bitset (bit i = concept i), [`MAX_CONCEPTS`] wide. Ordered
+/// (as the number its bits spell) and hashable so that sets can be used as map keys; the
+/// canonical order of sets is defined in `lattice`.
+///
+/// Serialised as that number while it fits 64 bits (the shipped domains' sets, unchanged from
+/// the 128-bit sets of earlier versions), else as its 64-bit words, least significant first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct ConceptSet([u64; WORDS]);
+
+impl Ord for ConceptSet {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.iter().rev().cmp(o.0.iter().rev())
+    }
+}
+
+impl PartialOrd for ConceptSet {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
 
 impl ConceptSet {
-    pub const EMPTY: ConceptSet = ConceptSet(0);
+    pub const EMPTY: ConceptSet = ConceptSet([0; WORDS]);
+    /// The set whose bits are `bits` (concepts 0 to 127).
+    pub const fn from_bits(bits: u128) -> Self {
+        let mut w = [0; WORDS];
+        w[0] = bits as u64;
+        w[1] = (bits >> 64) as u64;
+        ConceptSet(w)
+    }
+    /// Concepts `0..n` (all of [`MAX_CONCEPTS`] past it).
+    pub fn first_n(n: usize) -> Self {
+        let mut w = [0; WORDS];
+        for (i, x) in w.iter_mut().enumerate() {
+            let lo = i * 64;
+            *x = if n >= lo + 64 {
+                u64::MAX
+            } else if n > lo {
+                (1u64 << (n - lo)) - 1
+            } else {
+                0
+            };
+        }
+        ConceptSet(w)
+    }
+    /// The concepts from `c` on (all of them past it).
+    pub fn from_concept(c: ConceptId) -> Self {
+        ConceptSet::first_n(MAX_CONCEPTS).difference(ConceptSet::first_n(c.index()))
+    }
     pub fn single(c: ConceptId) -> Self {
-        ConceptSet(1u128 << c.0)
+        ConceptSet::EMPTY.with(c)
     }
     pub fn from_ids(ids: impl IntoIterator<Item = ConceptId>) -> Self {
         ids.into_iter().fold(Self::EMPTY, |s, c| s.with(c))
     }
+    /// The low 128 bits (concepts 0 to 127), for tests and narrow hashes.
+    pub fn low_bits(self) -> u128 {
+        self.0[0] as u128 | (self.0[1] as u128) << 64
+    }
+    /// The 64-bit words, least significant (concepts 0 to 63) first.
+    pub fn words(&self) -> &[u64] {
+        &self.0
+    }
+    /// Whether only concepts 0 to 127 are in the set.
+    pub fn fits_128(self) -> bool {
+        self.0[2..].iter().all(|&w| w == 0)
+    }
+    /// Bytes for a content hash: 16 bytes (the 128-bit set of earlier versions, so scene streams
+    /// of the shipped domains do not change) when the set fits, else every word.
+    pub fn hash_bytes(self) -> Vec<u8> {
+        if self.fits_128() {
+            self.low_bits().to_le_bytes().to_vec()
+        } else {
+            self.0.iter().flat_map(|w| w.to_le_bytes()).collect()
+        }
+    }
     pub fn contains(self, c: ConceptId) -> bool {
-        self.0 >> c.0 & 1 == 1
+        let i = c.index();
+        i < MAX_CONCEPTS && self.0[i / 64] >> (i % 64) & 1 == 1
+    }
+    /// The set with `c` added. Panics past [`MAX_CONCEPTS`]: the checker refuses such concepts.
+    #[must_use]
+    pub fn with(mut self, c: ConceptId) -> Self {
+        let i = c.index();
+        self.0[i / 64] |= 1 << (i % 64);
+        self
     }
     #[must_use]
-    pub fn with(self, c: ConceptId) -> Self {
-        ConceptSet(self.0 | 1u128 << c.0)
+    pub fn without(mut self, c: ConceptId) -> Self {
+        let i = c.index();
+        if i < MAX_CONCEPTS {
+            self.0[i / 64] &= !(1 << (i % 64));
+        }
+        self
     }
-    #[must_use]
-    pub fn without(self, c: ConceptId) -> Self {
-        ConceptSet(self.0 & !(1u128 << c.0))
+    pub fn insert(&mut self, c: ConceptId) {
+        *self = self.with(c);
+    }
+    pub fn remove(&mut self, c: ConceptId) {
+        *self = self.without(c);
     }
     pub fn len(self) -> usize {
-        self.0.count_ones() as usize
+        // Zero words are skipped: a count of ones is a dozen instructions without POPCNT, and a
+        // domain of fewer than 128 concepts leaves six words empty.
+        self.0.iter().filter(|&&w| w != 0).map(|w| w.count_ones() as usize).sum()
     }
     pub fn is_empty(self) -> bool {
-        self.0 == 0
+        self.0.iter().all(|&w| w == 0)
+    }
+    #[inline]
+    fn zip(self, o: Self, f: impl Fn(u64, u64) -> u64) -> Self {
+        let mut w = [0; WORDS];
+        for (i, x) in w.iter_mut().enumerate() {
+            *x = f(self.0[i], o.0[i]);
+        }
+        ConceptSet(w)
     }
     pub fn union(self, o: Self) -> Self {
-        ConceptSet(self.0 | o.0)
+        self.zip(o, |a, b| a | b)
     }
     pub fn intersection(self, o: Self) -> Self {
-        ConceptSet(self.0 & o.0)
+        self.zip(o, |a, b| a & b)
+    }
+    /// The concepts of `self` not in `o`.
+    pub fn difference(self, o: Self) -> Self {
+        self.zip(o, |a, b| a & !b)
+    }
+    /// The concepts in exactly one of the two sets.
+    pub fn symmetric_difference(self, o: Self) -> Self {
+        self.zip(o, |a, b| a ^ b)
+    }
+    /// Whether the sets share a concept.
+    pub fn intersects(self, o: Self) -> bool {
+        (0..WORDS).any(|i| self.0[i] & o.0[i] != 0)
     }
     pub fn is_subset_of(self, o: Self) -> bool {
-        self.0 & !o.0 == 0
+        (0..WORDS).all(|i| self.0[i] & !o.0[i] == 0)
+    }
+    /// The lowest concept index in the set.
+    pub fn first(self) -> Option<ConceptId> {
+        let i = self.0.iter().position(|&w| w != 0)?;
+        Some(ConceptId((i * 64) as u32 + self.0[i].trailing_zeros()))
+    }
+    /// The highest concept index in the set.
+    pub fn last(self) -> Option<ConceptId> {
+        let i = self.0.iter().rposition(|&w| w != 0)?;
+        Some(ConceptId((i * 64) as u32 + 63 - self.0[i].leading_zeros()))
     }
     /// Concept ids in ascending index (declaration) order.
-    pub fn iter(self) -> impl Iterator<Item = ConceptId> {
-        let mut bits = self.0;
+    pub fn iter(self) -> impl Iterator<Item = ConceptId> + Clone {
+        let mut word = 0usize;
+        let mut bits = self.0[0];
         std::iter::from_fn(move || {
-            if bits == 0 {
-                return None;
+            while bits == 0 {
+                word += 1;
+                if word == WORDS {
+                    return None;
+                }
+                bits = self.0[word];
             }
             let i = bits.trailing_zeros();
             bits &= bits - 1;
-            Some(ConceptId(i))
+            Some(ConceptId((word * 64) as u32 + i))
         })
     }
     /// The non-empty subsets one concept smaller, in concept order (none for a single concept).
     pub fn one_smaller(self) -> impl Iterator<Item = ConceptSet> {
         self.iter().map(move |c| self.without(c)).filter(|s| !s.is_empty())
     }
-    /// Every non-empty proper subset, largest bit pattern first.
+    /// Every non-empty proper subset, largest (as a number) first. The set has few members in
+    /// practice (2^len − 2 subsets).
     pub fn proper_subsets(self) -> impl Iterator<Item = ConceptSet> {
-        let bits = self.0;
-        let mut sub = bits.wrapping_sub(1) & bits;
+        let ids: Vec<ConceptId> = self.iter().collect();
+        let full = if ids.is_empty() { 0u64 } else { (1u64 << ids.len().min(63)) - 1 };
+        let mut sub = full.wrapping_sub(1) & full;
         std::iter::from_fn(move || {
             if sub == 0 {
                 return None;
             }
-            let s = ConceptSet(sub);
-            sub = sub.wrapping_sub(1) & bits;
+            let s = ConceptSet::from_ids(ids.iter().enumerate().filter(|(i, _)| sub >> i & 1 == 1).map(|(_, c)| *c));
+            sub = sub.wrapping_sub(1) & full;
             Some(s)
         })
     }
@@ -126,6 +245,47 @@ impl ConceptSet {
     pub fn jaccard(self, o: Self) -> f64 {
         let u = self.union(o).len();
         if u == 0 { 1.0 } else { self.intersection(o).len() as f64 / u as f64 }
+    }
+}
+
+impl Serialize for ConceptSet {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.0[1..].iter().all(|&w| w == 0) {
+            return s.serialize_u64(self.0[0]);
+        }
+        let used = self.0.iter().rposition(|&w| w != 0).map_or(0, |i| i + 1);
+        s.collect_seq(&self.0[..used])
+    }
+}
+
+impl<'de> Deserialize<'de> for ConceptSet {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = ConceptSet;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "a concept set: a number or at most {WORDS} 64-bit words")
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<ConceptSet, E> {
+                Ok(ConceptSet::from_bits(v as u128))
+            }
+            fn visit_u128<E: serde::de::Error>(self, v: u128) -> Result<ConceptSet, E> {
+                Ok(ConceptSet::from_bits(v))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<ConceptSet, A::Error> {
+                let mut w = [0u64; WORDS];
+                let mut i = 0;
+                while let Some(x) = seq.next_element::<u64>()? {
+                    if i == WORDS {
+                        return Err(serde::de::Error::invalid_length(i + 1, &self));
+                    }
+                    w[i] = x;
+                    i += 1;
+                }
+                Ok(ConceptSet(w))
+            }
+        }
+        d.deserialize_any(V)
     }
 }
 

@@ -314,7 +314,7 @@ concept crate_buried {
     let d = revelio::check::compile_source(&path, &text).unwrap_or_else(|e| panic!("does not compile: {e:?}"));
     let buried = d.concepts.iter().position(|c| c.name == "crate_buried").unwrap();
     let seen = d.concepts.iter().position(|c| c.name == "obstruction_far").unwrap();
-    let sets = [buried, seen].map(|i| revelio::ir::ConceptSet(1 << i)).to_vec();
+    let sets = [buried, seen].map(|i| revelio::ir::ConceptSet::from_bits(1 << i)).to_vec();
     // Every observation of the sim profile below is wrong, so a shown scene is `wrong`.
     let profile = "name = \"always wrong\"\nbase_error = 1.0\n";
     let model: Arc<dyn Model> = Arc::new(SimModel { profile: Profile::parse(profile, "wrong.toml", &d).unwrap() });

@@ -431,13 +431,14 @@ mod tests {
             text.push_str(&format!("concept c{i} {{ description \"c\" probe \"p\" not \"n\" set world.on = true }}\n"));
         }
         // Members and elements past the set width must not overflow the bitset.
-        text.push_str("constraint all = at_most(3, c*)\nconstraint last = exclusive(c0, c128)\n");
+        let past = format!("c{}", ir::MAX_CONCEPTS);
+        text.push_str(&format!("constraint all = at_most(3, c*)\nconstraint last = exclusive(c0, {past})\n"));
         text.push_str("question q { text \"q\" option a \"a\" option b \"b\" }\n");
-        text.push_str("rules best_fit { rule r { when has c128 elements c128, c1 expect q.a } }\n");
+        text.push_str(&format!("rules best_fit {{ rule r {{ when has {past} elements {past}, c1 expect q.a }} }}\n"));
         let diags = compile_source("big.rev", &text).unwrap_err();
         assert_eq!(diags.len(), 1, "{diags:?}");
         assert_eq!(diags[0].code, codes::TOO_MANY_CONCEPTS);
-        assert!(diags[0].message.contains("at most 128"));
+        assert!(diags[0].message.contains("at most 512"));
     }
 
     #[test]

@@ -13,6 +13,9 @@
 //! any search could recover it at this budget were its smaller parts silent.
 //! `revelio bench lsp [--domain FILE] [--rounds N]`: the language server's diagnostic
 //! latencies (see `src/lsp/bench.rs`).
+//! `revelio bench scale [--concepts 30,60,120,250]`: `check` and `lattice` on generated domains
+//! of many concepts (see `bench/scale.rs`).
+pub mod scale;
 mod sweep;
 
 use std::io::Write;
@@ -51,6 +54,8 @@ pub enum BenchWhat {
     /// How long an editor waits for diagnostics from `revelio lsp` (front end per edit, lattice
     /// lints per save)
     Lsp(LspBenchArgs),
+    /// `check` (with the lattice lints) and `lattice` on generated domains of many concepts
+    Scale(scale::ScaleBenchArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -118,6 +123,7 @@ pub fn run(args: BenchArgs) -> ExitCode {
     match args.what {
         BenchWhat::Search(a) => search(*a),
         BenchWhat::Lsp(a) => lsp(a),
+        BenchWhat::Scale(a) => scale::run(&a),
     }
 }
 

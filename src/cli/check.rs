@@ -49,7 +49,7 @@ pub struct CheckArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Largest concept set the lattice lints judge
-    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
+    #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=512))]
     pub max_size: u32,
     /// Most valid sets the lattice lints enumerate; a larger lattice is reported (R0070)
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]

@@ -7,14 +7,14 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crate::ir::{ConceptSet, Domain};
-use crate::lattice::{self, Validity};
+use crate::lattice::{self, Diagram, Validity};
 
 #[derive(clap::Args, Debug)]
 pub struct LatticeArgs {
     /// The domain file (`.rev`)
     pub file: PathBuf,
     /// Largest number of concepts in a set
-    #[arg(long, default_value_t = lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=128))]
+    #[arg(long, default_value_t = lattice::DEFAULT_MAX_SIZE as u32, value_parser = clap::value_parser!(u32).range(1..=512))]
     pub max_size: u32,
     /// Print JSON (with `--list`: one JSON array of concept names per line)
     #[arg(long)]
@@ -33,23 +33,23 @@ pub fn run(args: LatticeArgs) -> ExitCode {
         Err(code) => return code,
     };
     let max = args.max_size as usize;
-    let validity = Validity::new(&domain);
-    let counted = {
-        let mut work = super::progress::Work::new();
-        lattice::count_within(&domain, &validity, max, args.max_sets, &mut |w, d, t| work.report(w, d, t))
-    };
-    let counted = match counted {
-        Ok(c) => c,
-        Err(too_large) => {
-            eprintln!("{}", too_large.plain());
-            return ExitCode::from(1);
-        }
-    };
+    // Exact counts from the diagram, for any size of domain; only a listing is bounded.
+    let diagram = Diagram::build(&Validity::new(&domain), max);
+    let counts = diagram.counts();
+    if args.list && diagram.total() > u128::from(args.max_sets) {
+        let validity = Validity::new(&domain);
+        let too_large =
+            lattice::count_within(&domain, &validity, max, args.max_sets, &mut lattice::quiet).err().unwrap_or_else(
+                || lattice::TooLarge { domain: domain.name.clone(), max_size: max, limit: args.max_sets, fits: None },
+            );
+        eprintln!("{}", too_large.plain());
+        return ExitCode::from(1);
+    }
     let out = &mut io::BufWriter::new(io::stdout().lock());
     let result = if args.list {
-        write_list(&domain, max, args.json, out)
+        write_list(&diagram, &domain, args.json, out)
     } else {
-        write_counts(&domain, &counted, args.json, out)
+        write_counts(&domain, &counts, args.json, out)
     };
     match result.and_then(|()| out.flush()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -63,18 +63,20 @@ pub fn run(args: LatticeArgs) -> ExitCode {
 }
 
 /// Counts per size and the total.
-pub fn write_counts(domain: &Domain, counted: &lattice::Count, json: bool, out: &mut impl Write) -> io::Result<()> {
-    let counts = &counted.per_size;
+pub fn write_counts(domain: &Domain, counts: &[u128], json: bool, out: &mut impl Write) -> io::Result<()> {
     let max_size = counts.len() - 1;
-    let total = counted.total();
+    let total = counts.iter().fold(0u128, |a, c| a.saturating_add(*c));
     if json {
-        let sizes: Vec<_> = (1..=max_size).map(|k| serde_json::json!({ "size": k, "sets": counts[k] })).collect();
+        // A count past 64 bits (hundreds of concepts, large sets) is written as a string of digits.
+        let num =
+            |n: u128| u64::try_from(n).map_or_else(|_| serde_json::json!(n.to_string()), |n| serde_json::json!(n));
+        let sizes: Vec<_> = (1..=max_size).map(|k| serde_json::json!({ "size": k, "sets": num(counts[k]) })).collect();
         let v = serde_json::json!({
             "domain": domain.name,
             "concepts": domain.concepts.len(),
             "max_size": max_size,
             "sizes": sizes,
-            "total": total,
+            "total": num(total),
         });
         return writeln!(out, "{v}");
     }
@@ -93,10 +95,9 @@ pub fn write_counts(domain: &Domain, counted: &lattice::Count, json: bool, out: 
 
 /// Every valid set in canonical order, streamed size by size (nothing is stored, so any size
 /// fits in memory).
-pub fn write_list(domain: &Domain, max_size: usize, json: bool, out: &mut impl Write) -> io::Result<()> {
-    let validity = Validity::new(domain);
-    for size in 1..=max_size {
-        let written = lattice::try_for_each_of_size(&validity, size, |s| match write_set(domain, s, json, out) {
+pub fn write_list(diagram: &Diagram, domain: &Domain, json: bool, out: &mut impl Write) -> io::Result<()> {
+    for size in 1..=diagram.max_size() {
+        let written = diagram.try_for_each_of_size(size, |s| match write_set(domain, s, json, out) {
             Ok(()) => ControlFlow::Continue(()),
             Err(e) => ControlFlow::Break(e),
         });
@@ -126,7 +127,7 @@ mod tests {
     #[test]
     fn counts_human_and_json() {
         let d = driving();
-        let counted = |size| lattice::count(&Validity::new(&d), size, u64::MAX, &mut lattice::quiet);
+        let counted = |size| Diagram::build(&Validity::new(&d), size).counts();
         insta::assert_snapshot!(text(|o| write_counts(&d, &counted(5), false, o)));
         insta::assert_snapshot!(text(|o| write_counts(&d, &counted(3), true, o)));
     }
@@ -134,11 +135,11 @@ mod tests {
     #[test]
     fn list_is_the_lattice_in_canonical_order() {
         let d = driving();
-        let listed = text(|o| write_list(&d, 3, false, o));
+        let listed = text(|o| write_list(&Diagram::build(&Validity::new(&d), 3), &d, false, o));
         let lattice = crate::lattice::Lattice::enumerate(&d, 3);
         let expected: Vec<String> = lattice.sets.iter().map(|s| d.set_names(*s).join(" ")).collect();
         assert_eq!(listed.lines().collect::<Vec<_>>(), expected);
-        let json = text(|o| write_list(&d, 2, true, o));
+        let json = text(|o| write_list(&Diagram::build(&Validity::new(&d), 2), &d, true, o));
         let first: Vec<String> = serde_json::from_str(json.lines().nth(24).unwrap()).unwrap();
         assert_eq!(first, d.set_names(lattice.of_size(2)[0]));
     }
@@ -156,7 +157,8 @@ mod tests {
             }
         }
         let mut w = Closed(0);
-        let err = write_list(&driving(), 3, false, &mut w).unwrap_err();
+        let d = driving();
+        let err = write_list(&Diagram::build(&Validity::new(&d), 3), &d, false, &mut w).unwrap_err();
         assert_eq!(err.kind(), io::ErrorKind::BrokenPipe);
         assert_eq!(w.0, 4, "no write after the failing one");
     }

@@ -225,7 +225,7 @@ mod tests {
 
     #[test]
     fn random_sets_are_seeded_distinct_and_exclude_the_transferred() {
-        let space: Vec<ConceptSet> = (1..30u128).map(ConceptSet).collect();
+        let space: Vec<ConceptSet> = (1..30u128).map(ConceptSet::from_bits).collect();
         let a = random_sets(&space, &space[..3], 10, 1);
         assert_eq!(a, random_sets(&space, &space[..3], 10, 1));
         assert_eq!(a.len(), 10);

@@ -47,7 +47,7 @@ codes! {
     MISSING_STATEMENT = "R0041", "missing-statement", "a required statement is missing (a modifier's `target`, a rule's `expect`, a shape part's `size`, …)";
     DUPLICATE_STATEMENT = "R0042", "duplicate-statement", "a statement or setting given twice where only one counts";
     MISSING_TEXT = "R0043", "missing-text", "(warning) a concept without `description` or `probe`";
-    TOO_MANY_CONCEPTS = "R0044", "too-many-concepts", "more concepts than a concept set can hold (128)";
+    TOO_MANY_CONCEPTS = "R0044", "too-many-concepts", "more concepts than a concept set can hold (512)";
     PARTIAL_TARGET = "R0045", "partial-target-attribute", "(warning) a modifier sets an attribute that some of its target kinds lack";
     DUPLICATE_LOOK = "R0046", "duplicate-look", "a kind with both `shape { … }` and a `look`, or two `look`s";
     RELATION_PLACEMENT = "R0047", "relation-placement", "a relation whose placement is missing, unknown or contradictory";

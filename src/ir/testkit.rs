@@ -51,6 +51,6 @@ pub fn numbered(n: usize) -> Domain {
 /// All sets of `1..=max_size` concepts out of `n`, except those holding both concept 0 and
 /// concept 1 (an exclusive pair, so that validity matters).
 pub fn lattice(n: usize, max_size: usize) -> Vec<ConceptSet> {
-    let excl = ConceptSet(0b11);
-    (1u128..1 << n).map(ConceptSet).filter(|s| s.len() <= max_size && s.intersection(excl) != excl).collect()
+    let excl = ConceptSet::from_bits(0b11);
+    (1u128..1 << n).map(ConceptSet::from_bits).filter(|s| s.len() <= max_size && s.intersection(excl) != excl).collect()
 }

@@ -23,6 +23,7 @@
 //! largest set size that fits. Long work reports to a [`Progress`] callback: the core cannot
 //! print, the command line draws it.
 
+mod diagram;
 #[cfg(test)]
 pub(crate) mod testkit;
 mod validity;
@@ -30,10 +31,11 @@ mod validity;
 use std::cmp::Ordering;
 use std::ops::ControlFlow;
 
+pub use diagram::Diagram;
 pub use validity::{ModifierTarget, Validity, Violation, ViolationAt, describe_constraint, validate};
 
 use crate::diag::{Diagnostic, Severity, codes};
-use crate::ir::{ConceptSet, Domain};
+use crate::ir::{ConceptId, ConceptSet, Domain};
 
 /// The default maximum set size (the paper's search depth).
 pub const DEFAULT_MAX_SIZE: usize = 5;
@@ -255,7 +257,7 @@ impl Lattice {
     /// The index of `set` in [`Lattice::sets`].
     pub fn position(&self, set: ConceptSet) -> Option<usize> {
         let bucket = self.of_size(set.len());
-        let i = bucket.binary_search_by(|s| canonical_cmp(*s, set)).ok()?;
+        let i = bucket.binary_search_by(|s| lexicographic_cmp(*s, set)).ok()?;
         Some(self.offsets[set.len()] + i)
     }
 
@@ -265,27 +267,29 @@ impl Lattice {
         if set.len() >= self.max_size {
             return Vec::new();
         }
-        let free = self.validity.universe().0 & !set.0;
-        ConceptSet(free).iter().map(|c| set.with(c)).filter(|s| self.validity.is_valid(*s)).collect()
+        let free = self.validity.universe().difference(set);
+        free.iter().map(|c| set.with(c)).filter(|s| self.validity.is_valid(*s)).collect()
     }
 
     /// Concepts that appear in at least one set.
     pub fn support(&self) -> ConceptSet {
-        ConceptSet(self.sets.iter().fold(0, |acc, s| acc | s.0))
+        self.sets.iter().fold(ConceptSet::EMPTY, |acc, s| acc.union(*s))
     }
 }
 
 /// Canonical order of concept sets: by size, then lexicographically by sorted concept indices.
 pub fn canonical_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
-    a.len().cmp(&b.len()).then_with(|| {
-        let diff = a.0 ^ b.0;
-        if diff == 0 {
-            return Ordering::Equal;
-        }
-        // Both sets agree below the lowest differing bit; the one holding it lists it first,
-        // while the other lists a higher index at that position.
-        if a.0 >> diff.trailing_zeros() & 1 == 1 { Ordering::Less } else { Ordering::Greater }
-    })
+    a.len().cmp(&b.len()).then_with(|| lexicographic_cmp(a, b))
+}
+
+/// The canonical order of two sets of the same size.
+fn lexicographic_cmp(a: ConceptSet, b: ConceptSet) -> Ordering {
+    let Some(lowest) = a.symmetric_difference(b).first() else {
+        return Ordering::Equal;
+    };
+    // Both sets agree below the lowest differing bit; the one holding it lists it first,
+    // while the other lists a higher index at that position.
+    if a.contains(lowest) { Ordering::Less } else { Ordering::Greater }
 }
 
 /// Call `visit` on every valid set of 1 to `max_size` concepts, in lexicographic order of sorted
@@ -303,11 +307,14 @@ pub fn try_for_each_valid<B>(
     max_size: usize,
     mut visit: impl FnMut(ConceptSet) -> ControlFlow<B>,
 ) -> ControlFlow<B> {
-    let n = 128 - validity.universe().0.leading_zeros();
+    let n = validity.universe().last().map_or(0, |c| c.0 + 1);
     if max_size == 0 {
         return ControlFlow::Continue(());
     }
-    dfs(validity, 0, 0, n, max_size, &mut visit)
+    // The concepts from each index on: what can still repair a requirement.
+    let suffix: Vec<ConceptSet> =
+        (0..=n).map(|c| validity.universe().intersection(ConceptSet::from_concept(ConceptId(c)))).collect();
+    dfs(validity, &suffix, ConceptSet::EMPTY, 0, n, max_size, &mut visit)
 }
 
 /// Call `visit` on every valid set of exactly `size` concepts, in canonical order, until it
@@ -322,25 +329,23 @@ pub fn try_for_each_of_size<B>(
 
 fn dfs<B>(
     v: &Validity,
-    set: u128,
+    suffix: &[ConceptSet],
+    set: ConceptSet,
     next: u32,
     n: u32,
     room: usize,
     visit: &mut impl FnMut(ConceptSet) -> ControlFlow<B>,
 ) -> ControlFlow<B> {
     for c in next..n {
-        let s = set | 1u128 << c;
+        let s = set.with(ConceptId(c));
         if !v.monotone_ok(s) {
             continue;
         }
         if v.closure_ok(s) {
-            visit(ConceptSet(s))?;
+            visit(s)?;
         }
-        if room > 1 {
-            let remaining = if c + 1 >= 128 { 0 } else { v.universe().0 >> (c + 1) << (c + 1) };
-            if !v.hopeless(s, remaining) {
-                dfs(v, s, c + 1, n, room - 1, visit)?;
-            }
+        if room > 1 && !v.hopeless(s, suffix[c as usize + 1]) {
+            dfs(v, suffix, s, c + 1, n, room - 1, visit)?;
         }
     }
     ControlFlow::Continue(())
@@ -448,7 +453,7 @@ mod tests {
             let v = Validity::new(&d);
             let n = d.concepts.len();
             for s in all_subsets(n, if n > 12 { 3 } else { n }) {
-                assert_eq!(v.check_targets(s.0).is_ok(), anchor::build(&d, s).is_ok(), "{:?}", d.set_names(s));
+                assert_eq!(v.check_targets(s).is_ok(), anchor::build(&d, s).is_ok(), "{:?}", d.set_names(s));
             }
         }
     }
@@ -560,7 +565,7 @@ mod tests {
         assert_eq!(err, Violation::NoTarget { modifier: "near".into() });
         assert_eq!(err.to_string(), "modifier `near` has no entity to apply to");
         assert_eq!(validate(&d, ConceptSet::EMPTY), Err(Violation::Empty));
-        assert_eq!(validate(&d, ConceptSet(1 << 100)), Err(Violation::UnknownConcept { index: 100 }));
+        assert_eq!(validate(&d, ConceptSet::from_bits(1 << 100)), Err(Violation::UnknownConcept { index: 100 }));
         assert_eq!(validate(&d, set(&["cone", "near", "weather_foggy"])), Ok(()));
     }
 
@@ -573,5 +578,91 @@ mod tests {
         // With `c` (declared after `b`) the target is `c`'s last matching entity `w`, also bare.
         assert!(validate(d, d.parse_set(&["c", "anything"]).unwrap()).is_err());
         assert_eq!(validate(d, d.parse_set(&["a", "d", "anything"]).unwrap()), Ok(()));
+    }
+
+    #[test]
+    fn diagram_counts_members_and_order_match_enumeration() {
+        for d in domains() {
+            let n = d.concepts.len();
+            let k = if n > 12 { 4 } else { n };
+            let lattice = Lattice::enumerate(&d, k);
+            let diagram = Diagram::build(lattice.validity(), k);
+            let counts: Vec<usize> = diagram.counts().iter().map(|&c| c as usize).collect();
+            assert_eq!(counts, lattice.counts(), "domain with {n} concepts");
+            assert_eq!(diagram.support(), lattice.support());
+            for size in 1..=k {
+                let mut listed = Vec::new();
+                let _ = diagram.try_for_each_of_size(size, |s| {
+                    listed.push(s);
+                    ControlFlow::<()>::Continue(())
+                });
+                assert_eq!(listed, lattice.of_size(size), "sets of {size}");
+            }
+            for s in all_subsets(n, if n > 12 { 3 } else { n }) {
+                assert_eq!(diagram.contains(s), lattice.contains(s), "{:?}", d.set_names(s));
+            }
+        }
+    }
+
+    #[test]
+    fn diagram_counts_of_the_shipped_domains_are_the_enumerated_ones() {
+        for (name, text) in [
+            ("driving.rev", include_str!("../../domains/driving.rev")),
+            ("indoor.rev", include_str!("../../domains/indoor.rev")),
+        ] {
+            let d = crate::check::compile_source(name, text).unwrap();
+            let v = Validity::new(&d);
+            let counted = count(&v, 5, u64::MAX, &mut quiet);
+            let diagram = Diagram::build(&v, 5);
+            assert_eq!(diagram.counts().iter().map(|&c| c as u64).collect::<Vec<_>>(), counted.per_size, "{name}");
+        }
+    }
+
+    #[test]
+    fn diagram_samples_uniformly_and_within_a_subset() {
+        use rand::SeedableRng;
+        let d = driving();
+        let lattice = Lattice::enumerate(&d, 3);
+        let diagram = Diagram::build(lattice.validity(), 3);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let pairs = lattice.of_size(2);
+        let mut hits = std::collections::HashMap::new();
+        let draws = pairs.len() * 200;
+        for _ in 0..draws {
+            let s = diagram.sample(2, &mut rng).unwrap();
+            assert!(lattice.contains(s) && s.len() == 2);
+            *hits.entry(s).or_insert(0usize) += 1;
+        }
+        assert_eq!(hits.len(), pairs.len(), "every pair drawn");
+        // 200 expected per pair: a pair drawn under 120 or over 300 times means a bias.
+        assert!(hits.values().all(|&h| (120..300).contains(&h)), "{:?}", hits.values().min());
+        let cone = ConceptSet::single(d.concept_by_name("cone").unwrap().id);
+        let with_cone: Vec<ConceptSet> = lattice.of_size(3).iter().copied().filter(|s| cone.is_subset_of(*s)).collect();
+        assert_eq!(diagram.counts_containing(cone)[3] as usize, with_cone.len());
+        for _ in 0..200 {
+            let s = diagram.sample_containing(cone, 3, &mut rng).unwrap();
+            assert!(with_cone.contains(&s));
+        }
+        let any = diagram.sample_any(&mut rng).unwrap();
+        assert!(lattice.contains(any));
+        assert_eq!(diagram.sample(4, &mut rng), None, "past max_size");
+    }
+
+    #[test]
+    fn diagram_counts_wide_domains_exactly() {
+        // 500 independent concepts (no constraints): C(500, k) sets of k.
+        let mut b = Dom::new(Selection::Priority);
+        let k = b.kind("K", &[], &[]);
+        for i in 0..500 {
+            b.concept(&format!("c{i}"), &[("e", k, "lane", &[])]);
+        }
+        let d = b.build();
+        let diagram = Diagram::build(&Validity::new(&d), 5);
+        let binom = |n: u128, k: u128| (0..k).fold(1u128, |a, i| a * (n - i) / (i + 1));
+        assert_eq!(diagram.counts(), (0..=5).map(|k| if k == 0 { 0 } else { binom(500, k) }).collect::<Vec<_>>());
+        assert_eq!(diagram.nodes(), 500, "one node per level");
+        let last = ConceptSet::from_ids([ConceptId(3), ConceptId(499)]);
+        assert!(diagram.contains(last));
+        assert_eq!(diagram.counts_containing(last)[3], 498);
     }
 }

@@ -62,10 +62,10 @@ pub fn validate(domain: &Domain, set: ConceptSet) -> Result<(), Violation> {
 pub struct ModifierTarget {
     pub modifier: ConceptId,
     /// Concepts that add at least one entity matching the modifier's target filter.
-    pub providers: u128,
+    pub providers: ConceptSet,
     /// Providers whose *last* matching entity (the one the modifier would pick when that
     /// provider is the highest-index provider in the set) lacks an attribute the modifier sets.
-    pub lacking: u128,
+    pub lacking: ConceptSet,
 }
 
 /// A violation found by [`Validity::check`], by index (cheap); [`ViolationAt::resolve`] names it.
@@ -113,21 +113,20 @@ impl ViolationAt {
 #[derive(Debug, Clone)]
 pub struct Validity {
     /// Mask of the declared concepts.
-    universe: u128,
+    universe: ConceptSet,
     /// Constraints by declaration index, split by monotonicity.
-    at_most: Vec<(usize, u128, u32)>,
-    forbids: Vec<(usize, u128)>,
-    requires: Vec<(usize, u128, u128)>,
+    at_most: Vec<(usize, ConceptSet, u32)>,
+    forbids: Vec<(usize, ConceptSet)>,
+    requires: Vec<(usize, ConceptId, ConceptSet)>,
     modifiers: Vec<ModifierTarget>,
     /// Per `add` related to an entity its own concept does not add: (concept, effect index,
     /// the concepts that add an entity of that name).
-    relation_targets: Vec<(ConceptId, usize, u128)>,
+    relation_targets: Vec<(ConceptId, usize, ConceptSet)>,
 }
 
 impl Validity {
     pub fn new(domain: &Domain) -> Validity {
-        let n = domain.concepts.len().min(crate::ir::MAX_CONCEPTS);
-        let universe = if n == 128 { u128::MAX } else { (1u128 << n) - 1 };
+        let universe = ConceptSet::first_n(domain.concepts.len());
         let mut v = Validity {
             universe,
             at_most: vec![],
@@ -138,10 +137,10 @@ impl Validity {
         };
         for (i, c) in domain.constraints.iter().enumerate() {
             match c.rule {
-                ConstraintRule::AtMost { members, max } => v.at_most.push((i, members.0, max)),
-                ConstraintRule::Forbids { all } => v.forbids.push((i, all.0)),
+                ConstraintRule::AtMost { members, max } => v.at_most.push((i, members, max)),
+                ConstraintRule::Forbids { all } => v.forbids.push((i, all)),
                 ConstraintRule::Requires { concept, any_of } => {
-                    v.requires.push((i, ConceptSet::single(concept).0, any_of.0));
+                    v.requires.push((i, concept, any_of));
                 }
             }
         }
@@ -156,7 +155,7 @@ impl Validity {
 
     /// Mask of the declared concepts.
     pub fn universe(&self) -> ConceptSet {
-        ConceptSet(self.universe)
+        self.universe
     }
 
     /// Per-modifier target masks (modifiers that target the world are always satisfied and
@@ -174,80 +173,91 @@ impl Validity {
         if set.is_empty() {
             return Err(ViolationAt::Empty);
         }
-        let unknown = set.0 & !self.universe;
-        if unknown != 0 {
-            return Err(ViolationAt::UnknownConcept(unknown.trailing_zeros()));
+        if let Some(unknown) = set.difference(self.universe).first() {
+            return Err(ViolationAt::UnknownConcept(unknown.0));
         }
-        let first = [self.first_monotone(set.0), self.first_requires(set.0)].into_iter().flatten().min();
+        let first = [self.first_monotone(set), self.first_requires(set)].into_iter().flatten().min();
         if let Some(i) = first {
             return Err(ViolationAt::Constraint(i));
         }
-        self.check_targets(set.0)
+        self.check_targets(set)
     }
 
     /// Whether the constraints that stay violated in every superset (at-most, forbids) hold.
-    pub fn monotone_ok(&self, set: u128) -> bool {
+    pub fn monotone_ok(&self, set: ConceptSet) -> bool {
         self.first_monotone(set).is_none()
     }
 
     /// Whether the constraints that a superset can repair (requires, modifier targets) hold.
-    pub fn closure_ok(&self, set: u128) -> bool {
+    pub fn closure_ok(&self, set: ConceptSet) -> bool {
         self.first_requires(set).is_none() && self.check_targets(set).is_ok()
     }
 
     /// Whether some requirement or modifier of `set` is unmet and no concept in `remaining`
     /// could meet it, so no superset drawn from `remaining` is valid.
-    pub fn hopeless(&self, set: u128, remaining: u128) -> bool {
-        let unmet_requires =
-            self.requires.iter().any(|&(_, c, any)| set & c != 0 && set & any == 0 && remaining & any == 0);
-        unmet_requires
-            || self
-                .modifiers
-                .iter()
-                .any(|m| set >> m.modifier.0 & 1 == 1 && set & m.providers == 0 && remaining & m.providers == 0)
-            || self
-                .relation_targets
-                .iter()
-                .any(|&(c, _, providers)| set >> c.0 & 1 == 1 && set & providers == 0 && remaining & providers == 0)
+    pub fn hopeless(&self, set: ConceptSet, remaining: ConceptSet) -> bool {
+        let unmet = |needs: ConceptSet| !set.intersects(needs) && !remaining.intersects(needs);
+        self.requires.iter().any(|&(_, c, any)| set.contains(c) && unmet(any))
+            || self.modifiers.iter().any(|m| set.contains(m.modifier) && unmet(m.providers))
+            || self.relation_targets.iter().any(|&(c, _, providers)| set.contains(c) && unmet(providers))
     }
 
-    fn first_monotone(&self, set: u128) -> Option<usize> {
-        let at_most = self.at_most.iter().find(|&&(_, mask, max)| (set & mask).count_ones() > max).map(|c| c.0);
-        let forbids = self.forbids.iter().find(|&&(_, all)| set & all == all).map(|c| c.0);
+    fn first_monotone(&self, set: ConceptSet) -> Option<usize> {
+        let at_most =
+            self.at_most.iter().find(|&&(_, mask, max)| set.intersection(mask).len() > max as usize).map(|c| c.0);
+        let forbids = self.forbids.iter().find(|&&(_, all)| all.is_subset_of(set)).map(|c| c.0);
         at_most.into_iter().chain(forbids).min()
     }
 
-    fn first_requires(&self, set: u128) -> Option<usize> {
-        self.requires.iter().find(|&&(_, c, any)| set & c != 0 && set & any == 0).map(|c| c.0)
+    fn first_requires(&self, set: ConceptSet) -> Option<usize> {
+        self.requires.iter().find(|&&(_, c, any)| set.contains(c) && !set.intersects(any)).map(|c| c.0)
     }
 
-    pub(crate) fn check_targets(&self, set: u128) -> Result<(), ViolationAt> {
+    pub(crate) fn check_targets(&self, set: ConceptSet) -> Result<(), ViolationAt> {
         for m in &self.modifiers {
-            if set >> m.modifier.0 & 1 == 0 {
+            if !set.contains(m.modifier) {
                 continue;
             }
-            let present = set & m.providers;
-            if present == 0 {
-                return Err(ViolationAt::NoTarget(m.modifier));
-            }
             // The target comes from the highest-index provider in the set.
-            let top = 127 - present.leading_zeros();
-            if m.lacking >> top & 1 == 1 {
-                return Err(ViolationAt::TargetLacksAttr(m.modifier, ConceptId(top)));
+            let Some(top) = set.intersection(m.providers).last() else {
+                return Err(ViolationAt::NoTarget(m.modifier));
+            };
+            if m.lacking.contains(top) {
+                return Err(ViolationAt::TargetLacksAttr(m.modifier, top));
             }
         }
         for &(c, effect, providers) in &self.relation_targets {
-            if set >> c.0 & 1 == 1 && set & providers == 0 {
+            if set.contains(c) && !set.intersects(providers) {
                 return Err(ViolationAt::NoRelationTarget(c, effect));
             }
         }
         Ok(())
     }
+
+    /// The constraints as compiled: at-most `(index, members, max)`.
+    pub fn at_most(&self) -> &[(usize, ConceptSet, u32)] {
+        &self.at_most
+    }
+
+    /// Forbids constraints: `(index, members that may not all appear)`.
+    pub fn forbids(&self) -> &[(usize, ConceptSet)] {
+        &self.forbids
+    }
+
+    /// Requires constraints: `(index, concept, any of)`.
+    pub fn requires(&self) -> &[(usize, ConceptId, ConceptSet)] {
+        &self.requires
+    }
+
+    /// Entities placed relative to another concept's entity: `(concept, add index, providers)`.
+    pub fn relation_targets(&self) -> &[(ConceptId, usize, ConceptSet)] {
+        &self.relation_targets
+    }
 }
 
 /// Every `add` related to an entity that its own concept does not add, with the concepts that
 /// add an entity of that name (mirrors `anchor::build`, which looks for the target by name).
-fn relation_targets(domain: &Domain) -> Vec<(ConceptId, usize, u128)> {
+fn relation_targets(domain: &Domain) -> Vec<(ConceptId, usize, ConceptSet)> {
     let mut out = Vec::new();
     for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
         for (i, e) in c.effects.iter().enumerate() {
@@ -263,7 +273,7 @@ fn relation_targets(domain: &Domain) -> Vec<(ConceptId, usize, u128)> {
                 .iter()
                 .take(crate::ir::MAX_CONCEPTS)
                 .filter(|k| k.kind == ConceptKind::Concept && adds(k))
-                .fold(0u128, |m, k| m | ConceptSet::single(k.id).0);
+                .fold(ConceptSet::EMPTY, |m, k| m.with(k.id));
             out.push((c.id, i, providers));
         }
     }
@@ -277,15 +287,15 @@ fn modifier_target(domain: &Domain, modifier: ConceptId) -> Option<ModifierTarge
     if targets_world(&filter) {
         return None;
     }
-    let mut t = ModifierTarget { modifier, providers: 0, lacking: 0 };
+    let mut t = ModifierTarget { modifier, providers: ConceptSet::EMPTY, lacking: ConceptSet::EMPTY };
     for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
         if c.kind != ConceptKind::Concept {
             continue;
         }
         if last_match(domain, c.id, &filter).is_some() {
-            t.providers |= ConceptSet::single(c.id).0;
+            t.providers.insert(c.id);
             if lacking_attr(domain, modifier, c.id).is_some() {
-                t.lacking |= ConceptSet::single(c.id).0;
+                t.lacking.insert(c.id);
             }
         }
     }

@@ -15,13 +15,19 @@
 //!
 //! Memory grows with the lattice and linearly with the rules: per rule, the rules that shadow
 //! it or tie with it are tallied for at most [`TRACKED`] partners (a rule with more says "at
-//! least"), never in a rule × rule table. A lattice past the limit is not linted: the lints
-//! report R0070 with the ways out instead.
+//! least"), never in a rule × rule table.
+//!
+//! A lattice past the limit (`--max-sets`) is not enumerated: R0100 and R0105 stay exact (from
+//! the lattice's [`Diagram`] and the target masks), and the rule lints judge a stated sample
+//! ([`Sample`]): every set of the sizes that fit, then the same number of sets drawn uniformly
+//! from each larger size. A finding with an example set (R0102, R0103, R0106) is then still a
+//! fact; one that says "never" (R0101, R0104) is a bound, and every such diagnostic names the
+//! method in its help.
 
 use crate::anchor::Tri;
 use crate::diag::{Diagnostic, Label, Severity};
 use crate::ir::{ConceptSet, Domain, Selection, Span};
-use crate::lattice::{DEFAULT_MAX_SETS, DEFAULT_MAX_SIZE, Lattice, PROGRESS_EVERY, Progress, quiet};
+use crate::lattice::{DEFAULT_MAX_SETS, DEFAULT_MAX_SIZE, Diagram, Lattice, PROGRESS_EVERY, Progress, Validity, quiet};
 use crate::oracle::{self, Decision, Oracle, explain, set_text};
 
 /// Partners (shadowing or tying rules) tallied per rule.
@@ -48,10 +54,110 @@ pub fn lint_domain(domain: &Domain) -> Vec<Diagnostic> {
 
 /// [`lint_domain`] with chosen limits, reporting progress (counting, enumerating, judging).
 pub fn lint_domain_with(domain: &Domain, limits: Limits, progress: Progress) -> Vec<Diagnostic> {
-    match Lattice::build(domain, limits.max_size, limits.max_sets, progress) {
-        Ok(lattice) => lint_lattice_with(domain, &lattice, progress),
-        Err(too_large) => vec![too_large.diagnostic()],
+    let validity = Validity::new(domain);
+    let diagram = Diagram::build(&validity, limits.max_size);
+    if diagram.total() <= u128::from(limits.max_sets) {
+        return match Lattice::build(domain, limits.max_size, limits.max_sets, progress) {
+            Ok(lattice) => lint_lattice_with(domain, &lattice, progress),
+            Err(too_large) => vec![too_large.diagnostic()],
+        };
     }
+    lint_sampled(domain, &validity, &diagram, Sample::plan(&diagram, SAMPLED_SETS), progress)
+}
+
+/// Sets the rule lints judge when the lattice is past the limit.
+pub const SAMPLED_SETS: u64 = 100_000;
+
+/// Which sets the rule lints judge past the limit: every set of sizes `1..=exhaustive`, then
+/// `per_size` sets drawn uniformly (a fixed seed, so the output is deterministic) from each
+/// larger size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sample {
+    pub exhaustive: usize,
+    pub per_size: u64,
+    pub max_size: usize,
+}
+
+impl Sample {
+    /// The plan for a budget of `budget` sets: whole sizes while they fit half of it, the rest
+    /// shared among the larger sizes.
+    pub fn plan(diagram: &Diagram, budget: u64) -> Sample {
+        let counts = diagram.counts();
+        let mut used = 0u128;
+        let mut exhaustive = 0;
+        for (k, &c) in counts.iter().enumerate().skip(1) {
+            if used + c > u128::from(budget / 2) {
+                break;
+            }
+            used += c;
+            exhaustive = k;
+        }
+        let larger = (diagram.max_size() - exhaustive).max(1) as u64;
+        let per_size = (budget - used as u64) / larger;
+        Sample { exhaustive, per_size, max_size: diagram.max_size() }
+    }
+
+    /// What the method guarantees, for a diagnostic's help.
+    pub fn method(&self) -> String {
+        let whole = match self.exhaustive {
+            0 => String::new(),
+            1 => "every valid set of 1 concept and ".into(),
+            k => format!("every valid set of up to {k} concepts and "),
+        };
+        format!(
+            "not exhaustive — the lattice is past `--max-sets`, so the rules were judged on {whole}{} sets drawn \
+             uniformly from each larger size up to {}: a rule or option that decides at least 1 in {} sets of \
+             some size is missed with probability under 5% (raise `--max-sets` for an exhaustive check)",
+            self.per_size,
+            self.max_size,
+            (self.per_size / 3).max(1)
+        )
+    }
+}
+
+/// The lints of a lattice past the limit (see the module docs).
+fn lint_sampled(
+    domain: &Domain,
+    validity: &Validity,
+    diagram: &Diagram,
+    plan: Sample,
+    progress: Progress,
+) -> Vec<Diagnostic> {
+    use rand::SeedableRng;
+    let mut sets: Vec<ConceptSet> = Vec::new();
+    for k in 1..=plan.exhaustive {
+        let _ = diagram.try_for_each_of_size(k, |s| {
+            sets.push(s);
+            std::ops::ControlFlow::<()>::Continue(())
+        });
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    for k in plan.exhaustive + 1..=plan.max_size {
+        let mut drawn = std::collections::HashSet::new();
+        for _ in 0..plan.per_size {
+            if let Some(s) = diagram.sample(k, &mut rng)
+                && drawn.insert(s)
+            {
+                sets.push(s);
+            }
+        }
+    }
+    let survey = Survey::run(domain, &sets, progress);
+    let mut out = Vec::new();
+    concept_lints_of(domain, diagram.support(), validity.modifier_targets(), plan.max_size, &mut out);
+    let mut rules = Vec::new();
+    survey.rule_lints(domain, plan.max_size, &mut rules);
+    survey.option_lints(domain, &mut rules);
+    survey.no_rule_lint(domain, &mut rules);
+    let method = plan.method();
+    for d in &mut rules {
+        d.help = Some(match d.help.take() {
+            Some(h) => format!("{h}; {method}"),
+            None => method.clone(),
+        });
+    }
+    out.extend(rules);
+    out
 }
 
 /// Warnings computed over an already enumerated lattice.
@@ -60,9 +166,9 @@ pub fn lint_lattice(domain: &Domain, lattice: &Lattice) -> Vec<Diagnostic> {
 }
 
 fn lint_lattice_with(domain: &Domain, lattice: &Lattice, progress: Progress) -> Vec<Diagnostic> {
-    let survey = Survey::run(domain, lattice, progress);
+    let survey = Survey::run(domain, &lattice.sets, progress);
     let mut out = Vec::new();
-    concept_lints(domain, lattice, &mut out);
+    concept_lints_of(domain, lattice.support(), lattice.validity().modifier_targets(), lattice.max_size(), &mut out);
     survey.rule_lints(domain, lattice.max_size(), &mut out);
     survey.option_lints(domain, &mut out);
     survey.no_rule_lint(domain, &mut out);
@@ -129,7 +235,7 @@ struct Survey {
 }
 
 impl Survey {
-    fn run(domain: &Domain, lattice: &Lattice, progress: Progress) -> Survey {
+    fn run(domain: &Domain, sets: &[ConceptSet], progress: Progress) -> Survey {
         let n = domain.rules.len();
         let mut s = Survey {
             selected: vec![false; n],
@@ -141,8 +247,8 @@ impl Survey {
             no_rule: None,
         };
         let oracle = Oracle::new(domain);
-        let total = lattice.len() as u64;
-        for (i, &set) in lattice.sets.iter().enumerate() {
+        let total = sets.len() as u64;
+        for (i, &set) in sets.iter().enumerate() {
             if (i as u64).is_multiple_of(PROGRESS_EVERY) {
                 progress("judging valid sets", i as u64, total);
             }
@@ -381,22 +487,22 @@ fn undetermined(domain: &Domain, i: usize, ex: Example, shadowed: Option<Label>)
 }
 
 /// R0105 and R0100, in concept order.
-fn concept_lints(domain: &Domain, lattice: &Lattice, out: &mut Vec<Diagnostic>) {
-    let support = lattice.support();
-    let targets = lattice.validity().modifier_targets();
+fn concept_lints_of(
+    domain: &Domain,
+    support: ConceptSet,
+    targets: &[crate::lattice::ModifierTarget],
+    max_size: usize,
+    out: &mut Vec<Diagnostic>,
+) {
     for c in domain.concepts.iter().take(crate::ir::MAX_CONCEPTS) {
         let target = targets.iter().find(|t| t.modifier == c.id);
-        if let Some(t) = target.filter(|t| t.providers & !t.lacking == 0) {
+        if let Some(t) = target.filter(|t| t.providers.difference(t.lacking).is_empty()) {
             out.push(no_target(domain, c.id, t.providers, c.span));
         } else if !support.contains(c.id) {
             out.push(Diagnostic {
                 code: "R0100",
                 severity: Severity::Warning,
-                message: format!(
-                    "concept `{}` appears in no valid set of up to {} concepts",
-                    c.name,
-                    lattice.max_size()
-                ),
+                message: format!("concept `{}` appears in no valid set of up to {} concepts", c.name, max_size),
                 span: Some(c.span),
                 label: "in no valid set".into(),
                 related: vec![],
@@ -406,10 +512,10 @@ fn concept_lints(domain: &Domain, lattice: &Lattice, out: &mut Vec<Diagnostic>) 
     }
 }
 
-fn no_target(domain: &Domain, modifier: crate::ir::ConceptId, providers: u128, span: Span) -> Diagnostic {
+fn no_target(domain: &Domain, modifier: crate::ir::ConceptId, providers: ConceptSet, span: Span) -> Diagnostic {
     let m = &domain.concepts[modifier.index()];
     let filter = m.target.clone().unwrap_or_default();
-    let (message, help) = if providers == 0 {
+    let (message, help) = if providers.is_empty() {
         (
             format!(
                 "modifier `{}` has no possible target: no concept adds an entity matching `{}`",

@@ -61,8 +61,12 @@ pub fn observation_seed(run_seed: u64, key: ObsKey) -> u64 {
         Phase::Confirm => 0x434f_4e46_524d,
     };
     let mut h = mix(run_seed ^ p);
-    h = mix(h ^ key.set.0 as u64);
-    h = mix(h ^ (key.set.0 >> 64) as u64);
+    h = mix(h ^ key.set.words()[0]);
+    h = mix(h ^ key.set.words()[1]);
+    if !key.set.fits_128() {
+        // Sets past 128 concepts mix in their other words; narrower sets keep their old seeds.
+        h = key.set.words()[2..].iter().fold(h, |h, w| mix(h ^ w));
+    }
     mix(h ^ u64::from(key.index))
 }
 

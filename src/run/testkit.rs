@@ -12,7 +12,7 @@ impl crate::run::observe::World for FakeWorld {
             question: "What should the car do?".into(),
             options: vec!["stop".into(), "slow down".into(), "continue".into()],
             option_names: vec!["stop".into(), "slow".into(), "go".into()],
-            expected: (set.0 % 3) as u32,
+            expected: (set.low_bits() % 3) as u32,
         })
     }
 

@@ -262,7 +262,7 @@ mod tests {
 
     #[test]
     fn fixed_axes_spread_sideways() {
-        let mut rng = scene_rng(&[0; 32], ConceptSet(1), 0);
+        let mut rng = scene_rng(&[0; 32], ConceptSet::from_bits(1), 0);
         let fp = Footprint::of(&[part([0.5, 0.5, 1.0], [0.0; 3], 0.0)], 0.0);
         let lane = lane();
         let first = Placed { id: 0, region: 0, x: 3.0, y: 0.0, fp };
@@ -274,7 +274,7 @@ mod tests {
 
     #[test]
     fn ranged_axes_redraw_inside_range() {
-        let mut rng = scene_rng(&[1; 32], ConceptSet(1), 0);
+        let mut rng = scene_rng(&[1; 32], ConceptSet::from_bits(1), 0);
         let fp = Footprint::of(&[part([0.5, 0.5, 1.0], [0.0; 3], 0.0)], 0.0);
         let lane = lane();
         let first = Placed { id: 0, region: 0, x: 3.0, y: 0.0, fp };

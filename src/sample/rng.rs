@@ -22,7 +22,7 @@ pub(crate) fn domain_digest(domain: &Domain) -> [u8; 32] {
 
 /// The scene stream of `(domain, set, seed)`.
 pub(crate) fn scene_rng(domain_digest: &[u8; 32], set: ConceptSet, seed: u64) -> ChaCha8Rng {
-    let input = [&b"revelio.sample.v1"[..], domain_digest, &set.0.to_le_bytes(), &seed.to_le_bytes()].concat();
+    let input = [&b"revelio.sample.v1"[..], domain_digest, &set.hash_bytes(), &seed.to_le_bytes()].concat();
     ChaCha8Rng::from_seed(crate::hash::sha256(&input))
 }
 
@@ -52,15 +52,21 @@ mod tests {
     #[test]
     fn stream_is_fixed_for_inputs() {
         let d = [7u8; 32];
-        let a: Vec<u64> = (0..4).map(|_| scene_rng(&d, ConceptSet(5), 9).next_u64()).collect();
+        let a: Vec<u64> = (0..4).map(|_| scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64()).collect();
         assert!(a.windows(2).all(|w| w[0] == w[1]));
-        assert_ne!(scene_rng(&d, ConceptSet(5), 9).next_u64(), scene_rng(&d, ConceptSet(5), 10).next_u64());
-        assert_ne!(scene_rng(&d, ConceptSet(5), 9).next_u64(), scene_rng(&d, ConceptSet(4), 9).next_u64());
+        assert_ne!(
+            scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(),
+            scene_rng(&d, ConceptSet::from_bits(5), 10).next_u64()
+        );
+        assert_ne!(
+            scene_rng(&d, ConceptSet::from_bits(5), 9).next_u64(),
+            scene_rng(&d, ConceptSet::from_bits(4), 9).next_u64()
+        );
     }
 
     #[test]
     fn uniform_stays_in_range() {
-        let mut r = scene_rng(&[0; 32], ConceptSet(1), 1);
+        let mut r = scene_rng(&[0; 32], ConceptSet::from_bits(1), 1);
         for _ in 0..10_000 {
             let x = uniform(&mut r, 2.0, 4.0);
             assert!((2.0..=4.0).contains(&x));

@@ -62,7 +62,7 @@ mod tests {
     use crate::outcome::Outcome;
 
     fn st(bits: u128, wrong: u32, n: u32) -> SetStats {
-        let mut s = SetStats::new(ConceptSet(bits));
+        let mut s = SetStats::new(ConceptSet::from_bits(bits));
         (0..n).for_each(|i| s.add(if i < wrong { Outcome::Wrong } else { Outcome::Correct }));
         s
     }
@@ -71,9 +71,9 @@ mod tests {
     fn selection_trades_failure_rate_for_diversity() {
         let c = [st(0b0011, 5, 5), st(0b0101, 5, 5), st(0b1100, 4, 5), st(0b1000_0001, 3, 5)];
         // λ = 0: pure failure rate, ties to the earlier candidate.
-        assert_eq!(select(&c, 2, 0.0), vec![ConceptSet(0b0011), ConceptSet(0b0101)]);
+        assert_eq!(select(&c, 2, 0.0), vec![ConceptSet::from_bits(0b0011), ConceptSet::from_bits(0b0101)]);
         // λ = 1: {0,2} shares one of three concepts with {0,1} (penalty 1/3), {2,3} none.
-        assert_eq!(select(&c, 2, 1.0), vec![ConceptSet(0b0011), ConceptSet(0b1100)]);
+        assert_eq!(select(&c, 2, 1.0), vec![ConceptSet::from_bits(0b0011), ConceptSet::from_bits(0b1100)]);
         assert_eq!(select(&c, 9, 0.5).len(), 4);
     }
 }

@@ -659,10 +659,10 @@ mod tests {
         assert!(close(gp.log_marginal_likelihood(), direct.lml, 1e-9));
         assert!(close(gp.predict(ConceptSet::EMPTY).0, direct.predict(ConceptSet::EMPTY).0, 1e-9));
         // One observation, the widest domain.
-        let gp = Gp::fit(&[set(&[0, 127])], &[1.0], MAX_CONCEPTS).unwrap();
-        let (mean, var) = gp.predict(set(&[127]));
+        let gp = Gp::fit(&[set(&[0, 511])], &[1.0], MAX_CONCEPTS).unwrap();
+        let (mean, var) = gp.predict(set(&[511]));
         assert!(mean.is_finite() && var > 0.0);
-        assert!(gp.draw(&mut ChaCha8Rng::seed_from_u64(1)).score(set(&[0, 127])).is_finite());
+        assert!(gp.draw(&mut ChaCha8Rng::seed_from_u64(1)).score(set(&[0, 511])).is_finite());
     }
 
     #[test]
@@ -674,7 +674,8 @@ mod tests {
         assert_eq!(err.to_string(), "failure rate `NaN` of observation 1 is not a finite number");
         let err = Gp::fit(&x, &[0.5, 0.1], 1).unwrap_err();
         assert_eq!(err.to_string(), "concept set of observation 1 contains concept 1, but only `1` concepts exist");
-        assert_eq!(Gp::fit(&x, &[0.5, 0.1], 129).unwrap_err(), GpError::TooManyConcepts { d: 129 });
+        let past = MAX_CONCEPTS + 1;
+        assert_eq!(Gp::fit(&x, &[0.5, 0.1], past).unwrap_err(), GpError::TooManyConcepts { d: past });
         let err = Gp::with_params(&x, &[0.5, 0.1], 3, 1.0, -1.0).unwrap_err();
         assert_eq!(err.to_string(), "hyperparameter `noise_level` must be a positive finite number, got `-1`");
         assert_eq!(Gp::fit(&x, &[1e300, 1e300], 3).unwrap_err(), GpError::Overflow);

@@ -30,7 +30,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rand::{Rng, RngExt};
 
 use super::gp::{ALPHA, BOUNDS, GpError, StandardNormals, check_data, maximise};
-use crate::ir::ConceptSet;
+use crate::ir::{ConceptId, ConceptSet};
 
 /// The largest set an exact draw can score (it sums over the set's 2^|S| subsets) and a fit
 /// accepts.
@@ -54,10 +54,10 @@ pub struct RbfGp {
 
 /// |S △ S'|, the squared distance of the multi-hot vectors.
 fn distance(a: ConceptSet, b: ConceptSet) -> usize {
-    (a.0 ^ b.0).count_ones() as usize
+    a.symmetric_difference(b).len()
 }
 
-/// exp(−v/(2ℓ²)) for v = 0..=128.
+/// exp(−v/(2ℓ²)) for v = 0..=MAX_CONCEPTS.
 fn decay(length_scale: f64) -> Vec<f64> {
     let scale = 2.0 * length_scale * length_scale;
     (0..=crate::ir::MAX_CONCEPTS).map(|v| (-(v as f64) / scale).exp()).collect()
@@ -220,13 +220,16 @@ impl Prior {
         let coef = &self.coef[set.len()];
         // Every submask T of the set, the set itself first, the empty set last.
         let mut sum = 0.0;
-        let mut t = set.0;
+        let ids: Vec<ConceptId> = set.iter().collect();
+        let full = (1u64 << ids.len()) - 1;
+        let mut t = full;
         loop {
-            sum += coef[t.count_ones() as usize] * normal(self.key, t);
+            let sub = ConceptSet::from_ids(ids.iter().enumerate().filter(|(i, _)| t >> i & 1 == 1).map(|(_, c)| *c));
+            sum += coef[t.count_ones() as usize] * normal(self.key, sub);
             if t == 0 {
                 return sum;
             }
-            t = (t - 1) & set.0;
+            t = (t - 1) & full;
         }
     }
 }
@@ -240,8 +243,13 @@ fn mix(mut z: u64) -> u64 {
 }
 
 /// The standard normal z_T of the draw `key` (Box–Muller on two hashed uniforms).
-fn normal(key: u64, t: u128) -> f64 {
-    let h = mix(mix(key ^ t as u64) ^ (t >> 64) as u64);
+fn normal(key: u64, set: ConceptSet) -> f64 {
+    let t = set.low_bits();
+    let mut h = mix(mix(key ^ t as u64) ^ (t >> 64) as u64);
+    if !set.fits_128() {
+        // Wider sets mix in every word; sets of 128 concepts or fewer keep their old draws.
+        h = set.words()[2..].iter().fold(h, |h, w| mix(h ^ w));
+    }
     let (a, b) = (mix(h), mix(h ^ 0x5851_F42D_4C95_7F2D));
     const UNIT: f64 = 1.0 / (1u64 << 53) as f64;
     let u = ((a >> 11) + 1) as f64 * UNIT; // (0, 1]: ln(u) is finite
@@ -360,13 +368,14 @@ mod tests {
 
     #[test]
     fn hashed_normals_are_standard_and_independent() {
-        let z: Vec<f64> = (0..100_000u128).map(|t| normal(7, t << 3 | 1)).collect();
+        let z: Vec<f64> = (0..100_000u128).map(|t| normal(7, ConceptSet::from_bits(t << 3 | 1))).collect();
         let mean = z.iter().sum::<f64>() / z.len() as f64;
         let var = z.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / z.len() as f64;
         let lag: f64 = z.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / (z.len() - 1) as f64;
         assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.02 && lag.abs() < 0.02, "{mean} {var} {lag}");
-        assert_ne!(normal(7, 5), normal(8, 5), "a fresh key is a fresh draw");
-        assert_eq!(normal(7, 5), normal(7, 5));
+        let s = ConceptSet::from_bits(5);
+        assert_ne!(normal(7, s), normal(8, s), "a fresh key is a fresh draw");
+        assert_eq!(normal(7, s), normal(7, s));
     }
 
     #[test]

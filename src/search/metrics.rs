@@ -158,7 +158,7 @@ mod tests {
     use crate::search::interval::mean_sd;
 
     fn stats(bits: u128, outcomes: &[Outcome]) -> SetStats {
-        let mut s = SetStats::new(ConceptSet(bits));
+        let mut s = SetStats::new(ConceptSet::from_bits(bits));
         outcomes.iter().for_each(|o| s.add(*o));
         s
     }
@@ -181,14 +181,17 @@ mod tests {
         assert_eq!(m.unanswered, BTreeMap::from([(Unparsed, 1), (ApiError, 5)]));
         assert_eq!(runs[3].fr(), None);
         assert_eq!(runs[1].fr(), Some(1.0));
-        let order: Vec<u128> = ranked(&runs).iter().map(|s| s.set.0).collect();
+        let order: Vec<u128> = ranked(&runs).iter().map(|s| s.set.low_bits()).collect();
         assert_eq!(order, vec![0b110, 0b011, 0b100]);
     }
 
     #[test]
     fn diversity_needs_two_modes() {
-        assert_eq!(diversity(&[ConceptSet(1)]), None);
-        assert_eq!(diversity(&[ConceptSet(1), ConceptSet(2), ConceptSet(1)]), Some(2.0 / 3.0));
+        assert_eq!(diversity(&[ConceptSet::from_bits(1)]), None);
+        assert_eq!(
+            diversity(&[ConceptSet::from_bits(1), ConceptSet::from_bits(2), ConceptSet::from_bits(1)]),
+            Some(2.0 / 3.0)
+        );
         assert_eq!(mean_sd(&[1.0, 3.0]), (2.0, 2f64.sqrt()));
     }
 }

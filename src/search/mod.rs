@@ -267,7 +267,7 @@ impl Params {
             return bad("batch", "must be at least 1");
         }
         if self.max_size == 0 || self.max_size > crate::ir::MAX_CONCEPTS {
-            return bad("max-size", "must be between 1 and 128");
+            return bad("max-size", "must be between 1 and 512");
         }
         if let Some(max) = self.max_samples.filter(|&m| m < self.samples) {
             return bad("max-samples", &format!("must be at least `--samples` ({}), got {max}", self.samples));

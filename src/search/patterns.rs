@@ -39,7 +39,7 @@
 
 use std::collections::HashMap;
 
-use crate::ir::ConceptSet;
+use crate::ir::{ConceptId, ConceptSet};
 
 use super::{SetStats, Space};
 
@@ -432,18 +432,18 @@ fn sub_count(n: usize, max: usize) -> usize {
 
 /// Calls `f` with every non-empty subset of `set` of at most `max` concepts, smaller first.
 fn for_each_subset(set: ConceptSet, max: usize, mut f: impl FnMut(ConceptSet)) {
-    let bits: Vec<u128> = set.iter().map(|c| 1u128 << c.0).collect();
-    fn go(bits: &[u128], from: usize, left: usize, acc: u128, f: &mut impl FnMut(ConceptSet)) {
+    let bits: Vec<ConceptId> = set.iter().collect();
+    fn go(bits: &[ConceptId], from: usize, left: usize, acc: ConceptSet, f: &mut impl FnMut(ConceptSet)) {
         if left == 0 {
-            f(ConceptSet(acc));
+            f(acc);
             return;
         }
         for i in from..bits.len() {
-            go(bits, i + 1, left - 1, acc | bits[i], f);
+            go(bits, i + 1, left - 1, acc.with(bits[i]), f);
         }
     }
     for k in 1..=max.min(bits.len()) {
-        go(&bits, 0, k, 0, &mut f);
+        go(&bits, 0, k, ConceptSet::EMPTY, &mut f);
     }
 }
 

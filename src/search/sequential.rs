@@ -131,7 +131,7 @@ mod tests {
     use crate::outcome::Outcome;
 
     fn st(wrong: u32, correct: u32, unparsed: u32) -> SetStats {
-        let mut s = SetStats::new(ConceptSet(1));
+        let mut s = SetStats::new(ConceptSet::from_bits(1));
         (0..wrong).for_each(|_| s.add(Outcome::Wrong));
         (0..correct).for_each(|_| s.add(Outcome::Correct));
         (0..unparsed).for_each(|_| s.add(Outcome::Unparsed));

@@ -46,7 +46,7 @@ mod tests {
     #[test]
     fn extensions_respect_validity_and_order() {
         let space = Space::new(crate::ir::testkit::lattice(4, 3), 4);
-        let s = |bits: u128| ConceptSet(bits);
+        let s = |bits: u128| ConceptSet::from_bits(bits);
         assert_eq!(space.extensions(ConceptSet::EMPTY).collect::<Vec<_>>(), vec![s(1), s(2), s(4), s(8)]);
         // Concepts 0 and 1 exclude each other.
         assert_eq!(space.extensions(s(1)).collect::<Vec<_>>(), vec![s(0b101), s(0b1001)]);

@@ -155,15 +155,10 @@ impl Basis {
     /// of a sub-pattern, the features shared by S and S' are exactly those of S ∩ S'.
     fn for_each(&self, set: ConceptSet, mut f: impl FnMut(usize)) {
         f(0);
-        let mut rest = set.0;
-        while rest != 0 {
-            let i = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
+        let mut rest = set.iter().map(|c| c.index());
+        while let Some(i) = rest.next() {
             f(1 + i);
-            let mut later = rest;
-            while later != 0 {
-                let j = later.trailing_zeros() as usize;
-                later &= later - 1;
+            for j in rest.clone() {
                 let p = self.pair[i * self.d + j];
                 if p != NONE {
                     f(p as usize);
@@ -535,16 +530,12 @@ impl Draw {
     /// core. O(|set|²).
     pub fn score_open(&self, set: ConceptSet) -> f64 {
         let mut s = self.bias;
-        let mut rest = set.0;
-        while rest != 0 {
-            let i = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
+        let mut rest = set.iter().map(|c| c.index());
+        while let Some(i) = rest.next() {
             s += self.main[i];
             let row = &self.pair[i * self.d..(i + 1) * self.d];
-            let mut later = rest;
-            while later != 0 {
-                s += row[later.trailing_zeros() as usize];
-                later &= later - 1;
+            for j in rest.clone() {
+                s += row[j];
             }
         }
         s

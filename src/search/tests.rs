@@ -246,8 +246,8 @@ impl Evaluate for SimEval {
                 let mut st = SetStats::new(a.set);
                 for i in a.obs.clone() {
                     let key = self.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                        ^ (a.set.0 as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9)
-                        ^ ((a.set.0 >> 64) as u64)
+                        ^ (a.set.low_bits() as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+                        ^ ((a.set.low_bits() >> 64) as u64)
                         ^ (u64::from(i) << 48);
                     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(key);
                     st.add(if rng.random_bool(self.profile.error_for(a.set)) {
