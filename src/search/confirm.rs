@@ -154,7 +154,7 @@ mod tests {
                     let mut s = SetStats::new(a.set);
                     for i in a.obs.clone() {
                         self.asked.push((a.set, i));
-                        let mut rng = ChaCha8Rng::seed_from_u64(a.set.0 as u64 * 1_000_003 + u64::from(i));
+                        let mut rng = ChaCha8Rng::seed_from_u64(a.set.low_bits() as u64 * 1_000_003 + u64::from(i));
                         s.add(if rng.random::<f64>() < p { Outcome::Wrong } else { Outcome::Correct });
                     }
                     s
@@ -173,7 +173,7 @@ mod tests {
 
     #[test]
     fn strong_candidates_are_confirmed_weak_ones_are_not_and_indices_are_fresh() {
-        let sets: Vec<ConceptSet> = (0..5).map(|i| ConceptSet(1 << i)).collect();
+        let sets: Vec<ConceptSet> = (0..5).map(|i| ConceptSet::from_bits(1 << i)).collect();
         let rates = [0.95, 0.9, 0.05, 0.1, 0.4];
         let mut eval = Rates { rates: sets.iter().copied().zip(rates).collect(), asked: Vec::new() };
         let candidates: Vec<(ConceptSet, u32)> = sets.iter().map(|s| (*s, 20)).collect();
@@ -190,7 +190,7 @@ mod tests {
 
     #[test]
     fn the_budget_bounds_the_spend() {
-        let sets: Vec<ConceptSet> = (0..6).map(|i| ConceptSet(1 << i)).collect();
+        let sets: Vec<ConceptSet> = (0..6).map(|i| ConceptSet::from_bits(1 << i)).collect();
         let mut eval = Rates { rates: sets.iter().map(|s| (*s, 0.55)).collect(), asked: Vec::new() };
         let candidates: Vec<(ConceptSet, u32)> = sets.iter().map(|s| (*s, 0)).collect();
         let (checked, spent) = block_on(confirm(&mut eval, &candidates, plan(37))).unwrap();
