@@ -9,12 +9,12 @@
 //! share of them), 2 a usage error (a bad flag value, an unknown model or renderer spec), 130
 //! interrupted by Ctrl-C after journaling the calls in flight.
 
+pub mod campaign;
 #[cfg(test)]
 mod confirm_tests;
 pub mod distinct;
 #[cfg(test)]
 mod distinct_tests;
-pub mod campaign;
 pub mod estimate;
 pub mod eval;
 pub mod observe;

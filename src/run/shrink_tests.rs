@@ -115,7 +115,11 @@ fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
                 "{what}: the shrink phase gets what is left but fresh confirmation's reserve"
             );
             let c = r.summary.confirmation.as_ref().expect("fresh confirmation ran");
-            assert_eq!(c.budget, 200 - r.summary.metrics.inferences - sh.inferences, "{what}: confirmation gets the rest");
+            assert_eq!(
+                c.budget,
+                200 - r.summary.metrics.inferences - sh.inferences,
+                "{what}: confirmation gets the rest"
+            );
             assert_eq!(r.summary.budget, Some(200));
         }
     }
