@@ -71,7 +71,7 @@ fn cell_args(args: &CampaignArgs, campaign: &Campaign, cell: &Cell) -> Result<su
         argv.push("--allow-http".into());
     }
     match super::Cli::try_parse_from(&argv) {
-        Ok(super::Cli { command: super::Command::Search(a) }) => Ok(a),
+        Ok(super::Cli { command: super::Command::Search(a) }) => Ok(*a),
         Ok(_) => unreachable!("the argument list starts with `search`"),
         Err(e) => Err(format!("cell `{}`: {}", cell.name, e.to_string().lines().next().unwrap_or_default())),
     }

@@ -55,7 +55,7 @@ pub enum Command {
     /// Emit one sampled scene of a concept set: a Scenic program, an image prompt, or JSON
     Emit(emit::EmitArgs),
     /// Search a domain for failure modes of a model (resumable run folder)
-    Search(search::SearchArgs),
+    Search(Box<search::SearchArgs>),
     /// Re-evaluate a search run's top concept sets with fresh scenes
     Validate(validate::ValidateArgs),
     /// Benchmarks: `bench search` compares the search algorithms against a sim profile
@@ -98,7 +98,7 @@ pub fn main() -> ExitCode {
         Command::Lattice(args) => lattice::run(args),
         Command::Oracle(args) => oracle::run(args),
         Command::Emit(a) => emit::run(a),
-        Command::Search(a) => search::run(a),
+        Command::Search(a) => search::run(*a),
         Command::Validate(a) => validate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Ask(a) => ask::run(a),
