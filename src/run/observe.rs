@@ -46,6 +46,10 @@ use crate::vlm::{Model, Query, Reply, Truth};
 use super::distinct::Shown;
 use super::render_pool::RenderPool;
 
+/// The code for an entity a concept places that draws nothing, so that no renderer figure can
+/// say whether it is seen; `allow R0108` (with a reason) accepts it, in the guard too.
+pub const UNDRAWN: &str = "R0108";
+
 /// How many times a scene with an invisible entity is sampled again before the observation is
 /// recorded as `invisible`.
 pub const RESAMPLES: u32 = 5;
@@ -462,7 +466,7 @@ pub fn scene_key(image_hash: &str, seed: u64) -> u64 {
 /// with their figures (`None`: all visible). An entity with nothing drawn (no part in its look)
 /// cannot be measured: it is named as such, unless the domain accepts it with `allow R0108`.
 pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Option<String> {
-    let accept_undrawn = domain.allow.iter().any(|a| a.code == super::visible::UNDRAWN);
+    let accept_undrawn = domain.allow.iter().any(|a| a.code == UNDRAWN);
     let hidden: Vec<String> = scene
         .entities
         .iter()

@@ -16,9 +16,7 @@ use super::observe::unseen;
 
 /// The lint code.
 pub const CODE: &str = "R0107";
-/// The code for an entity a concept places that draws nothing, so that no renderer figure can
-/// say whether it is seen; `allow R0108` (with a reason) accepts it, in the guard too.
-pub const UNDRAWN: &str = "R0108";
+pub use super::observe::UNDRAWN;
 
 /// A set is reported when at least this share of its scenes hides an entity.
 pub const MAX_SHARE: f64 = 0.1;
