@@ -57,7 +57,7 @@ fn sharded_campaign_equals_unsharded() {
 
     let dry = campaign(&f1, &["--dry-run"]);
     assert_eq!(dry.0, 0, "{}", dry.2);
-    assert!(dry.1.contains("total: at most 200 calls"), "8 cells × (20 + 5 shrink): {}", dry.1);
+    assert!(dry.1.contains("total: at most 160 calls"), "8 cells × budget 20, every phase included: {}", dry.1);
     assert!(!one.exists(), "a dry run writes nothing");
 
     let all = campaign(&f1, &[]);

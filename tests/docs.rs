@@ -76,13 +76,13 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "against the mock server; 1000 rendered inferences",
     ),
     (
-        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --batch 6 --shrink 0",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --batch 6 --shrink 0 --budget 64",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0 --budget 64",
         "1000 inferences of 1 s each",
     ),
     // docs/models.md
@@ -98,7 +98,7 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "five rendered scenes per singleton and pair take minutes",
     ),
     (
-        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1000 --shrink 250",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "4 algorithms × 3 seeds × 1250 inferences",
     ),
@@ -143,8 +143,8 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "1250 rendered inferences (and the first search's run folder)",
     ),
     (
-        "revelio validate runs/driving-gpts-s0 --top 10 --samples 20",
-        "revelio validate runs/driving-gpts-s0 --top 3 --samples 4",
+        "revelio validate runs/driving-sim-driving_paper-gpts-s0 --top 10 --samples 20",
+        "revelio validate runs/driving-sim-driving_paper-gpts-s0 --top 3 --samples 4",
         "200 rendered inferences",
     ),
     (
@@ -153,22 +153,22 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "8 searches × 5 seeds × 1000 inferences",
     ),
     (
-        "revelio bench search --profile examples/sim/P.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --profile examples/sim/driving_fog.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any profile; 4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
-        "revelio bench search --domain domains/indoor.rev --profile examples/sim/P.toml --seeds 10 --shrink 250",
+        "revelio bench search --domain domains/indoor.rev --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --domain domains/indoor.rev --profile examples/sim/indoor_stress.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any indoor profile; 4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
-        "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 10 --shrink 250",
+        "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
-        "revelio bench search --profile examples/sim/driving_robust.toml --seeds 10 --shrink 250",
+        "revelio bench search --profile examples/sim/driving_robust.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --profile examples/sim/driving_robust.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "4 algorithms × 10 seeds × 1250 inferences",
     ),
@@ -234,8 +234,36 @@ const NOT_RUN: &[(&str, &str)] = &[
         "a step of the tutorial: its `delivery.rev` is the page's partial file, not a shipped one",
     ),
     (
-        "revelio check domains/delivery.rev --render 1 --format plain",
-        "a step of the tutorial: its output is of the shipped file with `visible` thresholds raised to show the lint",
+        "revelio check domains/delivery.rev --render 5",
+        "the shipped domain's render lint at five scenes a set takes minutes; tests/render.rs runs it on every shipped domain",
+    ),
+    (
+        "revelio bench search --renderer none|builtin",
+        "a synopsis of one flag; the benches it describes are shown in full and run",
+    ),
+    (
+        "revelio bench search --profile examples/sim/PROFILE.toml --domain domains/DOMAIN.rev --seeds 3 --budget 1000 --shrink 250 --algos interact",
+        "a template over the graded and clean profiles; each profile's bench is shown and run reduced on its own",
+    ),
+    (
+        "revelio search domains/driving.rev --model openai:gpt-4.1-mini --algo random --batch-api",
+        "a provider's batch endpoint: tests/batch.rs runs --batch-api against mocks of all three batch APIs",
+    ),
+    (
+        "revelio validate runs/driving-random-s0 --batch-api",
+        "a provider's batch endpoint on the run above: tests/batch.rs runs it against the mocks",
+    ),
+    (
+        "revelio probe runs/driving-random-s0 --batch-api",
+        "a provider's batch endpoint on the run above: tests/batch.rs runs it against the mocks",
+    ),
+    (
+        "revelio transfer runs/driving-random-s0 --model anthropic:claude-sonnet-4-6 --batch-api",
+        "a provider's batch endpoint on the run above: tests/batch.rs runs it against the mocks",
+    ),
+    (
+        "revelio campaign grid.toml --shard ${SLURM_ARRAY_TASK_ID}/8 --max-cost 5",
+        "runs inside a Slurm job array (the shell fills the shard); tests/campaign.rs runs shards and merges them",
     ),
     (
         "revelio bench search … --sweep PARAM=v1,v2,… [--plot FILE]",
