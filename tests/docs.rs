@@ -234,10 +234,6 @@ const NOT_RUN: &[(&str, &str)] = &[
         "a step of the tutorial: its `delivery.rev` is the page's partial file, not a shipped one",
     ),
     (
-        "revelio check domains/delivery.rev --render 5",
-        "the shipped domain's render lint at five scenes a set takes minutes; tests/render.rs runs it on every shipped domain",
-    ),
-    (
         "revelio bench search --renderer none|builtin",
         "a synopsis of one flag; the benches it describes are shown in full and run",
     ),
