@@ -153,7 +153,8 @@ fn bench_sweep_writes_its_table_and_plot_and_refuses_what_it_cannot_sweep() {
     assert!(rows[0].trim_start().starts_with("dot") && rows[1].trim_start().starts_with("rbf"), "{table}");
     // Div needs two failure modes in a run; with fewer it is `-` (undefined), not a number.
     assert!(
-        rows.iter().all(|r| r.matches(" ± ").count() == 3 || (r.matches(" ± ").count() == 2 && r.trim_end().ends_with('-'))),
+        rows.iter()
+            .all(|r| r.matches(" ± ").count() == 3 || (r.matches(" ± ").count() == 2 && r.trim_end().ends_with('-'))),
         "PFM, MFR and Div with their sd:\n{table}"
     );
     assert!(table.ends_with(&format!("plot: {}\n", plot.display())));
