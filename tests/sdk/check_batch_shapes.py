@@ -9,11 +9,8 @@ Anthropic and Gemini create bodies. `served`: status replies, file objects and r
 Prints one line per problem and exits 1 when there is any.
 """
 
-import json
-import sys
 import typing
 
-import pydantic
 from anthropic.types import Message, message_create_params
 from anthropic.types.messages import MessageBatch, MessageBatchIndividualResponse, batch_create_params
 from google.genai import batches as gbatches
@@ -23,26 +20,7 @@ from openai.types import Batch, BatchError, FileObject, batch_create_params as o
 from openai.types import file_create_params
 from openai.types.chat import ChatCompletion, completion_create_params
 
-problems = []
-
-
-def typed_dict(kind, td, body, where):
-    """A request body against a TypedDict: known keys only, each of the right type."""
-    known = set(typing.get_type_hints(td))
-    for key in body:
-        if key not in known:
-            problems.append(f"{where}: `{key}` is not a {kind} field")
-    try:
-        pydantic.TypeAdapter(td).validate_python(body)
-    except pydantic.ValidationError as e:
-        problems.append(f"{where}: {e}")
-
-
-def model(cls, value, where):
-    try:
-        return cls.model_validate(value)
-    except pydantic.ValidationError as e:
-        problems.append(f"{where}: {e}")
+from shapes import finish, gemini_request, model, problems, read_input, typed_dict
 
 
 def literal_values(td, field):
@@ -52,7 +30,7 @@ def literal_values(td, field):
     return typing.get_args(hint)
 
 
-data = json.load(sys.stdin)
+data = read_input()
 
 # OpenAI Batch: the uploaded JSONL (purpose `batch`), its lines, the create params, the replies.
 o = data["openai"]
@@ -134,12 +112,7 @@ for i, body in enumerate(g["sent"]):
         w = f"{where} request {j}"
         if set(item) - {"request", "metadata"}:
             problems.append(f"{w}: unexpected fields {sorted(set(item) - {'request', 'metadata'})}")
-        for key in item["request"]:
-            if key not in ("contents", "generationConfig"):
-                problems.append(f"{w}: unexpected request field `{key}`")
-        for c in item["request"]["contents"]:
-            model(gtypes.Content, c, w)
-        model(gtypes.GenerationConfig, item["request"].get("generationConfig", {}), w)
+        gemini_request(item["request"], w, "request field")
 for i, v in enumerate(g["served"]):
     where = f"gemini served {i}"
     job = model(gtypes.BatchJob, gbatches._BatchJob_from_mldev(v), where)
@@ -153,6 +126,4 @@ for i, v in enumerate(g["served"]):
     if v["metadata"].get("output") and not (job.dest and job.dest.inlined_responses):
         problems.append(f"{where}: the SDK finds no inline responses in the output")
 
-for p in problems:
-    print(p)
-sys.exit(1 if problems else 0)
+finish()
