@@ -7,20 +7,21 @@ use revelio::search::gp::{BOUNDS, Gp};
 use revelio::search::gp_rbf::RbfGp;
 use serde::Deserialize;
 
+/// The datasets of a fixture, with scikit-learn's GP of one kernel (`R`) on each.
 #[derive(Deserialize)]
-struct Fixture {
-    datasets: Vec<Dataset>,
+struct Fixture<R> {
+    datasets: Vec<Dataset<R>>,
 }
 
 #[derive(Deserialize)]
-struct Dataset {
+struct Dataset<R> {
     name: String,
     d: usize,
     x: Vec<Vec<u32>>,
     y: Vec<f64>,
     test_x: Vec<Vec<u32>>,
-    fitted: Reference,
-    fixed: Vec<Reference>,
+    fitted: R,
+    fixed: Vec<R>,
 }
 
 /// scikit-learn's GP at one θ; `var` is its predicted std², which includes `noise_level`.
@@ -35,7 +36,7 @@ struct Reference {
 
 const TOL: f64 = 1e-6;
 
-fn fixture() -> Fixture {
+fn fixture() -> Fixture<Reference> {
     serde_json::from_str(include_str!("gp/fixture.json")).expect("tests/gp/fixture.json parses")
 }
 
@@ -48,11 +49,53 @@ fn assert_close(what: &str, ours: f64, theirs: f64) {
     assert!((ours - theirs).abs() <= TOL * theirs.abs().max(1.0), "{what}: ours {ours}, scikit-learn {theirs}");
 }
 
-fn assert_predictions(case: &str, gp: &Gp, test_x: &[ConceptSet], reference: &Reference) {
+/// A GP's predictions at the test sets against scikit-learn's `mean` and `var` there.
+fn assert_predictions(
+    case: &str,
+    predict: impl Fn(ConceptSet) -> (f64, f64),
+    noise_level: f64,
+    test_x: &[ConceptSet],
+    (mean_ref, var_ref): (&[f64], &[f64]),
+) {
     for (i, &set) in test_x.iter().enumerate() {
-        let (mean, var) = gp.predict(set);
-        assert_close(&format!("{case}: mean at test set {i}"), mean, reference.mean[i]);
-        assert_close(&format!("{case}: variance at test set {i}"), var + gp.noise_level(), reference.var[i]);
+        let (mean, var) = predict(set);
+        assert_close(&format!("{case}: mean at test set {i}"), mean, mean_ref[i]);
+        assert_close(&format!("{case}: variance at test set {i}"), var + noise_level, var_ref[i]);
+    }
+}
+
+fn assert_gp_predictions(case: &str, gp: &Gp, test_x: &[ConceptSet], r: &Reference) {
+    assert_predictions(case, |s| gp.predict(s), gp.noise_level(), test_x, (&r.mean, &r.var));
+}
+
+/// Our fitted optimum against scikit-learn's (see `fitted_optimum_is_at_least_as_good_as_scikit_learns`):
+/// `best` is our LML at our θ `ours`, `lml_at` our LML at any θ, `theirs` and `their_lml`
+/// scikit-learn's θ and LML.
+fn assert_optimum(
+    name: &str,
+    best: f64,
+    ours: [f64; 2],
+    theirs: [f64; 2],
+    their_lml: f64,
+    lml_at: impl Fn(f64, f64) -> f64,
+) {
+    assert!(best >= their_lml - TOL, "{name}: lml {best} < scikit-learn's {their_lml}");
+    let flat = 1e-5 * best.abs().max(1.0);
+    assert!(
+        best - lml_at(theirs[0], theirs[1]) <= flat,
+        "{name}: scikit-learn's θ {theirs:?} is far from our optimum {ours:?}"
+    );
+    for i in 0..2 {
+        let mut mixed = ours;
+        mixed[i] = theirs[i];
+        let agree = (ours[i].ln() - theirs[i].ln()).abs() <= 1e-3;
+        assert!(
+            agree || best - lml_at(mixed[0], mixed[1]) <= flat,
+            "{name}: hyperparameter {i}: {ours:?} vs {theirs:?}"
+        );
+    }
+    for v in ours {
+        assert!((BOUNDS.0..=BOUNDS.1).contains(&v), "{name}: {ours:?} outside the bounds");
     }
 }
 
@@ -64,7 +107,7 @@ fn fixed_hyperparameters_match_scikit_learn() {
             let case = format!("{} at sigma0={} noise={}", ds.name, r.sigma0, r.noise_level);
             let gp = Gp::with_params(&x, &ds.y, ds.d, r.sigma0, r.noise_level).unwrap();
             assert_close(&format!("{case}: lml"), gp.log_marginal_likelihood(), r.lml);
-            assert_predictions(&case, &gp, &test_x, r);
+            assert_gp_predictions(&case, &gp, &test_x, r);
         }
     }
 }
@@ -75,7 +118,7 @@ fn predictions_at_scikit_learns_optimum_match() {
         let r = &ds.fitted;
         let gp = Gp::with_params(&sets(&ds.x), &ds.y, ds.d, r.sigma0, r.noise_level).unwrap();
         assert_close(&format!("{}: lml", ds.name), gp.log_marginal_likelihood(), r.lml);
-        assert_predictions(&ds.name, &gp, &sets(&ds.test_x), r);
+        assert_gp_predictions(&ds.name, &gp, &sets(&ds.test_x), r);
     }
 }
 
@@ -101,46 +144,13 @@ fn fitted_optimum_is_at_least_as_good_as_scikit_learns() {
             r.lml,
             lml_at(theirs[0], theirs[1])
         );
-        assert!(best >= r.lml - TOL, "{name}: lml {best} < scikit-learn's {}", r.lml);
-        let flat = 1e-5 * best.abs().max(1.0);
-        assert!(
-            best - lml_at(theirs[0], theirs[1]) <= flat,
-            "{name}: scikit-learn's θ {theirs:?} is far from our optimum {ours:?}"
-        );
-        for i in 0..2 {
-            let mut mixed = ours;
-            mixed[i] = theirs[i];
-            let agree = (ours[i].ln() - theirs[i].ln()).abs() <= 1e-3;
-            assert!(
-                agree || best - lml_at(mixed[0], mixed[1]) <= flat,
-                "{name}: hyperparameter {i}: {ours:?} vs {theirs:?}"
-            );
-        }
-        for v in ours {
-            assert!((BOUNDS.0..=BOUNDS.1).contains(&v), "{name}: {ours:?} outside the bounds");
-        }
+        assert_optimum(name, best, ours, theirs, r.lml, lml_at);
     }
 }
 
 // The kernel ablation's RBF + White GP against scikit-learn's `GaussianProcessRegressor(RBF() +
 // WhiteKernel())` on the same datasets (`tests/gp/rbf_fixture.json`, made by
 // `tests/gp/make_fixture.py rbf`).
-
-#[derive(Deserialize)]
-struct RbfFixture {
-    datasets: Vec<RbfDataset>,
-}
-
-#[derive(Deserialize)]
-struct RbfDataset {
-    name: String,
-    d: usize,
-    x: Vec<Vec<u32>>,
-    y: Vec<f64>,
-    test_x: Vec<Vec<u32>>,
-    fitted: RbfReference,
-    fixed: Vec<RbfReference>,
-}
 
 #[derive(Deserialize)]
 struct RbfReference {
@@ -151,16 +161,12 @@ struct RbfReference {
     var: Vec<f64>,
 }
 
-fn rbf_fixture() -> RbfFixture {
+fn rbf_fixture() -> Fixture<RbfReference> {
     serde_json::from_str(include_str!("gp/rbf_fixture.json")).expect("tests/gp/rbf_fixture.json parses")
 }
 
-fn assert_rbf_predictions(case: &str, gp: &RbfGp, test_x: &[ConceptSet], reference: &RbfReference) {
-    for (i, &set) in test_x.iter().enumerate() {
-        let (mean, var) = gp.predict(set);
-        assert_close(&format!("{case}: mean at test set {i}"), mean, reference.mean[i]);
-        assert_close(&format!("{case}: variance at test set {i}"), var + gp.noise_level(), reference.var[i]);
-    }
+fn assert_rbf_predictions(case: &str, gp: &RbfGp, test_x: &[ConceptSet], r: &RbfReference) {
+    assert_predictions(case, |s| gp.predict(s), gp.noise_level(), test_x, (&r.mean, &r.var));
 }
 
 #[test]
@@ -188,23 +194,6 @@ fn rbf_fitted_optimum_is_at_least_as_good_as_scikit_learns() {
         let (ours, theirs) = ([gp.length_scale(), gp.noise_level()], [r.length_scale, r.noise_level]);
         let best = gp.log_marginal_likelihood();
         println!("rbf {name}: ours θ={ours:?} lml={best}; scikit-learn θ={theirs:?} lml={}", r.lml);
-        assert!(best >= r.lml - TOL, "{name}: lml {best} < scikit-learn's {}", r.lml);
-        let flat = 1e-5 * best.abs().max(1.0);
-        assert!(
-            best - lml_at(theirs[0], theirs[1]) <= flat,
-            "{name}: scikit-learn's θ {theirs:?} is far from ours {ours:?}"
-        );
-        for i in 0..2 {
-            let mut mixed = ours;
-            mixed[i] = theirs[i];
-            let agree = (ours[i].ln() - theirs[i].ln()).abs() <= 1e-3;
-            assert!(
-                agree || best - lml_at(mixed[0], mixed[1]) <= flat,
-                "{name}: hyperparameter {i}: {ours:?} vs {theirs:?}"
-            );
-        }
-        for v in ours {
-            assert!((BOUNDS.0..=BOUNDS.1).contains(&v), "{name}: {ours:?} outside the bounds");
-        }
+        assert_optimum(name, best, ours, theirs, r.lml, lml_at);
     }
 }
