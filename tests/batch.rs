@@ -10,37 +10,23 @@
 mod common;
 
 use std::collections::HashSet;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, Once};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
-use revelio::vlm::{Model, Query, Reply, prompt};
+use revelio::vlm::{Model, Query, Reply};
 use serde_json::{Value, json};
 use wiremock::matchers::{method, path, path_regex};
-use wiremock::{Mock, MockServer, Request, ResponseTemplate};
+use wiremock::{Match, Mock, MockServer, Request, ResponseTemplate};
 
 const KEY: &str = "sk-revelio-BATCH-CANARY-41c2";
 
-#[allow(unsafe_code)]
 fn init_env() {
-    static ENV: Once = Once::new();
-    ENV.call_once(|| {
-        // SAFETY: every test calls this first and `Once` makes the others wait until it is
-        // done, so no thread reads the environment while it is being written.
-        unsafe {
-            for k in ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY"] {
-                std::env::set_var(k, KEY);
-            }
-            for k in ["OPENAI_BASE_URL", "ANTHROPIC_BASE_URL", "GEMINI_BASE_URL"] {
-                std::env::remove_var(k);
-            }
-        }
-    });
+    common::mock_provider_env(KEY, None);
 }
 
 /// A mock provider's batch service: what was submitted, whether its batches have ended, and
@@ -71,6 +57,43 @@ impl Service {
     fn all_keys(&self) -> Vec<String> {
         self.batches.lock().unwrap().iter().flatten().map(|(k, _)| k.clone()).collect()
     }
+
+    /// Records a submitted batch, its requests' `(custom_id, body)`, and what was `sent` for it;
+    /// the batch's index.
+    fn submit(&self, items: Vec<(String, Value)>, sent: Value) -> usize {
+        self.sent.lock().unwrap().push(sent);
+        let mut b = self.batches.lock().unwrap();
+        b.push(items);
+        b.len() - 1
+    }
+
+    /// A results file of JSON `lines`, each recorded as served.
+    fn serve_lines(&self, lines: impl IntoIterator<Item = Value>, content_type: &str) -> ResponseTemplate {
+        let mut out = String::new();
+        for line in lines {
+            out.push_str(&self.serve(line).to_string());
+            out.push('\n');
+        }
+        ResponseTemplate::new(200).set_body_raw(out, content_type)
+    }
+}
+
+/// The `(key, body)` of each request of a batch: the string at the JSON pointer `key` and the
+/// field `body` of each item of `requests`.
+fn items(requests: &[Value], key: &str, body: &str) -> Vec<(String, Value)> {
+    requests.iter().map(|q| (q.pointer(key).unwrap().as_str().unwrap().to_string(), q[body].clone())).collect()
+}
+
+/// Mounts `respond` for `verb` requests matching `route`, with the service it records into.
+async fn on(
+    server: &MockServer,
+    verb: &str,
+    route: impl Match + 'static,
+    svc: &Arc<Service>,
+    respond: impl Fn(&Service, &Request) -> ResponseTemplate + Send + Sync + 'static,
+) {
+    let s = svc.clone();
+    Mock::given(method(verb)).and(route).respond_with(move |r: &Request| respond(&s, r)).mount(server).await;
 }
 
 /// Whether a request body asks about the scene a test wants to fail.
@@ -99,23 +122,8 @@ fn model(spec: &str, base: &str, dir: &Path) -> Arc<dyn Model> {
     build_api_model(spec, &opts).unwrap_or_else(|e| panic!("{spec}: {e}"))
 }
 
-fn png() -> Vec<u8> {
-    let img = image::RgbImage::from_fn(24, 16, |x, y| image::Rgb([(x * 9) as u8, (y * 12) as u8, 90]));
-    let mut out = Vec::new();
-    image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
-    out
-}
-
 fn query(question: &str) -> Query {
-    let options: Vec<String> = vec!["Stop".into(), "Slow down".into(), "Continue".into()];
-    let image = png();
-    Query {
-        image_hash: revelio::hash::sha256_hex(&image),
-        image: Some(Arc::new(image)),
-        prompt: prompt::build(question, &options),
-        options,
-        truth: None,
-    }
+    common::image_query(question, vec!["Stop".into(), "Slow down".into(), "Continue".into()], common::png(24, 16))
 }
 
 /// Ask all `questions` at once, as the evaluator does.
@@ -179,73 +187,63 @@ fn multipart_file(r: &Request) -> (String, String) {
 }
 
 async fn openai_service(server: &MockServer, svc: &Arc<Service>) {
-    let s = svc.clone();
-    Mock::given(method("POST"))
-        .and(path("/v1/files"))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "authorization").as_deref(), Some(format!("Bearer {KEY}").as_str()));
-            let (purpose, file) = multipart_file(r);
-            assert_eq!(purpose, "batch");
-            let lines: Vec<Value> = file.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-            let items = lines.iter().map(|l| (l["custom_id"].as_str().unwrap().to_string(), l["body"].clone())).collect();
-            s.sent.lock().unwrap().push(json!({"purpose": purpose, "lines": lines}));
-            let n = {
-                let mut b = s.batches.lock().unwrap();
-                b.push(items);
-                b.len() - 1
-            };
-            ResponseTemplate::new(200).set_body_json(s.serve(json!({"id": format!("file-in{n}"), "object": "file",
-                "bytes": file.len(), "created_at": 1_760_000_000, "filename": "revelio-batch.jsonl", "purpose": "batch", "status": "processed"})))
-        })
-        .mount(server)
-        .await;
-    let s = svc.clone();
-    Mock::given(method("POST"))
-        .and(path("/v1/batches"))
-        .respond_with(move |r: &Request| {
-            let body: Value = serde_json::from_slice(&r.body).unwrap();
-            s.sent.lock().unwrap().push(json!({"create": body}));
-            let n = body["input_file_id"].as_str().unwrap().trim_start_matches("file-in").to_string();
-            ResponseTemplate::new(200).set_body_json(s.serve(openai_batch(&format!("batch_{n}"), "validating", &s)))
-        })
-        .mount(server)
-        .await;
-    let s = svc.clone();
+    on(server, "POST", path("/v1/files"), svc, move |s, r| {
+        assert_eq!(header(r, "authorization").as_deref(), Some(format!("Bearer {KEY}").as_str()));
+        let (purpose, file) = multipart_file(r);
+        assert_eq!(purpose, "batch");
+        let lines: Vec<Value> = file.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+        let n = s.submit(items(&lines, "/custom_id", "body"), json!({"purpose": purpose, "lines": lines}));
+        ResponseTemplate::new(200).set_body_json(s.serve(json!({"id": format!("file-in{n}"), "object": "file",
+            "bytes": file.len(), "created_at": 1_760_000_000, "filename": "revelio-batch.jsonl", "purpose": "batch", "status": "processed"})))
+    })
+    .await;
+    on(server, "POST", path("/v1/batches"), svc, move |s, r| {
+        let body: Value = serde_json::from_slice(&r.body).unwrap();
+        s.sent.lock().unwrap().push(json!({"create": body}));
+        let n = body["input_file_id"].as_str().unwrap().trim_start_matches("file-in").to_string();
+        ResponseTemplate::new(200).set_body_json(s.serve(openai_batch(&format!("batch_{n}"), "validating", s)))
+    })
+    .await;
+    on(server, "GET", path_regex("^/v1/batches/batch_[0-9]+$"), svc, move |s, r| {
+        s.polls.fetch_add(1, Ordering::SeqCst);
+        let id = r.url.path().rsplit('/').next().unwrap().to_string();
+        let status = if s.ended.load(Ordering::SeqCst) { "completed" } else { "in_progress" };
+        ResponseTemplate::new(200).set_body_json(s.serve(openai_batch(&id, status, s)))
+    })
+    .await;
+    on(server, "GET", path_regex("^/v1/files/file-(out|err)[0-9]+/content$"), svc, move |s, r| {
+        let file = r.url.path().split('/').nth(3).unwrap().to_string();
+        let errors = file.starts_with("file-err");
+        let n: usize = file.trim_start_matches("file-out").trim_start_matches("file-err").parse().unwrap();
+        let keys = s.keys(n);
+        let lines = keys.iter().enumerate().filter_map(|(i, (key, body))| match (failing(body), errors) {
+            (false, false) => Some(json!({"id": format!("batch_req_{i}"), "custom_id": key,
+                "response": {"status_code": 200, "request_id": format!("req_{i}"), "body": openai_completion(body)}, "error": null})),
+            (true, true) => Some(json!({"id": format!("batch_req_{i}"), "custom_id": key,
+                "response": {"status_code": 400, "request_id": format!("req_{i}"),
+                             "body": {"error": {"message": "Invalid image.", "type": "invalid_request_error", "param": null, "code": "invalid_image"}}},
+                "error": null})),
+            _ => None,
+        });
+        s.serve_lines(lines, "application/jsonl")
+    })
+    .await;
+}
+
+/// An OpenAI batch service whose batches have ended, but whose first `looks` at `batch_0` get
+/// `first` instead.
+async fn openai_service_after(server: &MockServer, first: ResponseTemplate, looks: u64) -> Arc<Service> {
     Mock::given(method("GET"))
-        .and(path_regex("^/v1/batches/batch_[0-9]+$"))
-        .respond_with(move |r: &Request| {
-            s.polls.fetch_add(1, Ordering::SeqCst);
-            let id = r.url.path().rsplit('/').next().unwrap().to_string();
-            let status = if s.ended.load(Ordering::SeqCst) { "completed" } else { "in_progress" };
-            ResponseTemplate::new(200).set_body_json(s.serve(openai_batch(&id, status, &s)))
-        })
+        .and(path("/v1/batches/batch_0"))
+        .respond_with(first)
+        .up_to_n_times(looks)
+        .with_priority(1)
         .mount(server)
         .await;
-    let s = svc.clone();
-    Mock::given(method("GET"))
-        .and(path_regex("^/v1/files/file-(out|err)[0-9]+/content$"))
-        .respond_with(move |r: &Request| {
-            let file = r.url.path().split('/').nth(3).unwrap().to_string();
-            let errors = file.starts_with("file-err");
-            let n: usize = file.trim_start_matches("file-out").trim_start_matches("file-err").parse().unwrap();
-            let mut out = String::new();
-            for (i, (key, body)) in s.keys(n).iter().enumerate() {
-                let line = match (failing(body), errors) {
-                    (false, false) => json!({"id": format!("batch_req_{i}"), "custom_id": key,
-                        "response": {"status_code": 200, "request_id": format!("req_{i}"), "body": openai_completion(body)}, "error": null}),
-                    (true, true) => json!({"id": format!("batch_req_{i}"), "custom_id": key,
-                        "response": {"status_code": 400, "request_id": format!("req_{i}"),
-                                     "body": {"error": {"message": "Invalid image.", "type": "invalid_request_error", "param": null, "code": "invalid_image"}}},
-                        "error": null}),
-                    _ => continue,
-                };
-                out.push_str(&s.serve(line).to_string());
-                out.push('\n');
-            }
-            ResponseTemplate::new(200).set_body_raw(out, "application/jsonl")
-        })
-        .mount(server)
-        .await;
+    let svc = Arc::new(Service::default());
+    svc.ended.store(true, Ordering::SeqCst);
+    openai_service(server, &svc).await;
+    svc
 }
 
 /// An OpenAI batch: the answers at half price, one failed request named, every call with the
@@ -304,62 +302,38 @@ fn anthropic_message() -> Value {
 
 /// `results_url`: where the mock's status replies say the results are.
 async fn anthropic_service(server: &MockServer, svc: &Arc<Service>, results_url: Option<String>, id: &'static str) {
-    let s = svc.clone();
-    Mock::given(method("POST"))
-        .and(path("/v1/messages/batches"))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
-            assert_eq!(header(r, "anthropic-version").as_deref(), Some("2023-06-01"));
-            let body: Value = serde_json::from_slice(&r.body).unwrap();
-            let items = body["requests"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|q| (q["custom_id"].as_str().unwrap().to_string(), q["params"].clone()))
-                .collect();
-            s.batches.lock().unwrap().push(items);
-            s.sent.lock().unwrap().push(body);
-            ResponseTemplate::new(200).set_body_json(s.serve(anthropic_batch(id, "in_progress", None)))
-        })
-        .mount(server)
-        .await;
-    let s = svc.clone();
-    Mock::given(method("GET"))
-        .and(path(format!("/v1/messages/batches/{id}")))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
-            s.polls.fetch_add(1, Ordering::SeqCst);
-            let ended = s.ended.load(Ordering::SeqCst);
-            let b = anthropic_batch(
-                id,
-                if ended { "ended" } else { "in_progress" },
-                results_url.as_deref().filter(|_| ended),
-            );
-            ResponseTemplate::new(200).set_body_json(s.serve(b))
-        })
-        .mount(server)
-        .await;
-    let s = svc.clone();
-    Mock::given(method("GET"))
-        .and(path(format!("/v1/messages/batches/{id}/results")))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
-            let mut out = String::new();
-            for (key, body) in s.keys(0) {
-                let result = if failing(&body) {
-                    json!({"type": "errored", "error": {"type": "error", "error": {"type": "invalid_request_error", "message": "Could not process image"}}})
-                } else if body.to_string().contains("LATE") {
-                    json!({"type": "expired"})
-                } else {
-                    json!({"type": "succeeded", "message": anthropic_message()})
-                };
-                out.push_str(&s.serve(json!({"custom_id": key, "result": result})).to_string());
-                out.push('\n');
-            }
-            ResponseTemplate::new(200).set_body_raw(out, "application/binary")
-        })
-        .mount(server)
-        .await;
+    on(server, "POST", path("/v1/messages/batches"), svc, move |s, r| {
+        assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
+        assert_eq!(header(r, "anthropic-version").as_deref(), Some("2023-06-01"));
+        let body: Value = serde_json::from_slice(&r.body).unwrap();
+        s.submit(items(body["requests"].as_array().unwrap(), "/custom_id", "params"), body);
+        ResponseTemplate::new(200).set_body_json(s.serve(anthropic_batch(id, "in_progress", None)))
+    })
+    .await;
+    on(server, "GET", path(format!("/v1/messages/batches/{id}")), svc, move |s, r| {
+        assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
+        s.polls.fetch_add(1, Ordering::SeqCst);
+        let ended = s.ended.load(Ordering::SeqCst);
+        let b =
+            anthropic_batch(id, if ended { "ended" } else { "in_progress" }, results_url.as_deref().filter(|_| ended));
+        ResponseTemplate::new(200).set_body_json(s.serve(b))
+    })
+    .await;
+    on(server, "GET", path(format!("/v1/messages/batches/{id}/results")), svc, move |s, r| {
+        assert_eq!(header(r, "x-api-key").as_deref(), Some(KEY));
+        let lines = s.keys(0).into_iter().map(|(key, body)| {
+            let result = if failing(&body) {
+                json!({"type": "errored", "error": {"type": "error", "error": {"type": "invalid_request_error", "message": "Could not process image"}}})
+            } else if body.to_string().contains("LATE") {
+                json!({"type": "expired"})
+            } else {
+                json!({"type": "succeeded", "message": anthropic_message()})
+            };
+            json!({"custom_id": key, "result": result})
+        });
+        s.serve_lines(lines, "application/binary")
+    })
+    .await;
 }
 
 /// Anthropic: the results come from the configured host even when the batch names another
@@ -467,35 +441,23 @@ async fn gemini_round_trip() -> Arc<Service> {
     init_env();
     let server = MockServer::start().await;
     let svc = Arc::new(Service::default());
-    let s = svc.clone();
-    Mock::given(method("POST"))
-        .and(path("/v1beta/models/gemini-3-flash-preview:batchGenerateContent"))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "x-goog-api-key").as_deref(), Some(KEY));
-            let body: Value = serde_json::from_slice(&r.body).unwrap();
-            let items = body["batch"]["inputConfig"]["requests"]["requests"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|q| (q["metadata"]["key"].as_str().unwrap().to_string(), q["request"].clone()))
-                .collect();
-            s.batches.lock().unwrap().push(items);
-            s.sent.lock().unwrap().push(body);
-            ResponseTemplate::new(200).set_body_json(s.serve(gemini_batch(&s, "BATCH_STATE_PENDING")))
-        })
-        .mount(&server)
-        .await;
-    let s = svc.clone();
-    Mock::given(method("GET"))
-        .and(path("/v1beta/batches/rv123"))
-        .respond_with(move |r: &Request| {
-            assert_eq!(header(r, "x-goog-api-key").as_deref(), Some(KEY));
-            let n = s.polls.fetch_add(1, Ordering::SeqCst);
-            let state = if n == 0 { "BATCH_STATE_RUNNING" } else { "BATCH_STATE_SUCCEEDED" };
-            ResponseTemplate::new(200).set_body_json(s.serve(gemini_batch(&s, state)))
-        })
-        .mount(&server)
-        .await;
+    on(&server, "POST", path("/v1beta/models/gemini-3-flash-preview:batchGenerateContent"), &svc, move |s, r| {
+        assert_eq!(header(r, "x-goog-api-key").as_deref(), Some(KEY));
+        let body: Value = serde_json::from_slice(&r.body).unwrap();
+        s.submit(
+            items(body["batch"]["inputConfig"]["requests"]["requests"].as_array().unwrap(), "/metadata/key", "request"),
+            body,
+        );
+        ResponseTemplate::new(200).set_body_json(s.serve(gemini_batch(s, "BATCH_STATE_PENDING")))
+    })
+    .await;
+    on(&server, "GET", path("/v1beta/batches/rv123"), &svc, move |s, r| {
+        assert_eq!(header(r, "x-goog-api-key").as_deref(), Some(KEY));
+        let n = s.polls.fetch_add(1, Ordering::SeqCst);
+        let state = if n == 0 { "BATCH_STATE_RUNNING" } else { "BATCH_STATE_SUCCEEDED" };
+        ResponseTemplate::new(200).set_body_json(s.serve(gemini_batch(s, state)))
+    })
+    .await;
     let dir = tempfile::tempdir().unwrap();
     let m = model("gemini:gemini-3-flash-preview", &server.uri(), dir.path());
     let replies = ask_all(&m, &["Is the lane clear?", "What now?", "FAIL: what now?"]).await;
@@ -521,6 +483,32 @@ fn revelio(args: &[&str]) -> Command {
     c
 }
 
+/// `revelio search` of the driving domain by `openai:gpt-4.1-mini` at `base`, with `--batch-api`:
+/// `budget` random scenes, two samples each, no shrinking, into `out`.
+fn batch_search(budget: &str, base: &str, out: &Path, cfg: &Path) -> Command {
+    let mut c = revelio(&[
+        "search",
+        "domains/driving.rev",
+        "--model",
+        "openai:gpt-4.1-mini",
+        "--renderer",
+        "none",
+        "--algo",
+        "random",
+        "--budget",
+        budget,
+        "--samples",
+        "2",
+        "--shrink",
+        "0",
+        "--batch-api",
+        "--json",
+        "--no-cache",
+    ]);
+    c.arg("--base-url").arg(base).arg("--model-config").arg(cfg).arg("--out").arg(out);
+    c
+}
+
 /// `revelio search --algo random --batch-api` killed (SIGKILL) while its batch is pending: the
 /// same command looks at the journaled batch and submits none of its requests again.
 #[tokio::test(flavor = "multi_thread")]
@@ -534,29 +522,7 @@ async fn a_killed_batch_run_resumes_its_pending_batch_instead_of_resubmitting() 
     let base = format!("{}/v1", server.uri());
     let cmd = {
         let out = out.clone();
-        move || {
-            let mut c = revelio(&[
-                "search",
-                "domains/driving.rev",
-                "--model",
-                "openai:gpt-4.1-mini",
-                "--renderer",
-                "none",
-                "--algo",
-                "random",
-                "--budget",
-                "8",
-                "--samples",
-                "2",
-                "--shrink",
-                "0",
-                "--batch-api",
-                "--json",
-                "--no-cache",
-            ]);
-            c.arg("--base-url").arg(&base).arg("--model-config").arg(&cfg).arg("--out").arg(&out);
-            c
-        }
+        move || batch_search("8", &base, &out, &cfg)
     };
     let mut first = cmd().stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
     // The evaluator asks for all eight observations at once; they may reach the model in more
@@ -590,18 +556,10 @@ async fn a_killed_batch_run_resumes_its_pending_batch_instead_of_resubmitting() 
 async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again() {
     init_env();
     let server = MockServer::start().await;
-    let svc = Arc::new(Service::default());
-    Mock::given(method("GET"))
-        .and(path("/v1/batches/batch_0"))
-        .respond_with(ResponseTemplate::new(200).set_body_json(json!({"id": "batch_0", "object": "batch",
-            "endpoint": "/v1/chat/completions", "input_file_id": "file-in0", "completion_window": "24h", "status": "expired",
-            "created_at": 1_760_000_000, "request_counts": {"total": 2, "completed": 0, "failed": 0}})))
-        .up_to_n_times(1)
-        .with_priority(1)
-        .mount(&server)
-        .await;
-    svc.ended.store(true, Ordering::SeqCst);
-    openai_service(&server, &svc).await;
+    let first = ResponseTemplate::new(200).set_body_json(json!({"id": "batch_0", "object": "batch",
+        "endpoint": "/v1/chat/completions", "input_file_id": "file-in0", "completion_window": "24h", "status": "expired",
+        "created_at": 1_760_000_000, "request_counts": {"total": 2, "completed": 0, "failed": 0}}));
+    let svc = openai_service_after(&server, first, 1).await;
     let dir = tempfile::tempdir().unwrap();
     let base = format!("{}/v1", server.uri());
     let replies = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?", "b?"]).await;
@@ -628,16 +586,8 @@ async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again
 async fn a_malformed_status_reply_keeps_the_batch_journaled_for_the_next_run() {
     init_env();
     let server = MockServer::start().await;
-    let svc = Arc::new(Service::default());
-    Mock::given(method("GET"))
-        .and(path("/v1/batches/batch_0"))
-        .respond_with(ResponseTemplate::new(200).set_body_string("{\"id\": \"batch_0\", \"status\":"))
-        .up_to_n_times(3)
-        .with_priority(1)
-        .mount(&server)
-        .await;
-    svc.ended.store(true, Ordering::SeqCst);
-    openai_service(&server, &svc).await;
+    let first = ResponseTemplate::new(200).set_body_string("{\"id\": \"batch_0\", \"status\":");
+    let svc = openai_service_after(&server, first, 3).await;
     let dir = tempfile::tempdir().unwrap();
     let base = format!("{}/v1", server.uri());
     let replies = ask_all(&model("openai:gpt-4.1-mini", &base, dir.path()), &["a?"]).await;
@@ -671,29 +621,7 @@ async fn validate_probe_and_transfer_ask_through_batches() {
         c.output().unwrap()
     };
     let out_s = out.to_str().unwrap();
-    let o = run(&[
-        "search",
-        "domains/driving.rev",
-        "--model",
-        "openai:gpt-4.1-mini",
-        "--renderer",
-        "none",
-        "--algo",
-        "random",
-        "--budget",
-        "6",
-        "--samples",
-        "2",
-        "--shrink",
-        "0",
-        "--batch-api",
-        "--json",
-        "--no-cache",
-        "--base-url",
-        &base,
-        "--out",
-        out_s,
-    ]);
+    let o = batch_search("6", &base, &out, &cfg).output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let after_search = svc.all_keys().len();
     assert_eq!(after_search, 6);
@@ -792,8 +720,6 @@ fn batch_api_is_refused_for_adaptive_searches() {
 
 // ---- The official SDKs -----------------------------------------------------------------------
 
-const SDKS: &[&str] = &["openai==3.54.0", "anthropic==2.12.0", "google-genai==3.4.0"];
-
 #[tokio::test(flavor = "multi_thread")]
 async fn batch_requests_and_replies_match_the_official_sdks() {
     let mut data = serde_json::Map::new();
@@ -806,23 +732,6 @@ async fn batch_requests_and_replies_match_the_official_sdks() {
         let served = svc.served.lock().unwrap().clone();
         data.insert(name.into(), json!({"sent": sent, "served": served}));
     }
-    let python = match common::python_venv("sdk-venv", SDKS, "import openai, anthropic, google.genai") {
-        Ok(p) => p,
-        Err(e) => return common::peer_missing("the batch SDK shape check", &e),
-    };
-    let mut child = Command::new(&python)
-        .arg(common::root().join("tests/sdk/check_batch_shapes.py"))
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child.stdin.take().unwrap().write_all(Value::Object(data).to_string().as_bytes()).unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "the SDKs reject Revelio's batch shapes:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let Some(python) = common::sdk_python("the batch SDK shape check") else { return };
+    common::assert_sdks_accept(&python, "check_batch_shapes.py", Value::Object(data), "batch shapes");
 }

@@ -3,7 +3,7 @@
 //! out of replies in each provider's style; a statement a reply leaves out is unanswered, never
 //! guessed.
 
-use std::sync::{Arc, Once};
+use std::sync::Arc;
 
 use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
@@ -13,24 +13,12 @@ use serde_json::{Value, json};
 use wiremock::matchers::{method, path};
 use wiremock::{Mock, MockServer, ResponseTemplate};
 
-#[allow(unsafe_code)]
+mod common;
+
 fn init_env() {
-    static ENV: Once = Once::new();
-    ENV.call_once(|| {
-        // SAFETY: every test calls this first and `Once` makes the others wait until it is
-        // done, so no thread reads the environment while it is being written.
-        unsafe {
-            for k in ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY"] {
-                std::env::set_var(k, "sk-probe-test");
-            }
-            std::env::set_var("AWS_ACCESS_KEY_ID", "AKIDPROBE");
-            std::env::set_var("AWS_SECRET_ACCESS_KEY", "aws-secret-probe");
-            std::env::set_var("AWS_REGION", "us-east-1");
-            for k in ["OPENAI_BASE_URL", "ANTHROPIC_BASE_URL", "GEMINI_BASE_URL", "BEDROCK_BASE_URL"] {
-                std::env::remove_var(k);
-            }
-        }
-    });
+    let aws =
+        common::FakeAws { access_key_id: "AKIDPROBE", secret_access_key: "aws-secret-probe", session_token: None };
+    common::mock_provider_env("sk-probe-test", Some(aws));
 }
 
 fn options() -> Vec<String> {

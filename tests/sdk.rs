@@ -9,53 +9,15 @@
 
 mod common;
 
-use std::io::Write;
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::sync::OnceLock;
-
 use revelio::outcome::Answer;
+use revelio::vlm::Query;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
-use revelio::vlm::{Query, prompt};
 use serde_json::{Value, json};
 use wiremock::{MockServer, ResponseTemplate};
 
-const SDKS: &[&str] = &["openai==3.54.0", "anthropic==2.12.0", "google-genai==3.4.0"];
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A Python with the pinned SDKs, made on first use; `None` (with a note) when that cannot be.
-fn sdk_python() -> Option<PathBuf> {
-    static PYTHON: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let python = PYTHON.get_or_init(|| common::python_venv("sdk-venv", SDKS, "import openai, anthropic, google.genai"));
-    match python {
-        Ok(python) => Some(python.clone()),
-        Err(e) => {
-            common::peer_missing("the SDK shape check", e);
-            None
-        }
-    }
-}
-
-fn png() -> Vec<u8> {
-    let img = image::RgbImage::from_fn(40, 30, |x, y| image::Rgb([(x * 6) as u8, (y * 8) as u8, 120]));
-    let mut out = Vec::new();
-    image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
-    out
-}
-
 fn query() -> Query {
-    let options: Vec<String> = vec!["Stop".into(), "Slow down".into(), "Continue".into()];
-    let image = png();
-    Query {
-        image_hash: revelio::hash::sha256_hex(&image),
-        image: Some(std::sync::Arc::new(image)),
-        prompt: prompt::build("What should the ego vehicle do?", &options),
-        options,
-        truth: None,
-    }
+    let options = vec!["Stop".into(), "Slow down".into(), "Continue".into()];
+    common::image_query("What should the ego vehicle do?", options, common::png(40, 30))
 }
 
 /// Ask `spec` (with model-config `settings`) once against a server answering `reply`; the body
@@ -207,20 +169,6 @@ async fn requests_and_replies_match_the_official_sdks() {
     }
     data.insert("gemini_blocking".into(), json!(revelio::vlm::gemini::BLOCKING));
 
-    let Some(python) = sdk_python() else { return };
-    let mut child = Command::new(&python)
-        .arg(repo().join("tests/sdk/check_shapes.py"))
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child.stdin.take().unwrap().write_all(Value::Object(data).to_string().as_bytes()).unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "the SDKs reject Revelio's shapes:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let Some(python) = common::sdk_python("the SDK shape check") else { return };
+    common::assert_sdks_accept(&python, "check_shapes.py", Value::Object(data), "shapes");
 }

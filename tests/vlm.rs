@@ -3,56 +3,30 @@
 //! cache, and that API keys never leak.
 
 use std::collections::{HashMap, VecDeque};
-use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, Once};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use base64::Engine;
 use revelio::outcome::Answer;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
-use revelio::vlm::{Model, Query, prompt};
+use revelio::vlm::{Model, Query};
 use serde_json::{Value, json};
 use wiremock::matchers::{method, path};
 use wiremock::{Mock, MockServer, Request, Respond, ResponseTemplate};
 
 mod common;
-use common::walk;
+use common::{FakeAws, png, walk};
 
 /// Distinctive fake credentials, grepped for in every output.
 const KEY: &str = "sk-revelio-CANARY-5e1f0c9d";
 const AWS_SECRET: &str = "aws-secret-CANARY-77ab19";
 const AWS_TOKEN: &str = "aws-token-CANARY-c0ffee";
 
-#[allow(unsafe_code)]
 fn init_env() {
-    static ENV: Once = Once::new();
-    ENV.call_once(|| {
-        // SAFETY: every test calls this first and `Once` makes the others wait until it is
-        // done, so no thread reads the environment while it is being written.
-        unsafe {
-            for k in ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY"] {
-                std::env::set_var(k, KEY);
-            }
-            std::env::set_var("AWS_ACCESS_KEY_ID", "AKIDCANARY");
-            std::env::set_var("AWS_SECRET_ACCESS_KEY", AWS_SECRET);
-            std::env::set_var("AWS_SESSION_TOKEN", AWS_TOKEN);
-            std::env::set_var("AWS_REGION", "us-east-1");
-            for k in
-                ["OPENAI_BASE_URL", "ANTHROPIC_BASE_URL", "GEMINI_BASE_URL", "BEDROCK_BASE_URL", "AWS_DEFAULT_REGION"]
-            {
-                std::env::remove_var(k);
-            }
-        }
-    });
-}
-
-fn png(w: u32, h: u32) -> Vec<u8> {
-    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb([(x * 5) as u8, (y * 3) as u8, 90]));
-    let mut out = Vec::new();
-    image::DynamicImage::ImageRgb8(img).write_to(&mut Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
-    out
+    let aws = FakeAws { access_key_id: "AKIDCANARY", secret_access_key: AWS_SECRET, session_token: Some(AWS_TOKEN) };
+    common::mock_provider_env(KEY, Some(aws));
 }
 
 fn options() -> Vec<String> {
@@ -61,14 +35,7 @@ fn options() -> Vec<String> {
 
 /// A query whose prompt carries `tag`, so mock responders can tell queries apart.
 fn query(tag: &str) -> Query {
-    let image = png(64, 48);
-    Query {
-        image_hash: revelio::hash::sha256_hex(&image),
-        image: Some(Arc::new(image)),
-        prompt: prompt::build(&format!("tag:{tag}; What should the ego vehicle do?"), &options()),
-        options: options(),
-        truth: None,
-    }
+    common::image_query(&format!("tag:{tag}; What should the ego vehicle do?"), options(), png(64, 48))
 }
 
 /// A model config with fast retries and known prices; `extra` lines go to the model's own table.

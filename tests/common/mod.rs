@@ -1,8 +1,10 @@
-//! What several integration tests share: the checkout's root and walks over its files. Each
-//! test binary uses a part of it.
+//! What several integration tests share: the checkout's root and walks over its files, the
+//! environment of the tests that talk to mock providers, and the Python of the SDK shape checks.
+//! Each test binary uses a part of it.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
+use std::sync::{Once, OnceLock};
 
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -123,4 +125,102 @@ pub fn peers_required() -> bool {
 pub fn peer_missing(test: &str, reason: &str) {
     assert!(!peers_required(), "{test}: {reason} (REVELIO_REQUIRE_PEERS is set, so a missing peer fails the test)");
     eprintln!("note: skipping {test}: {reason}");
+}
+
+/// Fake AWS credentials for the Bedrock client: an access key id, a secret and, when some, a
+/// session token.
+pub struct FakeAws {
+    pub access_key_id: &'static str,
+    pub secret_access_key: &'static str,
+    pub session_token: Option<&'static str>,
+}
+
+/// The environment of a test binary whose model clients talk to local mock servers: `api_key`
+/// as `OPENAI_API_KEY`, `ANTHROPIC_API_KEY` and `GEMINI_API_KEY`, the `aws` credentials (in
+/// `us-east-1`) when given, and no base-URL override or default region left from the caller's
+/// shell, so a client reaches only the mock it is given. Set once per binary: every test calls
+/// it first, with the same values.
+#[allow(unsafe_code)]
+pub fn mock_provider_env(api_key: &'static str, aws: Option<FakeAws>) {
+    static ENV: Once = Once::new();
+    ENV.call_once(|| {
+        // SAFETY: every test calls this first and `Once` makes the others wait until it is
+        // done, so no thread reads the environment while it is being written.
+        unsafe {
+            for k in ["OPENAI_API_KEY", "ANTHROPIC_API_KEY", "GEMINI_API_KEY"] {
+                std::env::set_var(k, api_key);
+            }
+            if let Some(aws) = aws {
+                std::env::set_var("AWS_ACCESS_KEY_ID", aws.access_key_id);
+                std::env::set_var("AWS_SECRET_ACCESS_KEY", aws.secret_access_key);
+                if let Some(token) = aws.session_token {
+                    std::env::set_var("AWS_SESSION_TOKEN", token);
+                }
+                std::env::set_var("AWS_REGION", "us-east-1");
+            }
+            for k in
+                ["OPENAI_BASE_URL", "ANTHROPIC_BASE_URL", "GEMINI_BASE_URL", "BEDROCK_BASE_URL", "AWS_DEFAULT_REGION"]
+            {
+                std::env::remove_var(k);
+            }
+        }
+    });
+}
+
+/// A `w`×`h` PNG with a gradient, the image of the queries sent to mock providers.
+pub fn png(w: u32, h: u32) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb([(x * 5) as u8, (y * 3) as u8, 90]));
+    let mut out = Vec::new();
+    image::DynamicImage::ImageRgb8(img).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).unwrap();
+    out
+}
+
+/// A query about `image` with its multiple-choice `options`, its prompt built from `question` as
+/// the search builds it.
+pub fn image_query(question: &str, options: Vec<String>, image: Vec<u8>) -> revelio::vlm::Query {
+    revelio::vlm::Query {
+        image_hash: revelio::hash::sha256_hex(&image),
+        image: Some(std::sync::Arc::new(image)),
+        prompt: revelio::vlm::prompt::build(question, &options),
+        options,
+        truth: None,
+    }
+}
+
+/// The official SDKs, pinned, that `tests/sdk/*.py` check request and reply shapes against.
+pub const SDKS: &[&str] = &["openai==3.54.0", "anthropic==2.12.0", "google-genai==3.4.0"];
+
+/// A Python with the pinned [`SDKS`] (`target/sdk-venv`), made on first use; `None` after
+/// [`peer_missing`] for `test` when that cannot be.
+pub fn sdk_python(test: &str) -> Option<PathBuf> {
+    static PYTHON: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    match PYTHON.get_or_init(|| python_venv("sdk-venv", SDKS, "import openai, anthropic, google.genai")) {
+        Ok(python) => Some(python.clone()),
+        Err(e) => {
+            peer_missing(test, e);
+            None
+        }
+    }
+}
+
+/// Runs the shape check `script` (under `tests/sdk/`) with `python`, `data` as JSON on its
+/// stdin, and asserts that the SDKs accept Revelio's `shapes` (else the problems it printed).
+pub fn assert_sdks_accept(python: &Path, script: &str, data: serde_json::Value, shapes: &str) {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(python)
+        .arg(root().join("tests/sdk").join(script))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(data.to_string().as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "the SDKs reject Revelio's {shapes}:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
