@@ -615,68 +615,29 @@ async fn validate_probe_and_transfer_ask_through_batches() {
     let out = dir.path().join("run");
     let cfg = config(dir.path());
     let base = format!("{}/v1", server.uri());
+    // Each command after the search: through batches, from the mock, with the test's config.
     let run = |args: &[&str]| {
         let mut c = revelio(args);
-        c.arg("--model-config").arg(&cfg);
-        c.output().unwrap()
+        c.args(["--batch-api", "--json", "--no-cache", "--base-url", &base]).arg("--model-config").arg(&cfg);
+        c
     };
     let out_s = out.to_str().unwrap();
     let o = batch_search("6", &base, &out, &cfg).output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let after_search = svc.all_keys().len();
     assert_eq!(after_search, 6);
-    let o = run(&[
-        "validate",
-        out_s,
-        "--top",
-        "2",
-        "--samples",
-        "3",
-        "--batch-api",
-        "--json",
-        "--no-cache",
-        "--base-url",
-        &base,
-    ]);
+    let o = run(&["validate", out_s, "--top", "2", "--samples", "3"]).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert_eq!(svc.all_keys().len(), after_search + 6, "validate: two sets, three fresh scenes each");
     assert!(err.contains("submitted: 6 requests at half price"), "{err}");
     let before_probe = svc.all_keys().len();
-    let o = run(&[
-        "probe",
-        out_s,
-        "--top",
-        "1",
-        "--samples",
-        "2",
-        "--batch-api",
-        "--json",
-        "--no-cache",
-        "--base-url",
-        &base,
-    ]);
+    let o = run(&["probe", out_s, "--top", "1", "--samples", "2"]).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(svc.all_keys().len() > before_probe, "probe asked through a batch: {err}");
-    let mut c = revelio(&[
-        "transfer",
-        out_s,
-        "--model",
-        "openai:gpt-4.1",
-        "--top",
-        "1",
-        "--samples",
-        "2",
-        "--batch-api",
-        "--json",
-        "--no-cache",
-        "--base-url",
-        &base,
-        "--run-base-url",
-        &base,
-    ]);
-    c.arg("--run-model-config").arg(&cfg).arg("--model-config").arg(&cfg);
+    let mut c = run(&["transfer", out_s, "--model", "openai:gpt-4.1", "--top", "1", "--samples", "2"]);
+    c.arg("--run-base-url").arg(&base).arg("--run-model-config").arg(&cfg);
     let o = c.output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
