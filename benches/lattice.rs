@@ -1,5 +1,6 @@
 //! Lattice, oracle and lint costs on the shipped domains: driving (30 concepts, priority rules,
-//! the paper's size) and indoor (33 concepts, best-fit rules).
+//! the paper's size), indoor (33 concepts, best-fit rules) and delivery (27 concepts, written in
+//! `.rev` only, with `use` modules).
 //!
 //! `cargo bench --bench lattice`. Figures are recorded in `docs/lattice.md`.
 
@@ -7,22 +8,34 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use revelio::ir::Domain;
-use revelio::lattice::Lattice;
+use revelio::lattice::{self, Diagram, Lattice, Validity};
 use revelio::lint as lints;
 use revelio::oracle::Oracle;
 
 fn domain(name: &str) -> Domain {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("domains").join(name);
-    let text = std::fs::read_to_string(&path).expect("shipped domain");
-    revelio::check::compile_source(name, &text).expect("shipped domain compiles")
+    revelio::source::compile_file(&path).domain.expect("shipped domain compiles")
 }
 
 fn benches(c: &mut Criterion) {
-    for name in ["driving", "indoor"] {
+    for name in ["driving", "indoor", "delivery"] {
         let domain = domain(&format!("{name}.rev"));
         let lattice = Lattice::enumerate(&domain, 5);
-        eprintln!("{name}: {} concepts, {} valid sets up to size 5", domain.concepts.len(), lattice.len());
+        let nodes = Diagram::build(&Validity::new(&domain), 5).nodes();
+        eprintln!(
+            "{name}: {} concepts, {} valid sets up to size 5, {nodes} diagram nodes",
+            domain.concepts.len(),
+            lattice.len()
+        );
         c.bench_function(&format!("enumerate/{name}/size5"), |b| b.iter(|| Lattice::enumerate(black_box(&domain), 5)));
+        // What `search` and `check`'s lints build: counted first, then filled in place.
+        c.bench_function(&format!("build/{name}/size5"), |b| {
+            b.iter(|| Lattice::build(black_box(&domain), 5, lattice::DEFAULT_MAX_SETS, &mut lattice::quiet))
+        });
+        // What `revelio lattice` counts with.
+        c.bench_function(&format!("diagram/{name}/size5"), |b| {
+            b.iter(|| Diagram::build(&Validity::new(black_box(&domain)), 5).total())
+        });
         c.bench_function(&format!("contains/{name}/all_sets"), |b| {
             b.iter(|| lattice.sets.iter().filter(|s| lattice.contains(black_box(**s))).count())
         });

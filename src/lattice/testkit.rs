@@ -302,3 +302,18 @@ pub fn driving() -> Domain {
     b.rule("clear", q, 2, None, &[]);
     b.build()
 }
+
+/// `n` independent concepts (no constraints: every set is valid), each setting a world
+/// attribute, and two priority rules (`c0` → option `b`, else `a`): the shape of `revelio bench
+/// scale`'s generated domains, for tests of what grows with the number of concepts.
+pub fn independent(n: usize) -> Domain {
+    let mut b = Dom::new(Selection::Priority);
+    b.world("on", num(0.0));
+    let ids: Vec<ConceptId> = (0..n).map(|i| b.world_concept(&format!("c{i}"), "on", num(1.0))).collect();
+    let q = b.question("q", &["a", "b"]);
+    if let Some(&first) = ids.first() {
+        b.rule("first", q, 1, Some(Expr::Has(first)), &[]);
+    }
+    b.rule("rest", q, 0, None, &[]);
+    b.build()
+}

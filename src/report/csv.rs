@@ -1,4 +1,4 @@
-//! `failure_modes.csv` and `sets.csv` (RFC 4180: comma-separated, CRLF-free, fields quoted when
+//! `failure_modes.csv`, `sets.csv`, `concepts.csv` and `pairs.csv` (RFC 4180: comma-separated, CRLF-free, fields quoted when
 //! they hold a comma, quote or line break). Concept sets are written as `a + b + c`.
 
 use std::collections::BTreeSet;
@@ -89,6 +89,28 @@ pub fn sets(run: &Run) -> String {
         ];
         row.extend(outcomes.iter().map(|o| r.unanswered.get(o).copied().unwrap_or(0).to_string()));
         line(&mut out, &row);
+    }
+    out
+}
+
+/// `concepts.csv`: one row per concept of an evaluated set, highest F(c) first (the page's
+/// table, which shows the first rows only).
+pub fn concepts(f: &Findings<'_>) -> String {
+    let mut out = String::new();
+    line(&mut out, &["concept", "f", "n", "failure_modes"].map(String::from));
+    for c in &f.concepts {
+        line(&mut out, &[c.concept.clone(), num(Some(c.f)), c.n.to_string(), c.failure_modes.to_string()]);
+    }
+    out
+}
+
+/// `pairs.csv`: one row per evaluated pair (a single concept on the diagonal), highest rate
+/// first (the page's pair table, which shows the first rows only).
+pub fn pairs(f: &Findings<'_>) -> String {
+    let mut out = String::new();
+    line(&mut out, &["concepts", "fr", "n"].map(String::from));
+    for (pair, c) in super::scale::ranked_pairs(&f.pairs) {
+        line(&mut out, &[pair, num(Some(c.fr)), c.n.to_string()]);
     }
     out
 }

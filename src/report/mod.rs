@@ -1,5 +1,7 @@
 //! The run report: a static folder (`RUN_DIR/report/` by default) with `index.html`, the plots
-//! as SVG, `failure_modes.csv` and `sets.csv`, and the images its failure modes show.
+//! as SVG, `failure_modes.csv`, `sets.csv`, `concepts.csv` and `pairs.csv`, and the images its
+//! failure modes show. A domain of hundreds of concepts gets a page that summarises (`scale`):
+//! the heatmap draws the concepts most involved, the concept and pair tables their first rows.
 //!
 //! The page needs no network and runs no script: "full reply" is a `<details>` element, plots are
 //! inline SVG. Images are hard-linked (copied where linking fails) into the report's `images/`,
@@ -18,6 +20,7 @@
 mod csv;
 mod files;
 mod page;
+mod scale;
 pub mod svg;
 mod view;
 
@@ -346,7 +349,10 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     let wanted: Vec<&str> = findings.core_observations.iter().flatten().map(|r| r.image.as_str()).collect();
     let images = files::materialize(&run.dir.join("images"), out, &wanted)?;
     let discovery = svg::discovery(&findings.discovery)?;
-    let heatmap = svg::heatmap(&findings.pairs)?;
+    // Past a few dozen concepts the heatmap draws the most involved ones (see `scale`).
+    let drawn = scale::heatmap_concepts(&findings);
+    let hidden = findings.pairs.concepts.len() - drawn.len();
+    let heatmap = svg::heatmap(&scale::restrict(&findings.pairs, &drawn), hidden)?;
     let html = page::render(run, domain, &findings, &images, &discovery, &heatmap)?;
     let put = |name: &str, text: &str| {
         crate::journal::write_atomic(&out.join(name), text.as_bytes()).map_err(|e| e.to_string())
@@ -355,6 +361,8 @@ pub fn write(run: &Run, domain: Option<&Domain>, out: &Path) -> Result<Written, 
     put("heatmap.svg", &heatmap)?;
     put("failure_modes.csv", &csv::failure_modes(run, &findings))?;
     put("sets.csv", &csv::sets(run))?;
+    put("concepts.csv", &csv::concepts(&findings))?;
+    put("pairs.csv", &csv::pairs(&findings))?;
     for (name, table) in [
         ("recognition.csv", run.probe.as_ref().map(csv::recognition)),
         ("transfer.csv", run.transfer.as_ref().map(|t| csv::transfer(&t.transfer))),

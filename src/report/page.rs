@@ -392,14 +392,18 @@ fn write_concepts(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
             r.failure_modes
         )?;
     }
+    write_more(out, 5, p.concepts_total - p.concepts.len(), "concepts, lower F(c)", "concepts.csv")?;
     out.push_str("</tbody>\n</table>\n</div>\n</section>\n\n");
     Ok(())
 }
 
 fn write_pairs(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     out.push_str("<section id=\"pairs\">\n<h2>Pair failure rates</h2>\n<p class=\"note\">Cell (a, b): the mean failure rate of the evaluated sets holding both a and b (the diagonal is F(c)); hatched where no evaluated set holds both. The table under the plot gives each pair's rate and count.</p>\n");
+    if let Some(note) = &p.heatmap_note {
+        writeln!(out, "<p class=\"note\">{}</p>", Esc(note))?;
+    }
     writeln!(out, "<div class=\"card plot\">{}", p.heatmap)?;
-    writeln!(out, "<details><summary>{} evaluated pairs, highest rate first</summary>", p.pairs.len())?;
+    writeln!(out, "<details><summary>{} evaluated pairs, highest rate first</summary>", p.pairs_total)?;
     out.push_str("<table class=\"tbl\">\n<thead><tr><th>concepts</th><th class=\"num\">FR</th><th class=\"num\">n sets</th></tr></thead>\n<tbody>\n");
     for r in &p.pairs {
         writeln!(
@@ -410,8 +414,21 @@ fn write_pairs(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
             r.n
         )?;
     }
+    write_more(out, 3, p.pairs_total - p.pairs.len(), "pairs, lower rates", "pairs.csv")?;
     out.push_str("</tbody>\n</table>\n</details>\n</div>\n</section>\n\n");
     Ok(())
+}
+
+/// The last row of a table cut at [`super::scale::TABLE_ROWS`]: how many rows are not shown
+/// and the file that holds them (nothing when none is left out).
+fn write_more(out: &mut String, columns: usize, more: usize, what: &str, file: &str) -> fmt::Result {
+    if more == 0 {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "<tr class=\"more\"><td colspan=\"{columns}\">{more} more {what}: every row is in <a href=\"{file}\">{file}</a></td></tr>"
+    )
 }
 
 fn write_discovery_and_outcomes(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {

@@ -162,31 +162,43 @@ struct Layout {
     grid: i32,
     legend_x: i32,
     legend_h: i32,
+    /// The baseline of the line that says how many concepts are not drawn (when some are not).
+    note_y: Option<i32>,
     width: u32,
     height: u32,
 }
 
 impl Layout {
-    fn of(p: &PairRates) -> Layout {
+    fn of(p: &PairRates, hidden: usize) -> Layout {
         let longest = p.concepts.iter().map(|c| label_width(c)).fold(40, i32::max);
         // Column labels stand upright above the grid, row labels to its left.
         let (left, top) = (longest + 14, longest + 14);
         let grid = CELL * p.concepts.len() as i32;
         let legend_x = left + grid + 22;
         let legend_h = grid.clamp(120, 240);
+        let bottom = top + grid.max(legend_h);
+        let note_y = (hidden > 0).then_some(bottom + 18);
         let width = (legend_x + 60) as u32;
-        let height = (top + grid.max(legend_h) + 12) as u32;
-        Layout { left, top, grid, legend_x, legend_h, width, height }
+        let height = (bottom + if hidden > 0 { 30 } else { 12 }) as u32;
+        Layout { left, top, grid, legend_x, legend_h, note_y, width, height }
     }
 }
 
+/// The line under a heatmap that leaves `hidden` concepts out.
+pub fn hidden_note(shown: usize, hidden: usize) -> String {
+    format!(
+        "{hidden} more concepts not drawn: these {shown} are those of the cores, then those in the most failure modes"
+    )
+}
+
 /// The concept × concept heatmap of pair failure rates; pairs never evaluated are hatched.
-pub fn heatmap(p: &PairRates) -> Result<String, String> {
-    let layout = Layout::of(p);
+/// `hidden`: how many concepts of the run `p` leaves out (said in a line under the grid).
+pub fn heatmap(p: &PairRates, hidden: usize) -> Result<String, String> {
+    let layout = Layout::of(p, hidden);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (layout.width, layout.height)).into_drawing_area();
-        draw_heatmap(&root, p, &layout).map_err(drawing("pair heatmap"))?;
+        draw_heatmap(&root, p, &layout, hidden).map_err(drawing("pair heatmap"))?;
         root.present().map_err(drawing("pair heatmap"))?;
     }
     Ok(titled(svg, HEATMAP_TITLE))
@@ -196,9 +208,14 @@ fn draw_heatmap<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     p: &PairRates,
     l: &Layout,
+    hidden: usize,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
     let label = text(12.0, INK);
+    if let Some(y) = l.note_y {
+        let note = text(12.0, MUTED).pos(Pos::new(HPos::Left, VPos::Center));
+        root.draw(&Text::new(hidden_note(p.concepts.len(), hidden), (l.left, y), note))?;
+    }
     for (i, c) in p.concepts.iter().enumerate() {
         let middle = CELL * i as i32 + CELL / 2;
         let row = label.pos(Pos::new(HPos::Right, VPos::Center));
@@ -266,12 +283,22 @@ mod tests {
             concepts: vec!["a<b".into(), "c".into()],
             cells: vec![vec![Some(PairRate { fr: 1.0, n: 2 }), None], vec![None, Some(PairRate { fr: 0.0, n: 1 })]],
         };
-        let svg = heatmap(&p).unwrap();
+        let svg = heatmap(&p, 0).unwrap();
         assert!(svg.contains("a&lt;b") && !svg.contains("a<b"), "{svg}");
         assert!(svg.contains(&format!("<title>{HEATMAP_TITLE}</title>")), "{svg}");
         // One cell at 100 % and one at 0 %: each colour once in the grid, once in the legend's ends.
         assert_eq!(svg.matches("fill=\"#A50F15\"").count(), 1, "{svg}");
         assert_eq!(svg.matches("fill=\"#FFF5EB\"").count(), 1, "{svg}");
+    }
+
+    #[test]
+    fn a_heatmap_that_leaves_concepts_out_says_how_many() {
+        let p = PairRates { concepts: vec!["a".into()], cells: vec![vec![Some(PairRate { fr: 0.5, n: 1 })]] };
+        let whole = heatmap(&p, 0).unwrap();
+        let cut = heatmap(&p, 459).unwrap();
+        assert!(!whole.contains("not drawn"));
+        assert!(cut.contains(&hidden_note(1, 459)), "{cut}");
+        assert!(cut.contains("459 more concepts not drawn"));
     }
 
     #[test]

@@ -488,3 +488,140 @@ fn probe_transfer_and_visibility_sections() {
     assert!(html.contains("Left out: invalid `probe.json` in"), "a note names the damaged file");
     assert!(!out.join("recognition.csv").exists());
 }
+
+/// A run over `n` independent concepts: `sets` evaluated pairs and triples spread over every
+/// concept (three observations each, no images), failing wherever `c1` and `c2` meet.
+fn wide_fixture(n: usize, sets: usize) -> (Fixture, Domain) {
+    let d = crate::lattice::testkit::independent(n);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    let config = RunConfig {
+        format: crate::run::summary::RUN_FORMAT,
+        domain_file: "wide.rev".into(),
+        domain: d.name.clone(),
+        domain_hash: d.identity().to_string(),
+        model_spec: "sim:test.toml".into(),
+        model: "sim:test@0".into(),
+        endpoint: None,
+        model_settings: Default::default(),
+        renderer: "none".into(),
+        params: Params::default(),
+    };
+    let journal = Journal::open(&dir).unwrap();
+    journal.write_config(&config).unwrap();
+    let mut history = Vec::new();
+    let mut x = 12345u64;
+    let mut next = |m: usize| {
+        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((x >> 33) as usize) % m
+    };
+    for k in 0..sets {
+        // Every concept turns up; one set in ten holds the failing pair (the first alone).
+        let mut ids = if k == 0 {
+            vec![1, 2]
+        } else if k % 10 == 0 {
+            vec![1, 2, k % n]
+        } else {
+            vec![k % n, next(n)]
+        };
+        if k % 2 == 0 && k > 0 {
+            ids.push(next(n));
+        }
+        let set = crate::ir::ConceptSet::from_ids(ids.into_iter().map(|i| crate::ir::ConceptId(i as u32)));
+        if set.len() < 2 {
+            continue;
+        }
+        let names: Vec<String> = d.set_names(set).into_iter().map(String::from).collect();
+        let fails = names.contains(&"c1".to_string()) && names.contains(&"c2".to_string());
+        let mut stats = SetStats::new(set);
+        for i in 0..3u32 {
+            let outcome = if fails { Outcome::Wrong } else { Outcome::Correct };
+            journal
+                .append(&Record {
+                    phase: Phase::Search,
+                    set: names.clone(),
+                    obs: i,
+                    seed: u64::from(i),
+                    image: crate::hash::sha256_hex(format!("{k} {i}").as_bytes()),
+                    prompt: "p".into(),
+                    raw: "Answer: A".into(),
+                    parsed: None,
+                    answer: Some(Answer::Option(u32::from(fails))),
+                    expected: 0,
+                    outcome,
+                    usage: Usage::default(),
+                    latency_ms: 1,
+                    cached: false,
+                    model: None,
+                    visibility: Vec::new(),
+                    resamples: 0,
+                    repeats: 0,
+                    attempts: 1,
+                    rate_limited: 0,
+                    waited_ms: 0,
+                })
+                .unwrap();
+            stats.add(outcome);
+        }
+        history.push(stats);
+    }
+    journal.sync().unwrap();
+    let summary = summarize(&d, &config, 1_000_000, &history, &Default::default(), Spend::default());
+    journal.write_json("summary.json", &summary).unwrap();
+    (Fixture { _tmp: tmp, dir }, d)
+}
+
+#[test]
+fn a_report_over_500_concepts_summarises_its_heatmap_and_tables() {
+    use super::scale::{HEATMAP_CONCEPTS, TABLE_ROWS};
+    let (f, d) = wide_fixture(500, 1500);
+    let out = f.dir.join("report");
+    let run = load(&f.dir).unwrap();
+    write(&run, Some(&d), &out).unwrap();
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let svg = std::fs::read_to_string(out.join("heatmap.svg")).unwrap();
+    // Every concept is in an evaluated set; the heatmap draws at most K of them, the failing
+    // pair's among them, and says how many it leaves out.
+    let findings = run.findings();
+    assert_eq!(findings.concepts.len(), 500);
+    let drawn: Vec<&str> = (0..500)
+        .map(|i| format!("c{i}"))
+        .filter(|c| svg.contains(&format!("\n{c}\n</text>")))
+        .map(|c| {
+            if c == "c1" {
+                "c1"
+            } else if c == "c2" {
+                "c2"
+            } else {
+                "other"
+            }
+        })
+        .collect();
+    assert_eq!(drawn.len(), HEATMAP_CONCEPTS, "{} concepts labelled", drawn.len());
+    assert!(drawn.contains(&"c1") && drawn.contains(&"c2"), "the core's concepts are drawn");
+    assert!(svg.contains(&super::svg::hidden_note(HEATMAP_CONCEPTS, 500 - HEATMAP_CONCEPTS)), "no hidden line");
+    assert!(html.contains(&format!("The plot draws {HEATMAP_CONCEPTS} of the 500 concepts")));
+    // The tables stop at their cap with a line saying how many rows the CSV files hold besides.
+    let concepts = html.split("<section id=\"concepts\">").nth(1).unwrap().split("</section>").next().unwrap();
+    assert_eq!(concepts.matches("<tr><td><code>").count(), TABLE_ROWS);
+    assert!(concepts.contains(&format!("{} more concepts, lower F(c)", 500 - TABLE_ROWS)), "{concepts}");
+    let pairs_total = super::scale::ranked_pairs(&findings.pairs).len();
+    let pairs = html.split("<section id=\"pairs\">").nth(1).unwrap().split("</section>").next().unwrap();
+    assert_eq!(pairs.matches("<tr><td><code>").count(), TABLE_ROWS);
+    assert!(pairs.contains(&format!("{} more pairs, lower rates", pairs_total - TABLE_ROWS)));
+    assert!(pairs.contains(&format!("<summary>{pairs_total} evaluated pairs")));
+    assert_eq!(std::fs::read_to_string(out.join("concepts.csv")).unwrap().lines().count(), 501);
+    assert_eq!(std::fs::read_to_string(out.join("pairs.csv")).unwrap().lines().count(), pairs_total + 1);
+    // Bounded: every pair drawn would be 250 000 cells, megabytes of SVG in the page.
+    assert!(svg.len() < 200_000, "heatmap.svg is {} bytes", svg.len());
+    assert!(html.len() < 600_000, "index.html is {} bytes", html.len());
+}
+
+#[test]
+fn a_report_of_few_concepts_draws_and_lists_every_one() {
+    let f = fixture("none");
+    let html = write_report(&f, &f.dir.join("report"));
+    assert!(!html.contains("The plot draws") && !html.contains("<tr class=\"more\">"));
+    let svg = std::fs::read_to_string(f.dir.join("report/heatmap.svg")).unwrap();
+    assert!(!svg.contains("not drawn"));
+}

@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use super::files::ImageRef;
+use super::scale::TABLE_ROWS;
 use super::{Core, Findings, Run, outcome_name, phase_name};
 use crate::analysis::probe::ProbeReport;
 use crate::analysis::transfer::TransferReport;
@@ -132,10 +133,17 @@ pub struct IndexPage<'a> {
     pub not_distinct: Vec<(ModeRow, ModeRow)>,
     /// Confirmation candidates left near τ at the per-set cap (fresh observations).
     pub borderline: Vec<ModeRow>,
+    /// The first [`TABLE_ROWS`] concepts, highest F(c) first.
     pub concepts: Vec<ConceptRow>,
+    /// Concepts in all (`concepts.csv` holds every one).
+    pub concepts_total: usize,
     pub heatmap: &'a str,
-    /// Evaluated pairs, highest rate first: the heatmap's numbers.
+    /// What the heatmap leaves out, when it cannot draw every concept.
+    pub heatmap_note: Option<String>,
+    /// The first [`TABLE_ROWS`] evaluated pairs, highest rate first: the heatmap's numbers.
     pub pairs: Vec<PairRow>,
+    /// Evaluated pairs in all (`pairs.csv` holds every one).
+    pub pairs_total: usize,
     pub discovery: &'a str,
     pub outcome_phases: Vec<String>,
     pub outcome_rows: Vec<OutcomeRow>,
@@ -561,6 +569,7 @@ pub fn index_page<'a>(
     let concepts = f
         .concepts
         .iter()
+        .take(TABLE_ROWS)
         .map(|c| ConceptRow {
             concept: c.concept.clone(),
             f: pct(Some(c.f)),
@@ -588,6 +597,15 @@ pub fn index_page<'a>(
         .collect();
     let borderline = s.borderline.iter().enumerate().map(|(i, r)| row(i, &r.set)).collect();
     let (outcome_phases, outcome_rows) = outcome_table(f);
+    let (pairs, pairs_total) = pair_rows(&f.pairs);
+    let drawn = super::scale::heatmap_concepts(f).len();
+    let heatmap_note = (drawn < f.pairs.concepts.len()).then(|| {
+        format!(
+            "The plot draws {drawn} of the {} concepts: those of the cores, then those in the most failure modes, then by F(c); the other {} are left out here, and every concept's and pair's rate is in concepts.csv and pairs.csv.",
+            f.pairs.concepts.len(),
+            f.pairs.concepts.len() - drawn
+        )
+    });
     let cores_note = if let Some(c) = &s.confirmation {
         format!(
             "{} of {} candidate cores confirmed. Each candidate is a smallest set the search found failing, established above τ − δ = {:.2} by an anytime-valid test, whose parts one concept smaller are not; it is then asked again on fresh scenes, after it was selected, and reported only if e-BH across all candidates confirms it at a false discovery rate of q = {} (a core is false when its true rate is ≤ τ − δ). Its rate and interval below are the fresh observations' alone.",
@@ -610,6 +628,8 @@ pub fn index_page<'a>(
         ("sets.csv".into(), "every evaluated set, in evaluation order".into()),
         ("discovery.svg".into(), "the discovery curve".into()),
         ("heatmap.svg".into(), "the pair failure-rate heatmap".into()),
+        ("concepts.csv".into(), "F(c), n and failure modes of every concept".into()),
+        ("pairs.csv".into(), "the mean failure rate and n of every evaluated pair".into()),
     ];
     if run.probe.is_some() {
         files.push(("recognition.csv".into(), "R(c), F(c), n and the mechanism per probed concept".into()));
@@ -635,8 +655,11 @@ pub fn index_page<'a>(
         not_distinct,
         borderline,
         concepts,
+        concepts_total: f.concepts.len(),
         heatmap,
-        pairs: pair_rows(&f.pairs),
+        heatmap_note,
+        pairs,
+        pairs_total,
         discovery,
         outcome_phases,
         outcome_rows,
@@ -650,17 +673,13 @@ pub fn index_page<'a>(
     }
 }
 
-fn pair_rows(p: &crate::analysis::PairRates) -> Vec<PairRow> {
-    let mut rows = Vec::new();
-    for (i, row) in p.cells.iter().enumerate() {
-        for (j, c) in row.iter().enumerate().skip(i) {
-            let Some(c) = c else { continue };
-            let pair = if i == j { p.concepts[i].clone() } else { format!("{} + {}", p.concepts[i], p.concepts[j]) };
-            rows.push((c.fr, PairRow { pair, fr: pct(Some(c.fr)), n: c.n }));
-        }
-    }
-    rows.sort_by(|a, b| b.0.total_cmp(&a.0).then(b.1.n.cmp(&a.1.n)));
-    rows.into_iter().map(|(_, r)| r).collect()
+/// The first [`TABLE_ROWS`] pairs, highest rate first, and how many there are in all.
+fn pair_rows(p: &crate::analysis::PairRates) -> (Vec<PairRow>, usize) {
+    let ranked = super::scale::ranked_pairs(p);
+    let total = ranked.len();
+    let rows =
+        ranked.into_iter().take(TABLE_ROWS).map(|(pair, c)| PairRow { pair, fr: pct(Some(c.fr)), n: c.n }).collect();
+    (rows, total)
 }
 
 #[cfg(test)]
