@@ -3,7 +3,8 @@
 //! order the page shows them, one scratch folder per page; a `console` block's shown output is
 //! compared with what the command prints. Every ```` ```rev ```` block checks clean, or parses
 //! when it is marked ```` ```rev fragment ````. A command too slow for the suite runs in the
-//! reduced form [`REDUCED`] names, with its figures not compared; one that cannot run here is in
+//! reduced form [`REDUCED`] names, its shown output compared on the lines [`STABLE`] lists (the
+//! rest are the full run's figures); one that cannot run here is in
 //! [`NOT_RUN`] with the reason; a command in neither fails the test, and so does an entry of
 //! either that no page shows any more. docs/testing.md says how to mark a block.
 
@@ -18,7 +19,8 @@ use wiremock::{Mock, MockServer, ResponseTemplate};
 
 /// Commands run in a reduced form: (as the page shows it, as the test runs it, why). The reduced
 /// form may be several commands, one per line (a run folder made first). `$MOCK` is the mock
-/// model server's address. Their output is not compared (the figures are the full run's).
+/// model server's address. Their shown output is compared only on the lines [`STABLE`] lists
+/// (the figures are the full run's). Keep them small: a cold CI run stays well under 30 minutes.
 const REDUCED: &[(&str, &str, &str)] = &[
     // README.md
     (
@@ -94,6 +96,27 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0 --budget 32",
         "1000 inferences of 1 s each",
+    ),
+    (
+        "revelio check domains/driving.rev --render 2 --render-sets 20 --figures",
+        "revelio check domains/driving.rev --render 1 --render-sample 2 --render-sets 2 --figures",
+        "two scenes of every singleton and pair and of 20 larger sets take minutes",
+    ),
+    (
+        "revelio search domains/driving.rev --model openai:gpt-4.1-mini --max-cost 5",
+        "revelio search domains/driving.rev --model openai:gpt-4.1-mini --max-cost 5 --budget 20 --renderer none",
+        "against the mock server; 1000 rendered inferences",
+    ),
+    (
+        "revelio campaign examples/campaign.toml --shard 0/4",
+        "revelio campaign campaign-small.toml --shard 0/2",
+        "two cells of 200 interact and GPTS inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
+    ),
+    // docs/campaigns.md
+    (
+        "revelio campaign examples/campaign.toml --max-cost 20 --concurrency 32",
+        "revelio campaign campaign-small.toml --max-cost 20 --concurrency 32",
+        "eight cells of 200 inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
     ),
     // docs/lattice.md
     (
