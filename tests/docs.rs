@@ -3,7 +3,8 @@
 //! order the page shows them, one scratch folder per page; a `console` block's shown output is
 //! compared with what the command prints. Every ```` ```rev ```` block checks clean, or parses
 //! when it is marked ```` ```rev fragment ````. A command too slow for the suite runs in the
-//! reduced form [`REDUCED`] names, with its figures not compared; one that cannot run here is in
+//! reduced form [`REDUCED`] names, its shown output compared on the lines [`STABLE`] lists (the
+//! rest are the full run's figures); one that cannot run here is in
 //! [`NOT_RUN`] with the reason; a command in neither fails the test, and so does an entry of
 //! either that no page shows any more. docs/testing.md says how to mark a block.
 
@@ -18,17 +19,28 @@ use wiremock::{Mock, MockServer, ResponseTemplate};
 
 /// Commands run in a reduced form: (as the page shows it, as the test runs it, why). The reduced
 /// form may be several commands, one per line (a run folder made first). `$MOCK` is the mock
-/// model server's address. Their output is not compared (the figures are the full run's).
+/// model server's address. Their shown output is compared only on the lines [`STABLE`] lists
+/// (the figures are the full run's). Keep them small: a cold CI run stays well under 30 minutes.
 const REDUCED: &[(&str, &str, &str)] = &[
     // README.md
     (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo --budget 30 --renderer none",
+        "1000 rendered inferences, an interact step each",
+    ),
+    (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 100 --renderer none",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 40 --renderer none",
         "1000 rendered inferences take minutes",
     ),
     (
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 1250 --shrink 250 --out runs/demo",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 30 --shrink 10 --out runs/demo",
+        "1250 rendered inferences; the figure's builtin renderer still draws these",
+    ),
+    (
         "revelio check domains/driving.rev --render 5",
-        "revelio check domains/driving.rev --render 1",
+        "revelio check domains/driving.rev --render 1 --render-sample 2",
         "five rendered scenes per singleton and pair take minutes",
     ),
     (
@@ -52,17 +64,17 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio bench search --profile examples/sim/driving_paper.toml --sweep beam_width=1,5,10",
-        "revelio bench search --profile examples/sim/driving_paper.toml --sweep beam_width=1,5 --seeds 1 --budget 60 --algos random,beam",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --sweep beam_width=1,5 --algos random,beam",
         "3 values × 4 algorithms × 5 seeds × 1000 inferences",
     ),
     (
         "revelio bench search --profile examples/sim/driving_paper.toml --sweep kernel=dot,rbf",
-        "revelio bench search --profile examples/sim/driving_paper.toml --sweep kernel=dot,rbf --seeds 1 --budget 60",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 20 --sweep kernel=dot,rbf",
         "2 kernels × 5 seeds × 1000 inferences",
     ),
     (
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 1000",
-        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 30",
         "4 algorithms × 5 seeds × 1000 inferences",
     ),
     (
@@ -82,8 +94,35 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0 --budget 64",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --algo gpts --batch 6 --shrink 0 --budget 32",
         "1000 inferences of 1 s each",
+    ),
+    (
+        "revelio check domains/driving.rev --render 2 --render-sets 20 --figures",
+        "revelio check domains/driving.rev --render 1 --render-sample 2 --render-sets 2 --figures",
+        "two scenes of every singleton and pair and of 20 larger sets take minutes",
+    ),
+    (
+        "revelio search domains/driving.rev --model openai:gpt-4.1-mini --max-cost 5",
+        "revelio search domains/driving.rev --model openai:gpt-4.1-mini --max-cost 5 --budget 20 --renderer none",
+        "against the mock server; 1000 rendered inferences",
+    ),
+    (
+        "revelio campaign examples/campaign.toml --shard 0/4",
+        "revelio campaign campaign-small.toml --shard 0/2",
+        "two cells of 200 interact and GPTS inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
+    ),
+    // docs/campaigns.md
+    (
+        "revelio campaign examples/campaign.toml --max-cost 20 --concurrency 32",
+        "revelio campaign campaign-small.toml --max-cost 20 --concurrency 32",
+        "eight cells of 200 inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
+    ),
+    // docs/lattice.md
+    (
+        "revelio bench scale",
+        "revelio bench scale --concepts 12 --max-size 3",
+        "generated domains of up to 250 concepts",
     ),
     // docs/models.md
     (
@@ -94,12 +133,12 @@ const REDUCED: &[(&str, &str, &str)] = &[
     // docs/porting.md
     (
         "revelio check domains/delivery.rev --render 5",
-        "revelio check domains/delivery.rev --render 1",
+        "revelio check domains/delivery.rev --render 1 --render-sample 2",
         "five rendered scenes per singleton and pair take minutes",
     ),
     (
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1",
-        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam --renderer none",
         "4 algorithms × 3 seeds × 1250 inferences",
     ),
     (
@@ -127,19 +166,19 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo beam --out runs/beam
          revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo random --out runs/random
-         revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo gpts --out runs/gpts
+         revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 30 --algo gpts --out runs/gpts
          revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
         "the page names three runs of 600 inferences it does not make",
     ),
     // docs/search.md
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 100 --renderer none",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 40 --renderer none",
         "1250 rendered inferences",
     ),
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20 --budget 100 --renderer none --out runs/sequential",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20 --budget 60 --renderer none --out runs/sequential",
         "1250 rendered inferences (and the first search's run folder)",
     ),
     (
@@ -149,22 +188,22 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 1000 --max-samples 20",
-        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --shrink 20 --algos random,beam",
         "8 searches × 5 seeds × 1000 inferences",
     ),
     (
         "revelio bench search --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
-        "revelio bench search --profile examples/sim/driving_fog.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any profile; 4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
         "revelio bench search --domain domains/indoor.rev --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
-        "revelio bench search --domain domains/indoor.rev --profile examples/sim/indoor_stress.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/indoor_stress.toml --domain domains/indoor.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any indoor profile; 4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
         "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
-        "revelio bench search --domain domains/delivery.rev --profile examples/sim/delivery.toml --seeds 1 --budget 60 --shrink 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam --renderer none",
         "4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
@@ -174,7 +213,7 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 300 --sweep kernel=dot,rbf",
-        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --sweep kernel=dot,rbf",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 20 --sweep kernel=dot,rbf",
         "2 kernels × 5 seeds × 300 inferences",
     ),
     // docs/benchmarks.md
@@ -185,28 +224,22 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio bench search --profile examples/sim/P.toml",
-        "revelio bench search --profile examples/sim/driving_gemini.toml --seeds 1 --budget 60",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 30",
         "`P` is any profile; 4 algorithms × 5 seeds × 1000 inferences",
     ),
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo A",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo beam --budget 64",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo beam --budget 32",
         "`A` is an algorithm; 1000 inferences of 1 s each",
     ),
     (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo gpts --batch 1",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo gpts --batch 1 --budget 8",
+        "revelio search domains/driving.rev --model sim:examples/sim/driving_slow.toml --renderer none --concurrency 32 --shrink 0 --algo gpts --batch 1 --budget 10",
         "1000 sequential inferences of 1 s each",
     ),
     (
-        "revelio report runs/demo",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 100 --renderer none
-         revelio report runs/demo",
-        "the run folder of the README's first command, reduced",
-    ),
-    (
         "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000",
-        "revelio bench search --profile examples/sim/indoor_paper.toml --domain domains/indoor.rev --seeds 1 --budget 60",
+        "revelio bench search --profile examples/sim/indoor_stress.toml --domain domains/indoor.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any profile; 4 algorithms × 5 seeds × 1000 inferences",
     ),
     (
@@ -216,13 +249,84 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     (
         "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000 --max-samples 20",
-        "revelio bench search --profile examples/sim/driving_gemini_minimal.toml --seeds 1 --budget 60 --max-samples 20 --algos random,beam",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --shrink 20 --algos random,beam",
         "`P` is any profile; 8 searches × 5 seeds × 1000 inferences",
     ),
     (
         "revelio bench search --profile examples/sim/P.toml --seeds 5 --budget 1000 --max-samples 20 --shrink 250",
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --shrink 20 --algos random,beam",
         "`P` is any profile; 8 searches × 5 seeds × 1250 inferences",
+    ),
+];
+
+/// The lines of a [`REDUCED`] command's shown output that do not depend on the reduction: each
+/// must be in the page's shown output and in what the reduced form prints, in this order, with
+/// numbers redacted (`#`) and runs of spaces made one (`…` stands for any text). The shown output's other lines are the
+/// full command's figures. A reduced command whose page shows its output needs an entry.
+const STABLE: &[(&str, &[&str])] = &[
+    ("revelio check domains/delivery.rev --render 5", &["checked # file: # errors, # warnings"]),
+    (
+        "revelio probe runs/demo-probe --top 40 --samples 10 --min-n 5",
+        &[
+            "# sets × # probe observations on sim:driving-recognition@d#fa#e; mechanism: reasoning R ≥ #%, recognition R ≤ #%",
+            "concept R F n mechanism",
+        ],
+    ),
+    (
+        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 5 --samples 10",
+        &[
+            "models (M# is the run's own):",
+            "M# sim:driving-recognition@d#fa#e",
+            "M# sim:driving-gemini@f#f#e#",
+            "M# sim:driving-paper@#daf#a#cd#",
+            "# search M# M# M# concepts",
+            "# transferred and # random sets × # observations; transfers: FR ≥ #%",
+            "model transferred random ratio transfers",
+        ],
+    ),
+    (
+        "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
+        &[
+            "domain model algo seed budget PFM [#% CI] MFR [#% CI] Div [#% CI] modes cores calls spend run",
+            "driving sim:driving-recognition@d#fa#e beam # … $# runs/beam",
+            "driving sim:driving-recognition@d#fa#e random # … $# runs/random",
+            "driving sim:driving-recognition@d#fa#e gpts # … $# runs/gpts",
+        ],
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_robust.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
+        &[
+            "planted modes: share of seeds recovered / exact; reach: the most any search recovers of a mode whose parts carry no signal (# inferences)",
+            "mode error reach random beam…",
+            "town_town# + cone + far + weather_wet # #% #% / #% #% / #%…",
+        ],
+    ),
+    (
+        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery",
+        &[
+            "… on `delivery` with sim:delivery@…: # sets (# inferences) of # valid, in <time>",
+            "PFM #% MFR #% Div # (# failure modes at FR ≥ #)",
+            "shrink: # cores from # inferences of # (up to # observations per set, # to test a core's lift)…",
+            "spend: # calls, # input / # output tokens (# thinking), $#",
+            "run folder: runs/delivery (journal.jsonl, summary.json; `revelio validate runs/delivery` re-checks the top sets)",
+            "report: runs/delivery/report/index.html",
+        ],
+    ),
+    (
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1",
+        &["algo PFM % MFR % …", "random # [#–#] # [#–#] …", "beam # [#–#] # [#–#] …"],
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 2 --budget 600 --sweep beam_width=1,5",
+        &["beam_width algo PFM % MFR % Div", "# random # ± # # ± # # ± #", "plot: sweep-beam_width.svg"],
+    ),
+    (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 300 --sweep kernel=dot,rbf",
+        &[
+            "sweep of kernel over # seeds × budget # against `examples/sim/driving_paper.toml`, renderer none",
+            "kernel algo PFM % MFR % Div",
+            "plot: sweep-kernel.svg",
+        ],
     ),
 ];
 
@@ -467,6 +571,7 @@ struct Scratch {
 }
 
 /// What a command printed.
+#[derive(Clone)]
 struct Ran {
     code: i32,
     stdout: String,
@@ -625,7 +730,7 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
         let mut last = None;
         for l in lines {
             let started = std::time::Instant::now();
-            let ran = scratch.run(l);
+            let ran = run_once(&scratch, l);
             // For whoever trims the suite (`-- --nocapture`); never asserted.
             eprintln!("{:6.1}s  {page}:{}  {l}", started.elapsed().as_secs_f64(), s.line);
             match ran {
@@ -640,7 +745,14 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
                 }
             }
         }
-        let (Some(r), Some(output), None) = (last, &s.output, reduced) else { continue };
+        let (Some(r), Some(output)) = (last, &s.output) else { continue };
+        if reduced.is_some() {
+            // A command shown with nothing under it (the next `$` follows) shows no output.
+            if !output.is_empty() {
+                failures.extend(compare_stable(&at, &s.command, output, &r));
+            }
+            continue;
+        }
         let printed: Vec<String> = format!("{}{}", r.stdout, r.stderr).lines().map(redact).collect();
         let want: Vec<String> = output.iter().map(|l| redact(l)).collect();
         if !output_matches(&want, &printed) {
@@ -651,6 +763,81 @@ fn run_page(page: &str, shown: &[Shown], mock: &str) -> Vec<String> {
         }
     }
     failures
+}
+
+/// A reduced command's shown output against what its reduced form printed: the lines [`STABLE`]
+/// lists must be in both, in that order.
+fn compare_stable(at: &str, command: &str, output: &[String], r: &Ran) -> Vec<String> {
+    let Some((_, want)) = STABLE.iter().find(|(c, _)| *c == command) else {
+        return vec![format!(
+            "{at}: the page shows the full command's output but the test runs it reduced; list the lines that do not depend on the reduction in STABLE; the reduced form prints:\n{}{}",
+            r.stdout, r.stderr
+        )];
+    };
+    let shown: Vec<String> = output.iter().map(|l| shape(l)).collect();
+    let printed: Vec<String> = format!("{}{}", r.stdout, r.stderr).lines().map(shape).collect();
+    let mut failures = Vec::new();
+    for (what, lines) in [("the page shows", &shown), ("the reduced form prints", &printed)] {
+        if let Some(missing) = not_in_order(want, lines) {
+            failures
+                .push(format!("{at}: {what} no line `{missing}` (STABLE; numbers are `#`) in:\n{}", lines.join("\n")));
+        }
+    }
+    failures
+}
+
+/// The first of `want` not found in `lines` after the one before it (`…` stands for any text).
+fn not_in_order<'a>(want: &[&'a str], lines: &[String]) -> Option<&'a str> {
+    let mut rest = lines.iter();
+    want.iter().copied().find(|w| !rest.any(|l| line_matches(w, l)))
+}
+
+/// A line with its durations and numbers redacted (`#`) and its runs of spaces made one: what
+/// stays when a smaller budget or fewer seeds change every figure.
+fn shape(line: &str) -> String {
+    let line = redact(line);
+    let mut out = String::new();
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        if !c.is_ascii_digit() {
+            out.push(c);
+            continue;
+        }
+        out.push('#');
+        while let Some(&n) = chars.peek() {
+            let after_point = n == '.' && chars.clone().nth(1).is_some_and(|d| d.is_ascii_digit());
+            if !(n.is_ascii_digit() || after_point) {
+                break;
+            }
+            chars.next();
+        }
+    }
+    out.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// `revelio bench …` lines run or running, with what they printed: a bench reads only the
+/// shipped files and writes no run folder, so the same line shown on several pages (or as a
+/// figure's command) runs once; a second caller waits for the first.
+type Once = std::sync::Arc<std::sync::OnceLock<Result<Ran, String>>>;
+static BENCHES: std::sync::Mutex<Vec<(String, Once)>> = std::sync::Mutex::new(Vec::new());
+
+/// `scratch.run(line)`, or a bench's result from its first run.
+fn run_once(scratch: &Scratch, line: &str) -> Result<Ran, String> {
+    if !line.starts_with("revelio bench ") {
+        return scratch.run(line);
+    }
+    let cell = {
+        let mut benches = BENCHES.lock().unwrap();
+        match benches.iter().find(|(l, _)| l == line) {
+            Some((_, c)) => c.clone(),
+            None => {
+                let c = Once::default();
+                benches.push((line.to_string(), c.clone()));
+                c
+            }
+        }
+    };
+    cell.get_or_init(|| scratch.run(line)).clone()
 }
 
 /// A shown output with an error in it: the command is expected to exit 1.
@@ -746,14 +933,88 @@ fn code_spans(text: &str) -> Vec<String> {
 
 /// A span that names a command that produced a figure: `revelio …` with a flag or a path
 /// (after `time`, `/usr/bin/time -v` or `cargo run [--release] --`), or `cargo bench --bench X`.
+/// `cargo build --bench X` (a bench built to be run by hand) stands for `cargo bench --bench X`,
+/// and a built binary's path (`target-dev/debug/revelio …`) for `revelio …`.
 fn figure_command(span: &str) -> Option<String> {
     let s = span.strip_prefix("/usr/bin/time -v ").or_else(|| span.strip_prefix("time ")).unwrap_or(span);
     let s = s.split(' ').skip_while(|w| w.contains('=') && !w.starts_with('-')).collect::<Vec<_>>().join(" ");
-    if let Some(name) = s.strip_prefix("cargo bench --bench ") {
+    if let Some(name) = s.strip_prefix("cargo bench --bench ").or_else(|| s.strip_prefix("cargo build --bench ")) {
         // `cargo bench --bench NAME` names the tool, not a figure.
-        return Some(s.clone()).filter(|_| name.chars().any(|c| c.is_ascii_lowercase()));
+        return Some(format!("cargo bench --bench {name}")).filter(|_| name.chars().any(|c| c.is_ascii_lowercase()));
+    }
+    let (first, rest) = s.split_once(' ').unwrap_or((&s, ""));
+    if first.contains('/') && first.ends_with("/revelio") {
+        return revelio_line(&format!("revelio {rest}"));
     }
     revelio_line(&s).filter(|c| c.contains(" --") || c.contains('/'))
+}
+
+/// The per-stage pages: each table of figures there names the commands that produced them in a
+/// code span of its section above it (the heading included) or of the table itself.
+const STAGE_PAGES: &[&str] = &["docs/gp.md", "docs/lattice.md", "docs/models.md", "docs/render.md", "docs/sampling.md"];
+
+/// A table cell holding a measurement: a number with a unit of time, rate or memory (`2.7 ms`,
+/// `116 /s`, `5.9s`, `28 MB`; not a limit such as `≤ 20 MB`).
+fn is_measurement(cell: &str) -> bool {
+    const UNITS: &[&str] = &["ns", "µs", "ms", "s", "/s", "KB", "MB", "GB", "min"];
+    let num = |n: &str| {
+        n.chars().next().is_some_and(|c| c.is_ascii_digit())
+            && n.chars().all(|c| c.is_ascii_digit() || ".–-".contains(c))
+    };
+    let words: Vec<&str> = cell.split_whitespace().map(|w| w.trim_matches(|c| "*,;()≈".contains(c))).collect();
+    // `≤ 20 MB` is a limit, not a measurement.
+    let limit = |i: usize| i > 0 && ["≤", "<", "≥", ">"].contains(&words[i - 1]);
+    words.iter().enumerate().any(|(i, w)| {
+        (num(w) && !limit(i) && words.get(i + 1).is_some_and(|u| UNITS.contains(u)))
+            || UNITS.iter().any(|u| w.strip_suffix(u).is_some_and(num))
+    })
+}
+
+/// The figure commands of a per-stage page's tables of figures, and the tables that name none.
+fn stage_figure_commands(page: &str) -> (Vec<Shown>, Vec<String>) {
+    let text = std::fs::read_to_string(common::root().join(page)).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let (mut out, mut failures) = (Vec::new(), Vec::new());
+    let (mut section, mut in_fence, mut i) = (String::new(), false, 0);
+    while i < lines.len() {
+        let l = lines[i];
+        if l.starts_with("```") {
+            in_fence = !in_fence;
+        }
+        if in_fence || !l.starts_with('|') {
+            if l.starts_with('#') && !in_fence {
+                section.clear();
+            }
+            if !in_fence {
+                section.push_str(l);
+                section.push('\n');
+            }
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < lines.len() && lines[i].starts_with('|') {
+            i += 1;
+        }
+        let table = lines[start..i].join("\n");
+        if !lines[start + 1..i].iter().any(|row| row.split('|').any(is_measurement)) {
+            continue;
+        }
+        let commands: Vec<String> =
+            code_spans(&format!("{section}{table}")).iter().filter_map(|s| figure_command(s)).collect();
+        if commands.is_empty() {
+            failures.push(format!(
+                "{page}:{}: a table of figures whose section names no command that produced them",
+                start + 1
+            ));
+        }
+        for command in commands {
+            if !out.iter().any(|s: &Shown| s.command == command) {
+                out.push(Shown { page: page.into(), line: start + 1, command, output: None });
+            }
+        }
+    }
+    (out, failures)
 }
 
 /// The figure commands of a page: every such span of the page, or of its tables with a
@@ -803,8 +1064,9 @@ fn figure_commands(page: &str, tables_only: bool) -> (Vec<Shown>, Vec<String>) {
     (out, failures)
 }
 
-/// Every figure in README.md's figure table and in docs/benchmarks.md names the command that
-/// produced it, and that command runs — in the reduced form [`REDUCED`] gives (fewer seeds, a
+/// Every figure in README.md's figure table and in docs/benchmarks.md, and every table of
+/// figures on a per-stage page ([`STAGE_PAGES`]), names the command that produced it, and that
+/// command runs — in the reduced form [`REDUCED`] gives (fewer seeds, a
 /// smaller budget), never timed; a `cargo bench --bench X` names a bench that exists.
 #[test]
 fn every_figure_names_a_command_that_runs() {
@@ -815,9 +1077,16 @@ fn every_figure_names_a_command_that_runs() {
         shown.extend(s);
         failures.extend(f);
     }
+    for page in STAGE_PAGES {
+        let (s, f) = stage_figure_commands(page);
+        shown.extend(s);
+        failures.extend(f);
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     let manifest = std::fs::read_to_string(common::root().join("Cargo.toml")).unwrap();
-    let mut seen = BTreeSet::new();
+    // A figure's command that a page also shows in a block runs in `every_command_shown_runs`.
+    let mut seen: BTreeSet<String> = all_blocks().iter().flat_map(shown_commands).map(|s| s.command).collect();
+    assert!(shown.len() >= 8, "only {} figure commands found; the extraction is broken", shown.len());
     let mut runs = Vec::new();
     for s in shown {
         if let Some(bench) = s.command.strip_prefix("cargo bench --bench ") {
@@ -829,11 +1098,12 @@ fn every_figure_names_a_command_that_runs() {
                 s.command
             );
         } else if seen.insert(s.command.clone()) {
-            // Each figure is its own measurement, in its own folder.
-            runs.push(Shown { page: format!("{} (figure {})", s.page, runs.len() + 1), ..s });
+            // A page's figures run in its order in one folder (`revelio report runs/demo` reads
+            // the run the row above makes), apart from the folder of its blocks.
+            runs.push(Shown { page: format!("{} (figures)", s.page), ..s });
         }
     }
-    assert!(runs.len() >= 8, "only {} figure commands found; the extraction is broken", runs.len());
+
     run_all(runs);
 }
 
@@ -844,9 +1114,14 @@ fn no_stale_mapping() {
     for (page, tables_only) in FIGURE_PAGES {
         texts.extend(figure_commands(page, *tables_only).0.into_iter().map(|s| s.command));
     }
+    for page in STAGE_PAGES {
+        texts.extend(stage_figure_commands(page).0.into_iter().map(|s| s.command));
+    }
     let stale: Vec<&str> =
         REDUCED.iter().map(|r| r.0).chain(NOT_RUN.iter().map(|n| n.0)).filter(|c| !texts.contains(*c)).collect();
     assert!(stale.is_empty(), "REDUCED/NOT_RUN name commands no page shows any more: {stale:#?}");
+    let loose: Vec<&str> = STABLE.iter().map(|s| s.0).filter(|c| !REDUCED.iter().any(|r| r.0 == *c)).collect();
+    assert!(loose.is_empty(), "STABLE names commands REDUCED does not: {loose:?}");
     let dup: Vec<&str> = REDUCED.iter().map(|r| r.0).filter(|c| NOT_RUN.iter().any(|n| n.0 == *c)).collect();
     assert!(dup.is_empty(), "both reduced and not run: {dup:?}");
 }
@@ -898,6 +1173,14 @@ fn shown_output_matching() {
     assert!(!line_matches("x … y", "x z"));
     assert_eq!(redact("in 13.8s (2.5ms each), 5 sets"), "in <time> (<time> each), 5 sets");
     assert_eq!(redact("town_town02s 5s"), "town_town02s <time>");
+    assert_eq!(shape("random      4.5 [0.0–10.7]   1.6×, in 13.8s"), "random # [#–#] #×, in <time>");
+    assert_eq!(not_in_order(&["a", "c"], &s(&["a", "b", "c"])), None);
+    assert!(is_measurement(" **2.7 ms** (target < 5 ms) ") && is_measurement("63–87 /s") && is_measurement("in 5.9s"));
+    assert!(!is_measurement("`Gp::draw`, d = 30") && !is_measurement("174 436") && !is_measurement("3.9×"));
+    assert!(!is_measurement("inline requests (≤ 20 MB a batch)"));
+    assert_eq!(figure_command("target-dev/debug/revelio bench scale").unwrap(), "revelio bench scale");
+    assert_eq!(figure_command("CARGO_X=3 cargo build --bench sample").unwrap(), "cargo bench --bench sample");
+    assert_eq!(not_in_order(&["c", "a"], &s(&["a", "b", "c"])), Some("a"));
     assert_eq!(words(r#"revelio a 'b c' "d e" f\ g"#), ["revelio", "a", "b c", "d e", "f g"]);
     assert_eq!(revelio_line("revelio x --format plain   # a comment").unwrap(), "revelio x --format plain");
     assert_eq!(revelio_line("cargo run --release -- search d.rev").unwrap(), "revelio search d.rev");
