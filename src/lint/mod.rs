@@ -97,21 +97,29 @@ impl Sample {
         Sample { exhaustive, per_size, max_size: diagram.max_size() }
     }
 
-    /// What the method guarantees, for a diagnostic's help.
-    pub fn method(&self) -> String {
+    /// What the method guarantees, for the help of a diagnostic with `code`: a finding that
+    /// says "never" (R0101, R0104) is always reported when true and may be false for a rare
+    /// rule or option; any other names a judged set that shows it and may miss one.
+    pub fn method(&self, code: &str) -> String {
         let whole = match self.exhaustive {
             0 => String::new(),
             1 => "every valid set of 1 concept and ".into(),
             k => format!("every valid set of up to {k} concepts and "),
         };
-        format!(
+        let judged = format!(
             "not exhaustive — the lattice is past `--max-sets`, so the rules were judged on {whole}{} sets drawn \
-             uniformly from each larger size up to {}: a rule or option that decides at least 1 in {} sets of \
-             some size is missed with probability under 5% (raise `--max-sets` for an exhaustive check)",
-            self.per_size,
-            self.max_size,
-            (self.per_size / 3).max(1)
-        )
+             uniformly from each larger size up to {}",
+            self.per_size, self.max_size
+        );
+        let bound = match code {
+            "R0101" | "R0104" => format!(
+                "nothing that is never selected is missed, but a rule or option that decides at least 1 in {} \
+                 sets of some drawn size is reported falsely with probability under 5% (per rule)",
+                (self.per_size / 3).max(1)
+            ),
+            _ => "the example set shows the finding; sets no judged set showed may be missed".to_string(),
+        };
+        format!("{judged}: {bound} (raise `--max-sets` for an exhaustive check)")
     }
 }
 
@@ -149,11 +157,11 @@ fn lint_sampled(
     survey.rule_lints(domain, plan.max_size, &mut rules);
     survey.option_lints(domain, &mut rules);
     survey.no_rule_lint(domain, &mut rules);
-    let method = plan.method();
     for d in &mut rules {
+        let method = plan.method(d.code);
         d.help = Some(match d.help.take() {
             Some(h) => format!("{h}; {method}"),
-            None => method.clone(),
+            None => method,
         });
     }
     out.extend(rules);
