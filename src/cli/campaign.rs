@@ -74,6 +74,10 @@ fn cell_args(args: &CampaignArgs, campaign: &Campaign, cell: &Cell) -> Result<su
     if args.allow_http {
         argv.push("--allow-http".into());
     }
+    // A dry run's cells build their models without keys: nothing is sent.
+    if args.dry_run {
+        argv.push("--dry-run".into());
+    }
     match super::Cli::try_parse_from(&argv) {
         Ok(super::Cli { command: super::Command::Search(a) }) => Ok(*a),
         Ok(_) => unreachable!("the argument list starts with `search`"),
