@@ -1,8 +1,8 @@
 //! `revelio campaign FILE.toml [--shard I/N] [--dry-run] [--max-cost USD] [--concurrency C]`:
 //! run a grid of searches (domains × models × algorithms × seeds, [`crate::run::campaign`]).
 //! Every cell is prepared exactly as `revelio search` prepares a run (its flags are parsed by
-//! the same definitions), then all cells run at once in this process under one concurrency
-//! limit and one spend cap. Each cell is an ordinary run folder under the file's `out`, so the
+//! the same definitions), then the cells run in this process, up to `--concurrency` at once
+//! (each on a thread of its own), under one concurrency limit and one spend cap. Each cell is an ordinary run folder under the file's `out`, so the
 //! same command resumes, and `report`, `validate`, `compare` work on each. `--shard I/N` runs a
 //! fixed, disjoint part of the cells (a Slurm job array, a Kubernetes Indexed Job:
 //! `docs/campaigns.md`); a run without `--shard` whose cells are all finished writes
