@@ -87,3 +87,31 @@ fn sharded_campaign_equals_unsharded() {
     let csv = std::fs::read_to_string(split.join("compare.csv")).unwrap();
     assert_eq!(csv.lines().count(), 9, "a header and 8 cells: {csv}");
 }
+
+/// A campaign's dry run of an API model needs no key: nothing is sent.
+#[test]
+fn a_dry_run_of_an_api_model_needs_no_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("api.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "out = {:?}\nbudget = 30\nrenderer = \"none\"\ndomains = [\"domains/driving.rev\"]\nmodels = [\"openai:gpt-4.1-mini\"]\nalgos = [\"random\"]\n",
+            tmp.path().join("out").display().to_string()
+        ),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_revelio"))
+        .args(["campaign"])
+        .arg(&file)
+        .arg("--dry-run")
+        .env_remove("OPENAI_API_KEY")
+        .env_remove("OPENAI_BASE_URL")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(stdout.contains("total: at most 30 calls, about $"), "{stdout}");
+    assert!(!tmp.path().join("out").exists(), "a dry run writes nothing");
+}

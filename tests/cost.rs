@@ -172,3 +172,107 @@ async fn retries_and_rate_limit_waits_are_reported() {
     assert_eq!(plain.0, 0, "{}", plain.2);
     assert!(plain.1.contains("; 3 retries (3 after a rate limit), "), "the final line, from the journal: {}", plain.1);
 }
+
+/// `--log FILE`: one JSON line per HTTP attempt. A 500 then a 200 shows as two lines of one
+/// call, the first with its retry reason and wait; the key set in the environment never appears
+/// (not even when the server echoes it in an error), nor a prompt or a reply.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_request_log_shows_retries_and_never_a_key() {
+    const KEY: &str = "sk-log-CANARY-9b2d41";
+    let server = MockServer::start().await;
+    let echo = json!({"error": {"message": format!("upstream failed for key {KEY}")}});
+    Mock::given(method("POST"))
+        .respond_with(ResponseTemplate::new(500).set_body_json(echo))
+        .up_to_n_times(1)
+        .with_priority(1)
+        .mount(&server)
+        .await;
+    Mock::given(method("POST")).respond_with(Billing).with_priority(2).mount(&server).await;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("models.toml"),
+        "[model.\"openai:vlm-test\"]\nconcurrency = 1\nretry_backoff_s = 0.01\n",
+    )
+    .unwrap();
+    let config = dir.path().join("models.toml").display().to_string();
+    let (uri, d) = (server.uri(), dir.path().to_path_buf());
+    let (searched, asked) = tokio::task::spawn_blocking(move || {
+        let log = d.join("requests.jsonl");
+        let o = revelio(&["search", "domains/driving.rev", "--model", "openai:vlm-test", "--renderer", "none"])
+            .args(["--algo", "random", "--budget", "6", "--samples", "2", "--shrink", "0", "--no-cache", "--json"])
+            .args(["--base-url", &uri, "--model-config", &config, "--log"])
+            .arg(&log)
+            .arg("--out")
+            .arg(d.join("run"))
+            .env("OPENAI_API_KEY", KEY)
+            .output()
+            .unwrap();
+        // `REVELIO_LOG` names the file when `--log` is not given.
+        let env_log = d.join("ask.jsonl");
+        let a =
+            revelio(&["ask", "domains/driving.rev", "debris_far", "--model", "openai:vlm-test", "--renderer", "none"])
+                .args(["--base-url", &uri, "--model-config", &config, "--no-cache"])
+                .env("OPENAI_API_KEY", KEY)
+                .env("REVELIO_LOG", &env_log)
+                .output()
+                .unwrap();
+        (
+            (text(&o), std::fs::read_to_string(&log).unwrap_or_default()),
+            (text(&a), std::fs::read_to_string(&env_log).unwrap_or_default()),
+        )
+    })
+    .await
+    .unwrap();
+    let ((run, log), (ask, ask_log)) = (searched, asked);
+    assert_eq!(run.0, 0, "{}", run.2);
+    let summary: Value = serde_json::from_str(&run.1).unwrap();
+    let calls = summary["spend"]["calls"].as_u64().unwrap();
+    let lines: Vec<Value> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len() as u64, calls + 1, "one line per attempt: {log}");
+    let first = &lines[0];
+    assert_eq!(first["status"], json!(500), "{first}");
+    assert_eq!(first["attempt"], json!(1));
+    assert_eq!(first["outcome"], json!("retry"));
+    assert!(first["reason"].as_str().unwrap().starts_with("HTTP 500: upstream failed for key"), "{first}");
+    assert!(first["wait_ms"].as_u64().is_some(), "{first}");
+    assert_eq!(first["provider"], json!("openai"));
+    assert!(first["model"].as_str().unwrap().starts_with("openai:vlm-test"), "{first}");
+    let second = &lines[1];
+    assert_eq!((&second["status"], &second["attempt"], &second["outcome"]), (&json!(200), &json!(2), &json!("ok")));
+    assert!(lines[2..].iter().all(|l| l["attempt"] == json!(1) && l["outcome"] == json!("ok")), "{log}");
+    for l in &lines {
+        assert!(l["time"].as_str().unwrap().ends_with('Z') && l["latency_ms"].as_u64().is_some(), "{l}");
+        assert!(l["endpoint"].as_str().unwrap().ends_with("/chat/completions"), "{l}");
+    }
+    assert!(!log.contains(KEY) && log.contains("[redacted]"), "the key is scrubbed: {log}");
+    assert!(!log.contains("Answer: A") && !log.contains("road ahead"), "no reply in the log: {log}");
+    assert!(!log.contains("What should") && !log.contains("ego vehicle"), "no prompt in the log: {log}");
+    assert_eq!(ask.0, 0, "{}", ask.2);
+    assert_eq!(ask_log.lines().count(), 1, "{ask_log}");
+    assert!(!ask_log.contains(KEY));
+}
+
+/// A dry run of an API model sends nothing, so it needs no key; the same command without
+/// `--dry-run` asks for one.
+#[test]
+fn a_dry_run_needs_no_api_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| {
+        let o = revelio(&["search", "domains/driving.rev", "--model", "openai:gpt-4.1-mini", "--renderer", "none"])
+            .args(["--budget", "50", "--out"])
+            .arg(dir.path().join("run"))
+            .args(extra)
+            .env_remove("OPENAI_BASE_URL")
+            .env("REVELIO_LOG", dir.path().join("log.jsonl"))
+            .output()
+            .unwrap();
+        text(&o)
+    };
+    let dry = run(&["--dry-run"]);
+    assert_eq!(dry.0, 0, "{}", dry.2);
+    assert!(dry.1.contains("at most 50 calls") && dry.1.contains('$'), "{}", dry.1);
+    assert!(!dir.path().join("run").exists() && !dir.path().join("log.jsonl").exists(), "a dry run writes nothing");
+    let real = run(&[]);
+    assert_eq!(real.0, 2, "{}", real.2);
+    assert!(real.2.contains("needs an API key: set `OPENAI_API_KEY`"), "{}", real.2);
+}

@@ -60,6 +60,7 @@ async fn served(spec: &str, route: &str, body: Value) -> (MockServer, Arc<dyn Mo
         concurrency: None,
         allow_http: false,
         batch: None,
+        dry_run: false,
     };
     (server, build_api_model(spec, &opts).unwrap())
 }

@@ -65,6 +65,7 @@ fn model(spec: &str, server: &MockServer, extra: &str, thinking: Option<&str>, c
         concurrency: None,
         allow_http: false,
         batch: None,
+        dry_run: false,
     };
     Setup { model: build_api_model(spec, &opts).unwrap(), dir }
 }
@@ -594,6 +595,7 @@ fn renderer(spec: &str, server: &MockServer, cache: &Path) -> Arc<dyn revelio::r
         cache_dir: Some(cache.to_path_buf()),
         base_url: Some(server.uri()),
         allow_http: false,
+        dry_run: false,
     };
     revelio::render::build_renderer(spec, &opts).unwrap().unwrap()
 }

@@ -1,8 +1,8 @@
 //! `revelio campaign FILE.toml [--shard I/N] [--dry-run] [--max-cost USD] [--concurrency C]`:
 //! run a grid of searches (domains × models × algorithms × seeds, [`crate::run::campaign`]).
 //! Every cell is prepared exactly as `revelio search` prepares a run (its flags are parsed by
-//! the same definitions), then all cells run at once in this process under one concurrency
-//! limit and one spend cap. Each cell is an ordinary run folder under the file's `out`, so the
+//! the same definitions), then the cells run in this process, up to `--concurrency` at once
+//! (each on a thread of its own), under one concurrency limit and one spend cap. Each cell is an ordinary run folder under the file's `out`, so the
 //! same command resumes, and `report`, `validate`, `compare` work on each. `--shard I/N` runs a
 //! fixed, disjoint part of the cells (a Slurm job array, a Kubernetes Indexed Job:
 //! `docs/campaigns.md`); a run without `--shard` whose cells are all finished writes
@@ -54,6 +54,10 @@ pub struct CampaignArgs {
     /// Allow plain `http://` base URLs for a server other than this machine (as for `search`)
     #[arg(long)]
     pub allow_http: bool,
+    /// Append a JSON line per HTTP attempt of every cell to FILE (as for `search`) [default:
+    /// the `REVELIO_LOG` variable, else none]
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
 }
 
 /// The `search` arguments of one cell, parsed by `search`'s own definitions.
@@ -69,6 +73,10 @@ fn cell_args(args: &CampaignArgs, campaign: &Campaign, cell: &Cell) -> Result<su
     }
     if args.allow_http {
         argv.push("--allow-http".into());
+    }
+    // A dry run's cells build their models without keys: nothing is sent.
+    if args.dry_run {
+        argv.push("--dry-run".into());
     }
     match super::Cli::try_parse_from(&argv) {
         Ok(super::Cli { command: super::Command::Search(a) }) => Ok(*a),
@@ -135,31 +143,13 @@ pub fn run(args: CampaignArgs) -> ExitCode {
     let stop = Stop::default();
     let rt = runtime();
     super::common::watch_ctrl_c(&rt, &stop);
-    // The cells share one thread (a search's state is not `Send`); they wait on model calls,
-    // which overlap under the one concurrency limit.
-    let local = tokio::task::LocalSet::new();
-    let results = local.block_on(&rt, async {
-        let mut tasks = tokio::task::JoinSet::new();
-        for (i, (cell, mut p)) in prepared.into_iter().enumerate() {
-            p.setup.gate = Some(gate.clone());
-            p.setup.purse = purse.clone();
-            p.setup.stop = stop.clone();
-            p.setup.progress = ProgressTo::Off;
-            tasks.spawn_local(async move {
-                let r = runner::search(&p.setup, &p.config, &p.space).await;
-                (i, cell, p.setup, r.map(|r| r.summary))
-            });
-        }
-        let mut out = Vec::new();
-        while let Some(j) = tasks.join_next().await {
-            match j {
-                Ok(done) => out.push(done),
-                Err(e) => eprintln!("error: a campaign cell's task failed: {e}"),
-            }
-        }
-        out.sort_by_key(|(i, ..)| *i);
-        out
-    });
+    for (_, p) in &mut prepared {
+        p.setup.gate = Some(gate.clone());
+        p.setup.purse = purse.clone();
+        p.setup.stop = stop.clone();
+        p.setup.progress = ProgressTo::Off;
+    }
+    let results = run_cells(&rt, prepared, args.concurrency as usize);
     let mut failed: Vec<(String, RunError)> = Vec::new();
     for (_, cell, setup, result) in results {
         match result {
@@ -218,6 +208,40 @@ pub fn run(args: CampaignArgs) -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// What one cell's search came to.
+type Ran = (usize, Cell, crate::run::runner::Setup, Result<crate::run::summary::Summary, RunError>);
+
+/// Run the cells, at most `concurrency` at once, each on a thread of its own, and return their
+/// results in the file's order.
+///
+/// A search's state is not `Send` (interact's surrogate), so a cell's search is driven on the
+/// thread that started it; its observations, model calls and timers run on the shared runtime's
+/// workers. All cells on one thread made every search step (a surrogate fit, a journal sync)
+/// wait for every other cell's: with a slow model that thread, not the concurrency limit, set
+/// how long a campaign took. More threads than calls in flight would only wait on the gate.
+fn run_cells(rt: &tokio::runtime::Runtime, prepared: Vec<(Cell, Prepared)>, concurrency: usize) -> Vec<Ran> {
+    let workers = prepared.len().min(concurrency.max(1));
+    let queue = std::sync::Mutex::new(prepared.into_iter().enumerate().collect::<std::collections::VecDeque<_>>());
+    let done = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            let (queue, done, handle) = (&queue, &done, rt.handle().clone());
+            scope.spawn(move || {
+                loop {
+                    let next = queue.lock().unwrap_or_else(|p| p.into_inner()).pop_front();
+                    let Some((i, (cell, p))) = next else { break };
+                    let local = tokio::task::LocalSet::new();
+                    let r = handle.block_on(local.run_until(runner::search(&p.setup, &p.config, &p.space)));
+                    done.lock().unwrap_or_else(|p| p.into_inner()).push((i, cell, p.setup, r.map(|r| r.summary)));
+                }
+            });
+        }
+    });
+    let mut out = done.into_inner().unwrap_or_else(|p| p.into_inner());
+    out.sort_by_key(|(i, ..)| *i);
+    out
 }
 
 /// `index.html` (the comparison table, spend per model, a link to every cell's report) and

@@ -114,6 +114,11 @@ pub struct ModelFlags {
     /// Do not use the reply and image cache
     #[arg(long)]
     pub no_cache: bool,
+    /// Append a JSON line per HTTP attempt to FILE: time, provider, model, status, latency,
+    /// attempt, retry reason, waits; never a key, prompt, image or reply [default: the
+    /// `REVELIO_LOG` variable, else none]
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
 }
 
 impl ModelFlags {
@@ -126,6 +131,7 @@ impl ModelFlags {
             thinking: self.thinking.clone(),
             allow_http: self.allow_http,
             batch: None,
+            dry_run: false,
         }
     }
 
@@ -133,6 +139,21 @@ impl ModelFlags {
     pub fn cache(&self) -> Option<PathBuf> {
         setup::cache_root(self.cache_dir.as_deref(), self.no_cache)
     }
+}
+
+/// Open the request log (`--log FILE`, else the `REVELIO_LOG` variable) before a command's
+/// first model call ([`crate::net::log`]). A dry run sends nothing and writes nothing, so it
+/// opens no log.
+pub(crate) fn open_log(flag: Option<&Path>, dry_run: bool) -> Result<(), ExitCode> {
+    if dry_run {
+        return Ok(());
+    }
+    let env = std::env::var_os(crate::net::log::ENV).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let Some(path) = flag.map(Path::to_path_buf).or(env) else { return Ok(()) };
+    crate::net::log::open(&path).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(1)
+    })
 }
 
 /// Say, before a command's first model call, the most calls it can make (`what`: how that

@@ -89,6 +89,9 @@ pub fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    if let Err(code) = request_log(&cli.command) {
+        return code;
+    }
     match cli.command {
         Command::Check(a) => check::run(a),
         Command::New(a) => new::run(a),
@@ -111,6 +114,20 @@ pub fn main() -> ExitCode {
         Command::Report(a) => report::run(a),
         Command::Runs(a) => runs::run(a),
     }
+}
+
+/// Open the request log of a command that calls a model (`--log`, `REVELIO_LOG`).
+fn request_log(command: &Command) -> Result<(), ExitCode> {
+    let (flag, dry_run) = match command {
+        Command::Search(a) => (&a.model_opts.log, a.run.dry_run),
+        Command::Validate(a) => (&a.model_opts.log, a.run.dry_run),
+        Command::Probe(a) => (&a.model_opts.log, a.run.dry_run),
+        Command::Transfer(a) => (&a.model_opts.log, a.run.dry_run),
+        Command::Ask(a) => (&a.model_opts.log, false),
+        Command::Campaign(a) => (&a.log, a.dry_run),
+        _ => return Ok(()),
+    };
+    common::open_log(flag.as_deref(), dry_run)
 }
 
 /// Compile a domain file for a subcommand. Diagnostics (errors and warnings) go to stderr as

@@ -67,6 +67,7 @@ pub(crate) fn open_parts(
     }
     let mut settings = model_opts.settings().resume(&config.model_settings, names).map_err(setup_error)?;
     settings.batch = run.batch_api.then(|| dir.to_path_buf());
+    settings.dry_run = run.dry_run;
     let cache = model_opts.cache();
     let Parts { model, renderer, concurrency } = setup::build_parts(
         &domain,

@@ -176,6 +176,7 @@ pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
         None => args.model_opts.settings(),
     };
     settings.batch = args.run.batch_api.then(|| out.clone());
+    settings.dry_run = args.run.dry_run;
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer: renderer_parts, concurrency } =

@@ -76,7 +76,7 @@ fn random_sets(space: &[ConceptSet], exclude: &[ConceptSet], k: usize, seed: u64
 /// `--dry-run`: every model's calls (the run's own included) and what they come to.
 fn dry_run(args: &TransferArgs, parts: &RunParts) -> ExitCode {
     let cache = args.model_opts.cache();
-    let settings = args.model_opts.settings();
+    let settings = setup::ModelSettings { dry_run: true, ..args.model_opts.settings() };
     let mut models: Vec<Arc<dyn Model>> = vec![parts.model.clone()];
     for spec in &args.models {
         match setup::build_parts(&parts.domain, spec, "none", &settings, cache.as_deref(), None) {

@@ -74,6 +74,7 @@ pub fn run(args: ValidateArgs) -> ExitCode {
         Err(e) => return setup_error(e),
     };
     settings.batch = args.run.batch_api.then(|| args.run_dir.clone());
+    settings.dry_run = args.run.dry_run;
     let cache = args.model_opts.cache();
     let concurrency = args.run.concurrency.map(|c| c as usize);
     let Parts { model, renderer, concurrency } = match setup::build_parts(

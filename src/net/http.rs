@@ -21,6 +21,7 @@ use std::time::{Duration, Instant, SystemTime};
 use governor::{DefaultDirectRateLimiter, Quota, RateLimiter};
 use tokio::sync::Semaphore;
 
+use super::log::Outcome;
 use crate::date::days_from_civil;
 use crate::diag::terminal_safe;
 
@@ -153,11 +154,23 @@ pub struct Transport {
     client: reqwest::Client,
     gate: Arc<Gate>,
     limits: Limits,
+    /// What this transport's lines in the request log name ([`super::log`]).
+    label: super::log::Label,
 }
 
 impl Transport {
     pub fn new(gate: Arc<Gate>, limits: Limits) -> Result<Transport, String> {
-        Ok(Transport { client: client()?, gate, limits })
+        Ok(Transport { client: client()?, gate, limits, label: super::log::Label::default() })
+    }
+
+    /// Name the provider and model in the request log, and the credentials scrubbed from it.
+    pub fn labelled(self, provider: &str, model: &str, secrets: &[&str]) -> Transport {
+        let label = super::log::Label {
+            provider: provider.to_string(),
+            model: model.to_string(),
+            secrets: secrets.iter().map(|s| s.to_string()).collect(),
+        };
+        Transport { label, ..self }
     }
 
     pub fn limits(&self) -> Limits {
@@ -187,6 +200,9 @@ impl Transport {
         let (mut rate_limited, mut waited) = (0u32, Duration::ZERO);
         loop {
             attempt += 1;
+            let queued = Instant::now();
+            let mut sent: Option<(SystemTime, Instant, String)> = None;
+            let mut status = None;
             let verdict = {
                 let Ok(_permit) = self.gate.sem.acquire().await else {
                     return self.end(
@@ -214,6 +230,9 @@ impl Transport {
                     Err(e) => return self.end(Err(e), attempt, started, (rate_limited, waited)),
                 };
                 let timeout = self.limits.timeout.min(left);
+                if super::log::enabled() {
+                    sent = Some((SystemTime::now(), Instant::now(), super::log::public(&req.url)));
+                }
                 match tokio::time::timeout(timeout, self.send(method.clone(), req)).await {
                     Err(_) => Verdict::Retry {
                         reason: format!("timed out after {:.1} s", timeout.as_secs_f64()),
@@ -221,16 +240,31 @@ impl Transport {
                     },
                     Ok(Err(Failed::Transient(e))) => Verdict::Retry { reason: e, after: None },
                     Ok(Err(Failed::Permanent(e))) => Verdict::Fail(e),
-                    Ok(Ok(resp)) => judge(resp),
+                    Ok(Ok(resp)) => {
+                        status = Some(resp.status);
+                        judge(resp)
+                    }
+                }
+            };
+            let log = |outcome, reason: Option<&str>, wait: Option<Duration>| {
+                if let Some((time, at, endpoint)) = &sent {
+                    self.log(&method, (*time, *at, endpoint), attempt, status, queued, outcome, reason, wait);
                 }
             };
             let (reason, after) = match verdict {
-                Verdict::Done(t) => return self.end(Ok(t), attempt, started, (rate_limited, waited)),
-                Verdict::Fail(m) => return self.end(Err(m), attempt, started, (rate_limited, waited)),
+                Verdict::Done(t) => {
+                    log(Outcome::Ok, None, None);
+                    return self.end(Ok(t), attempt, started, (rate_limited, waited));
+                }
+                Verdict::Fail(m) => {
+                    log(Outcome::Failed, Some(&m), None);
+                    return self.end(Err(m), attempt, started, (rate_limited, waited));
+                }
                 Verdict::Retry { reason, after } => (reason, after),
             };
             if attempt >= self.limits.attempts {
                 let msg = format!("{reason} (gave up after {attempt} attempts)");
+                log(Outcome::Failed, Some(&msg), None);
                 return self.end(Err(msg), attempt, started, (rate_limited, waited));
             }
             let wait = after.unwrap_or_else(|| backoff(&self.limits, attempt));
@@ -241,14 +275,47 @@ impl Transport {
                     wait.as_secs_f64(),
                     self.limits.deadline.as_secs_f64()
                 );
+                log(Outcome::Failed, Some(&msg), None);
                 return self.end(Err(msg), attempt, started, (rate_limited, waited));
             }
+            log(Outcome::Retry, Some(&reason), Some(wait));
             if reason.starts_with("HTTP 429") {
                 rate_limited += 1;
             }
             waited += wait;
             tokio::time::sleep(wait).await;
         }
+    }
+
+    /// One attempt's line in the request log ([`super::log`]).
+    #[allow(clippy::too_many_arguments)]
+    fn log(
+        &self,
+        method: &reqwest::Method,
+        (time, at, endpoint): (SystemTime, Instant, &str),
+        attempt: u32,
+        status: Option<u16>,
+        queued: Instant,
+        outcome: Outcome,
+        reason: Option<&str>,
+        wait: Option<Duration>,
+    ) {
+        let line = super::log::Line {
+            time: super::log::rfc3339(time),
+            provider: &self.label.provider,
+            model: &self.label.model,
+            method: method.as_str(),
+            endpoint: endpoint.to_string(),
+            attempt,
+            status,
+            latency_ms: at.elapsed().as_millis() as u64,
+            outcome,
+            reason: reason.map(str::to_string),
+            queued_ms: at.saturating_duration_since(queued).as_millis() as u64,
+            wait_ms: wait.map(|w| w.as_millis() as u64),
+            rate_limited: status == Some(429),
+        };
+        super::log::write(&line, &self.label);
     }
 
     fn end<T>(

@@ -1,7 +1,7 @@
 //! The network edge shared by the model clients (`vlm`) and the image generators (`render`): the
-//! resilient HTTP path ([`http`]), credentials and base URLs ([`secret`]), the content-addressed
-//! disk store behind the caches ([`cache`]), and what each provider's host expects of every
-//! client that calls it ([`gemini`], [`openai`]).
+//! resilient HTTP path ([`http`]) and its request log ([`log`]), credentials and base URLs
+//! ([`secret`]), the content-addressed disk store behind the caches ([`cache`]), and what each
+//! provider's host expects of every client that calls it ([`gemini`], [`openai`]).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -14,6 +14,7 @@ pub mod gemini;
 pub mod http;
 #[cfg(feature = "net")]
 pub mod json;
+pub mod log;
 #[cfg(feature = "net")]
 pub mod openai;
 #[cfg(feature = "net")]
@@ -47,6 +48,9 @@ pub struct Host {
 pub struct EndpointFlags<'a> {
     pub base_url: Option<&'a str>,
     pub allow_http: bool,
+    /// `--dry-run`: no request will be sent, so a missing key is not an error (the URL is
+    /// still checked).
+    pub dry_run: bool,
 }
 
 /// Domains whose hosts are a provider's own: a key for them never goes out over plain `http://`,
@@ -94,15 +98,15 @@ pub struct Endpoint {
 #[cfg(feature = "net")]
 impl Host {
     /// The base URL (`flags.base_url`, then the host's variables, then `default`) and the key.
-    /// The key is required on the provider's own host (`default`); a server elsewhere (a local
-    /// model server, a proxy) may not need one. The URL is refused with userinfo in it, and
+    /// The key is required on the provider's own host (`default`), except by a dry run, which
+    /// sends nothing; a server elsewhere (a local model server, a proxy) may not need one. The URL is refused with userinfo in it, and
     /// over plain `http://` unless it names this machine or `flags.allow_http` is set — and
     /// always for a provider's own host ([`secret::check_base_url`]).
     pub fn endpoint(&self, spec: &str, flags: EndpointFlags<'_>, default: &str) -> Result<Endpoint, String> {
         let base = secret::base_url(flags.base_url, self.base_env, default)?;
         secret::check_base_url(&base, default, flags.allow_http)?;
         let key = secret::env_any(self.key_env).map(secret::Secret);
-        if key.is_none() && !self.key_env.is_empty() && base == default.trim_end_matches('/') {
+        if key.is_none() && !flags.dry_run && !self.key_env.is_empty() && base == default.trim_end_matches('/') {
             let names: Vec<String> = self.key_env.iter().map(|k| format!("`{k}`")).collect();
             let alternatives = match names.split_first() {
                 Some((first, [])) => first.clone(),

@@ -18,7 +18,7 @@ pub fn redact(text: String, secrets: &[&str]) -> String {
 }
 
 /// A secret (API key, AWS secret) whose `Debug` never shows the value.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct Secret(pub String);
 
 impl std::fmt::Debug for Secret {

@@ -50,7 +50,7 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
     }
     // The renderer's own endpoint: `--renderer-base-url` or its provider's variables, never the
     // model's `--base-url`, so each key goes only to its own provider's host.
-    let base = EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http };
+    let base = EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http, dry_run: opts.dry_run };
     let (provider, endpoint) = match provider {
         "gemini" => {
             let e = gemini::HOST.endpoint(spec, base, gemini::DEFAULT_BASE_URL)?;
@@ -75,10 +75,16 @@ pub fn build(spec: &str, opts: &RendererOptions) -> Result<Arc<dyn Renderer>, St
         Some((w, h)) => format!("{spec}@{w}x{h}"),
         None => spec.to_string(),
     };
+    let (name, key) = match &provider {
+        Provider::Gemini { key, .. } => ("gemini imagegen", key),
+        Provider::OpenAi { key, .. } => ("openai imagegen", key),
+    };
+    let secrets: Vec<&str> = key.iter().map(|k| k.0.as_str()).collect();
+    let transport = Transport::new(gate, limits)?.labelled(name, &id, &secrets);
     Ok(Arc::new(ImageGen {
         id,
         provider,
-        transport: Transport::new(gate, limits)?,
+        transport,
         cache: opts.cache_dir.as_ref().map(|d| Store::new(d, "png")),
         size: opts.size,
     }))

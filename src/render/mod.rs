@@ -102,6 +102,8 @@ pub struct RendererOptions {
     /// `--allow-http`: plain `http://` to a named server other than this machine (never to a
     /// provider's own host).
     pub allow_http: bool,
+    /// `--dry-run`: nothing will be drawn, so an image generator is built without its key.
+    pub dry_run: bool,
 }
 
 /// `--renderer` specs: `none` (no image; models see only the prompt), `builtin` (wgpu),

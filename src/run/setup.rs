@@ -54,6 +54,10 @@ pub struct ModelSettings {
     /// command, never recorded: the batch API answers as the live one does.
     #[serde(skip)]
     pub batch: Option<PathBuf>,
+    /// `--dry-run`: nothing is sent, so the model and image generator are built without their
+    /// keys. Never recorded (a dry run writes nothing).
+    #[serde(skip)]
+    pub dry_run: bool,
 }
 
 /// How a command spells the flags that choose a model's destinations, for the messages that ask
@@ -205,6 +209,7 @@ pub fn build_parts(
         cache_dir: cache.map(|c| c.join("replies")),
         concurrency,
         batch: settings.batch.clone(),
+        dry_run: settings.dry_run,
     };
     let model = build_model(model_spec, domain, &options).map_err(SetupError::Model)?;
     let renderer = build_renderer(
@@ -214,6 +219,7 @@ pub fn build_parts(
             cache_dir: cache.map(|c| c.join("images")),
             base_url: settings.renderer_base_url.clone(),
             allow_http: settings.allow_http,
+            dry_run: settings.dry_run,
         },
     )
     .map_err(|e| if known_renderer(renderer_spec) { SetupError::Renderer(e) } else { SetupError::RendererSpec(e) })?;
@@ -247,6 +253,7 @@ mod tests {
             thinking: Some("low".into()),
             allow_http: false,
             batch: None,
+            dry_run: false,
         }
     }
 

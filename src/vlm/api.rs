@@ -188,7 +188,7 @@ impl<P: Protocol> ApiModel<P> {
         limits.backoff_base = settings.retry_backoff;
         limits.max_body = settings.max_reply_bytes;
         limits.stall = settings.stall_timeout;
-        let transport = Transport::new(gate, limits)?;
+        let transport = Transport::new(gate, limits)?.labelled(host.provider, &id, &proto.secrets());
         let base_url = public_url(base);
         // The cache is shared by every run: the same model name served elsewhere (another
         // vLLM server, a proxy) may answer differently, so the endpoint is part of its identity.

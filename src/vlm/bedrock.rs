@@ -56,7 +56,12 @@ pub fn build(
     if !region.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
         return Err(format!("invalid AWS region `{region}`"));
     }
-    let creds = Credentials::from_env()?;
+    // A dry run sends nothing, so it signs nothing.
+    let creds = match Credentials::from_env() {
+        Ok(c) => c,
+        Err(_) if base.dry_run => Credentials::default(),
+        Err(e) => return Err(e),
+    };
     let is_anthropic = model.contains("anthropic.");
     let thinking = thinking_fields(spec, &settings)?;
     if !thinking.is_empty() && !is_anthropic {

@@ -47,7 +47,8 @@ impl Prices {
 /// and the docs name, for a model config that gives none; a config's `price_input_per_mtok` /
 /// `price_output_per_mtok` always win. Matched on the model name after the provider prefix,
 /// longest entry first (`gpt-4.1-mini` before `gpt-4.1`); Bedrock ids match on the Anthropic
-/// name they contain. Published list prices, standard tier, as of 2025-11.
+/// name they contain. Published list prices, standard tier, as of 2025-11; docs/models.md says
+/// which of them were confirmed on the providers' own pages when last checked (2026-11-27).
 const BUILTIN_PRICES: &[(&str, f64, f64)] = &[
     ("gpt-4.1-nano", 0.10, 0.40),
     ("gpt-4.1-mini", 0.40, 1.60),

@@ -32,6 +32,8 @@ pub struct ModelOptions {
     /// `--concurrency`: overrides the model config's `concurrency` (one setting for the run's
     /// observations and the provider's request gate).
     pub concurrency: Option<usize>,
+    /// `--dry-run`: nothing will be sent, so the model is built without its key.
+    pub dry_run: bool,
 }
 
 pub fn build_model(spec: &str, domain: &Domain, opts: &ModelOptions) -> Result<Arc<dyn Model>, String> {
@@ -65,7 +67,11 @@ pub fn build_api_model(spec: &str, opts: &ModelOptions) -> Result<Arc<dyn Model>
     if let Some(c) = opts.concurrency {
         settings.concurrency = c.max(1);
     }
-    let base = crate::net::EndpointFlags { base_url: opts.base_url.as_deref(), allow_http: opts.allow_http };
+    let base = crate::net::EndpointFlags {
+        base_url: opts.base_url.as_deref(),
+        allow_http: opts.allow_http,
+        dry_run: opts.dry_run,
+    };
     let cache = if opts.no_cache { None } else { opts.cache_dir.as_deref() };
     if let Some(dir) = &opts.batch {
         use crate::vlm::batch::{BatchModel, anthropic::AnthropicBatch, gemini::GeminiBatch, openai::OpenAiBatch};

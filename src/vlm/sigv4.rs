@@ -9,7 +9,7 @@ use crate::hash::{sha256, sha256_hex};
 use crate::net::secret::{Secret, env_any};
 
 /// AWS credentials; `Debug` never prints the secret or the token.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct Credentials {
     pub access_key_id: String,
     pub secret_access_key: Secret,

@@ -300,8 +300,12 @@ impl<P: Protocol, W: Wire> BatchModel<P, W> {
         limits.max_body = 1 << 30;
         let gate = Gate::shared(&format!("{} {endpoint} batch", wire.provider()), 4, s.requests_per_minute);
         let errors = live.clone();
-        let ops =
-            Ops { transport: Transport::new(gate, limits)?, error: Box::new(move |s, b| errors.proto().error(s, b)) };
+        let transport = Transport::new(gate, limits)?.labelled(
+            &format!("{} batch", wire.provider()),
+            &live.id(),
+            &live.proto().secrets(),
+        );
+        let ops = Ops { transport, error: Box::new(move |s, b| errors.proto().error(s, b)) };
         let log = BatchLog { path: dir.join(JOURNAL), model: live.id(), endpoint };
         let pending = log.load()?;
         let state = Mutex::new(State { pending, ..State::default() });
