@@ -288,7 +288,7 @@ pub(crate) struct RunFigures {
 pub(crate) fn run_params(args: &SearchBenchArgs, at: &Params, algo: Algo, seed: u64) -> Params {
     let batch = args.search.batch.unwrap_or(if algo == Algo::Interact { args.concurrency as usize } else { at.batch });
     let p = Params { algo, seed, batch, ..at.clone() };
-    Params { beam_budget: p.beam_budget.min(p.search_budget()), ..p }
+    Params { beam_budget: p.beam_budget.min(p.plan().search), ..p }
 }
 
 fn search(mut args: SearchBenchArgs) -> ExitCode {
@@ -318,7 +318,7 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
     }
     args.renderer = Some(renderer);
     let base = Params { shrink: args.shrink, ..args.params.clone() };
-    let base = Params { beam_budget: base.search_budget() / 2, ..base };
+    let base = Params { beam_budget: base.plan().search / 2, ..base };
     let sequential = Params { max_samples: args.max_samples, ..base.clone() };
     if let Err(e) = base.validate().and_then(|_| sequential.validate()) {
         eprintln!("error: {e}");

@@ -150,8 +150,8 @@ pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
     params.beam_budget = args
         .beam_budget
         .or(recorded.map(|p| p.beam_budget))
-        .unwrap_or(params.search_budget() / 2)
-        .min(params.search_budget());
+        .unwrap_or(params.plan().search / 2)
+        .min(params.plan().search);
     if let Err(e) = params.validate() {
         eprintln!("error: {e}");
         return Err(ExitCode::from(2));
@@ -309,19 +309,7 @@ pub fn print_summary(
         writeln!(w, "not answered (excluded from FR): {}", parts.join(", "))?;
     }
     if let Some(sh) = &s.shrink {
-        let refuted = match sh.refuted.len() {
-            0 => String::new(),
-            n => format!("; {n} failure mode{} refuted when re-tested", if n == 1 { "" } else { "s" }),
-        };
-        writeln!(
-            w,
-            "shrink: {} cores from {} inferences of {} (up to {} observations per set, {} to test a core's lift){refuted}",
-            s.cores.len(),
-            sh.inferences,
-            sh.budget,
-            sh.max_samples,
-            crate::search::shrink::LIFT_MAX_FACTOR * sh.max_samples
-        )?;
+        writeln!(w, "{}", s.shrink_text(sh))?;
     }
     if let Some(c) = &s.confirmation {
         writeln!(
@@ -359,55 +347,31 @@ pub fn print_summary(
     if s.cores.is_empty() && s.failure_modes.is_empty() {
         writeln!(w, "no failure modes found")?;
     }
-    if !s.cores.is_empty() && s.confirmation.is_some() {
-        // Confirmed FR and interval from the fresh observations alone; the search's own
-        // evidence (which selected the core) beside it.
+    if !s.cores.is_empty() {
+        // With fresh confirmation: the confirmed FR and interval (the fresh observations alone)
+        // first, the search's own evidence (which selected the core) beside it.
+        let confirmed = s.confirmation.is_some();
+        let (head, title) = match confirmed {
+            true => (
+                format!("{:<14}  {:>4}  {:<14}  {:>4}", "confirmed FR", "n", "search FR", "n"),
+                "confirmed minimal failure modes (cores)",
+            ),
+            false => (format!("{:<14}  {:>4}", "FR [95% CI]", "n"), "minimal failure modes (cores)"),
+        };
         writeln!(w)?;
-        writeln!(
-            w,
-            "{:>4}  {:<14}  {:>4}  {:<14}  {:>4}  {:>9}  confirmed minimal failure modes (cores)",
-            "#", "confirmed FR", "n", "search FR", "n", "supersets"
-        )?;
+        writeln!(w, "{:>4}  {head}  {:>9}  {title}", "#", "supersets")?;
         for (i, c) in s.cores.iter().take(top).enumerate() {
             let star = if c.minimal { "" } else { "  (not fully shrunk)" };
-            let (cfr, cn) =
-                c.confirmed.as_ref().map_or(("–".to_string(), 0), |r| (fr_ci_text(r.fr, r.ci95), r.answered));
+            let search = format!("{:<14}  {:>4}", fr_ci_text(c.set.fr, c.set.ci95), c.set.answered);
+            let evidence = match (confirmed, &c.confirmed) {
+                (false, _) => search,
+                (true, Some(r)) => format!("{:<14}  {:>4}  {search}", fr_ci_text(r.fr, r.ci95), r.answered),
+                (true, None) => format!("{:<14}  {:>4}  {search}", "–", 0),
+            };
             let part = c.part.as_ref().map_or_else(String::new, |p| {
                 format!("  (part {} alone: {} of {})", p.concepts.join(" + "), pct(p.fr), p.answered)
             });
-            writeln!(
-                w,
-                "{:>4}  {:<14}  {:>4}  {:<14}  {:>4}  {:>9}  {}{star}{part}",
-                i + 1,
-                cfr,
-                cn,
-                fr_ci_text(c.set.fr, c.set.ci95),
-                c.set.answered,
-                c.supersets,
-                c.set.concepts.join(" + ")
-            )?;
-        }
-        if s.cores.len() > top {
-            writeln!(w, "      … {} more cores in summary.json", s.cores.len() - top)?;
-        }
-    } else if !s.cores.is_empty() {
-        writeln!(w)?;
-        writeln!(
-            w,
-            "{:>4}  {:<14}  {:>4}  {:>9}  minimal failure modes (cores)",
-            "#", "FR [95% CI]", "n", "supersets"
-        )?;
-        for (i, c) in s.cores.iter().take(top).enumerate() {
-            let star = if c.minimal { "" } else { "  (not fully shrunk)" };
-            writeln!(
-                w,
-                "{:>4}  {:<14}  {:>4}  {:>9}  {}{star}",
-                i + 1,
-                fr_ci_text(c.set.fr, c.set.ci95),
-                c.set.answered,
-                c.supersets,
-                c.set.concepts.join(" + ")
-            )?;
+            writeln!(w, "{:>4}  {evidence}  {:>9}  {}{star}{part}", i + 1, c.supersets, c.set.concepts.join(" + "))?;
         }
         if s.cores.len() > top {
             writeln!(w, "      … {} more cores in summary.json", s.cores.len() - top)?;

@@ -200,14 +200,19 @@ fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
     }
     writeln!(
         out,
-        "</div>\n<div class=\"rate\"><div class=\"fr\">{}</div><div class=\"ci\">95% CI {}</div></div>\n</div>",
+        "</div>\n<div class=\"rate\"><div class=\"fr\">{}</div><div class=\"ci\">95% CI {} · {}</div></div>\n</div>",
         Esc(&c.fr),
-        Esc(&c.ci)
+        Esc(&c.ci),
+        Esc(c.basis)
     )?;
     for line in c.evidence.iter().chain(&c.part) {
         writeln!(out, "<p class=\"note\">{}</p>", Esc(line))?;
     }
-    writeln!(out, "<div class=\"facts\">\n<span><b>{}</b> wrong of <b>{}</b> answered</span>", c.wrong, c.answered)?;
+    writeln!(
+        out,
+        "<div class=\"facts\">\n<span><b>{}</b> wrong of <b>{}</b> answered ({})</span>",
+        c.wrong, c.answered, c.basis
+    )?;
     writeln!(out, "<span>validated: <b>{}</b></span>", Esc(&c.validated))?;
     writeln!(out, "<span><b>{}</b> failure modes of the search contain it</span>", c.supersets)?;
     if let Some(from) = &c.shrunk_from {

@@ -73,10 +73,14 @@ pub struct CoreView {
     pub key: String,
     pub title: String,
     pub concepts: Vec<String>,
+    /// The headline rate, interval and counts: the fresh confirmation's when the run confirmed
+    /// its cores, else the search's.
     pub fr: String,
     pub ci: String,
     pub wrong: u32,
     pub answered: u32,
+    /// Whose evidence the headline is: "confirmed on fresh scenes" or "search".
+    pub basis: &'static str,
     pub validated: String,
     /// Failure modes of the search that contain the core, itself included.
     pub supersets: usize,
@@ -89,8 +93,7 @@ pub struct CoreView {
     pub observations: Vec<ObsView>,
     /// Where the visibility guard had to redraw or withhold this core's scenes.
     pub visibility: Option<String>,
-    /// The fresh confirmation's rate and interval beside the search's evidence (runs with
-    /// confirmation).
+    /// The search's own evidence, apart from the confirmed headline (runs with confirmation).
     pub evidence: Option<String>,
     /// The core's near-threshold part and its own rate.
     pub part: Option<String>,
@@ -332,16 +335,25 @@ fn core_view(
         .map(|m| mode_row(run, m))
         .collect();
     let key = c.concepts.join(" + ");
+    // Confirmed first: the headline is the fresh observations' when there are any.
+    let confirmed = confirmed_row(run, &c.concepts).and_then(|(core, q)| core.confirmed.as_ref().map(|r| (core, r, q)));
+    let (fr, ci, wrong, answered, basis) = match confirmed {
+        Some((_, r, _)) => {
+            (pct(r.fr), interval(Some((r.ci95[0], r.ci95[1]))), r.wrong, r.answered, "confirmed on fresh scenes")
+        }
+        None => (pct(c.fr), interval(c.ci95), c.wrong, c.answered, "search"),
+    };
     CoreView {
         anchor: format!("core-{}", i + 1),
         rank: i + 1,
         title: key.clone(),
         key,
         concepts: c.concepts.clone(),
-        fr: pct(c.fr),
-        ci: interval(c.ci95),
-        wrong: c.wrong,
-        answered: c.answered,
+        fr,
+        ci,
+        wrong,
+        answered,
+        basis,
         validated: match (&run.validation, run.validated(&c.concepts)) {
             (None, _) => "run not validated".into(),
             (Some(v), None) => format!("not among the top {} validated", v.top),
@@ -355,18 +367,14 @@ fn core_view(
         verdict_error,
         observations,
         visibility: visibility_text(&crate::analysis::visibility(&f.core_observations[i])),
-        evidence: confirmed_row(run, &c.concepts).and_then(|(core, q)| {
-            core.confirmed.as_ref().map(|r| {
-                format!(
-                    "Confirmed on {} fresh observations made after it was selected: {} {} (anytime-valid 95%; e-BH at q = {q}). The search's own evidence, which selected it: {} {} of {}.",
-                    r.answered,
-                    pct(r.fr),
-                    interval(Some((r.ci95[0], r.ci95[1]))),
-                    pct(core.set.fr),
-                    interval(Some((core.set.ci95[0], core.set.ci95[1]))),
-                    core.set.answered
-                )
-            })
+        evidence: confirmed.map(|(core, r, q)| {
+            format!(
+                "Confirmed on {} fresh observations made after it was selected (anytime-valid 95%; e-BH at q = {q}). The search's own evidence, which selected it and is not counted above: {} {} of {}.",
+                r.answered,
+                pct(core.set.fr),
+                interval(Some((core.set.ci95[0], core.set.ci95[1]))),
+                core.set.answered
+            )
         }),
         part: confirmed_row(run, &c.concepts).and_then(|(core, _)| core.part.as_ref()).map(|p| {
             format!(
@@ -482,10 +490,7 @@ fn metrics(run: &Run, f: &Findings<'_>) -> Vec<Metric> {
             value: f.cores.len().to_string(),
             detail: match (&run.summary.calls, &run.extras.shrink) {
                 (Some(c), _) => {
-                    format!(
-                        "explained and confirmed as found, in {} inferences",
-                        grouped(c.explaining + c.confirmation)
-                    )
+                    format!("shrunk and tested as found, in {} inferences", grouped(c.explaining + c.confirmation))
                 }
                 (None, Some(sh)) => format!("shrunk in {} inferences", grouped(sh.inferences)),
                 (None, None) if f.shrunk => "minimal failing subsets".into(),

@@ -80,11 +80,11 @@ pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: 
     if new_p.budget < old_p.budget {
         return Err(ResumeError::BudgetLowered { dir: dir.to_path_buf(), was: old_p.budget, now: new_p.budget, made });
     }
-    if new_p.shrink < old_p.shrink || new_p.search_budget() < old_p.search_budget() {
+    if new_p.shrink < old_p.shrink || new_p.plan().search < old_p.plan().search {
         return Err(ResumeError::SearchCut {
             dir: dir.to_path_buf(),
             shrink: (old_p.shrink, new_p.shrink),
-            search: (old_p.search_budget(), new_p.search_budget()),
+            search: (old_p.plan().search, new_p.plan().search),
         });
     }
     Ok(())
@@ -405,14 +405,16 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
         p.set_label("shrink");
     }
     let spent: u64 = history.iter().map(|s| u64::from(s.observations())).sum();
-    let budget = params.shrink_budget(spent);
-    let mut driver = Driver::with_history(eval, params.shrink_rule(), budget, history.clone());
-    let found = shrink::run(&mut driver, space, &shrink::roots(&history, params.threshold)).await?;
-    let shrink = (budget, driver.spent(), driver.history.len() - history.len());
+    // The shrink phase keeps fresh confirmation's share for every core it holds and one more.
+    let plan = params.plan();
+    let mut driver = Driver::with_history(eval, params.shrink_rule(), plan.shrink_cap(spent, 0), history.clone());
+    let roots = shrink::roots(&history, params.threshold);
+    let found = shrink::run_capped(&mut driver, space, &roots, |cores| plan.shrink_cap(spent, cores)).await?;
+    let shrink = (driver.budget(), driver.spent(), driver.history.len() - history.len());
     let everything = driver.history;
-    // Confirmation: what the search and the shrink phase left of `--budget` (at least the
-    // reserve), on fresh scenes: a phase of its own, indices past every earlier observation.
-    let budget = params.budget.saturating_sub(spent + shrink.1);
+    // Confirmation: what the search and the shrink phase left of `--budget` (at least its share
+    // per candidate), on fresh scenes: a phase of its own, indices past every earlier observation.
+    let budget = plan.confirm_budget(spent + shrink.1);
     eval.phase = Phase::Confirm;
     if let Some(p) = &eval.progress {
         p.set_label("confirm");

@@ -108,13 +108,13 @@ fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
                 assert!(r.summary.metrics.inferences <= 150, "{what}: the search phase is budget − shrink");
             }
             let sh = r.summary.shrink.as_ref().expect("the shrink phase ran");
-            let reserve = cfg.params.confirm_reserve();
+            let c = r.summary.confirmation.as_ref().expect("fresh confirmation ran");
+            let plan = cfg.params.plan();
             assert_eq!(
                 sh.budget,
-                200 - reserve - r.summary.metrics.inferences,
-                "{what}: the shrink phase gets what is left but fresh confirmation's reserve"
+                plan.shrink_cap(r.summary.metrics.inferences, c.candidates),
+                "{what}: the shrink phase gets what is left but fresh confirmation's share per candidate and one more"
             );
-            let c = r.summary.confirmation.as_ref().expect("fresh confirmation ran");
             assert_eq!(
                 c.budget,
                 200 - r.summary.metrics.inferences - sh.inferences,

@@ -410,9 +410,40 @@ impl Summary {
             + self.confirmation.as_ref().map_or(0, |c| c.inferences)
     }
 
+    /// Where the cores came from and what it cost: for the paper's algorithms the shrink phase
+    /// (`shrink: 3 candidate cores from 243 inferences of 250 …`); for interact, which shrinks
+    /// each failure as it finds it, the calls it spent on that during the search and what the
+    /// shrink phase after it added.
+    pub fn shrink_text(&self, sh: &ShrinkSummary) -> String {
+        let candidates = self.confirmation.as_ref().map_or(self.cores.len(), |c| c.candidates);
+        let noun = if self.confirmation.is_some() { "candidate cores" } else { "cores" };
+        let refuted = match sh.refuted.len() {
+            0 => String::new(),
+            n => format!("; {n} failure mode{} refuted when re-tested", if n == 1 { "" } else { "s" }),
+        };
+        let lift = crate::search::shrink::LIFT_MAX_FACTOR * sh.max_samples;
+        match &self.calls {
+            Some(c) => format!(
+                "shrink: {candidates} {noun}, shrunk and tested during the search ({} calls explaining failures, {} calls in core tests; up to {} observations per set, {lift} to test a core's lift); the shrink phase after it: {} calls of {}{refuted}",
+                spaced(c.explaining),
+                spaced(c.confirmation),
+                sh.max_samples,
+                spaced(sh.inferences),
+                spaced(sh.budget),
+            ),
+            None => format!(
+                "shrink: {candidates} {noun} from {} inferences of {} (up to {} observations per set, {lift} to test a core's lift){refuted}",
+                spaced(sh.inferences),
+                spaced(sh.budget),
+                sh.max_samples,
+            ),
+        }
+    }
+
     /// Where the calls went, against `budget`: `1 000 of 1 000 model calls (screening 402,
-    /// escalation 188, explaining 260, confirmation 90, fresh confirmation 60)`, or `(search 750,
-    /// shrink 180, fresh confirmation 62)`.
+    /// escalation 188, explaining 260, core tests 90, fresh confirmation 60)`, or `(search 750,
+    /// shrink 180, fresh confirmation 62)`. Interact's core tests (its cores re-tested under the
+    /// full rule while it searches) are not the fresh confirmation after the search.
     pub fn budget_text(&self, budget: u64) -> String {
         let shrink = self.shrink.as_ref().map_or(0, |s| s.inferences);
         let mut parts: Vec<String> = match &self.calls {
@@ -420,7 +451,7 @@ impl Summary {
                 ("screening", c.screening),
                 ("escalation", c.escalation),
                 ("explaining", c.explaining),
-                ("confirmation", c.confirmation),
+                ("core tests", c.confirmation),
             ]
             .iter()
             .map(|(what, n)| format!("{what} {}", spaced(*n)))

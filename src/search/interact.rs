@@ -30,7 +30,8 @@
 //!   confirmed core) while the others keep exploring.
 //!
 //! Confirmation and shrinking spend the search's budget: the run as a whole stays within
-//! [`Params::search_budget`]. Every decision is a pure function of the seed and the observed
+//! [`super::budget::Plan::search_cap`], which keeps fresh confirmation's share for every core
+//! found and one more. Every decision is a pure function of the seed and the observed
 //! answers, so a resumed run replays exactly.
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -315,6 +316,7 @@ async fn run_regression<E: Evaluate>(
 ) -> Searched<(), E> {
     let mut searcher = Searcher::new(params, space, parts);
     let mut marked = 0;
+    let (plan, mut cores) = (params.plan(), 0);
     while driver.can_start() {
         let picks = searcher.propose(&driver.history);
         if picks.is_empty() {
@@ -336,6 +338,8 @@ async fn run_regression<E: Evaluate>(
             searcher.board.explore_since(&driver.history, &mut marked);
             if let Shrunk::Core(core) = shrunk? {
                 searcher.confirm(core.stats.set);
+                cores += 1;
+                driver.set_budget(plan.search_cap(cores));
             }
         }
     }
@@ -573,6 +577,7 @@ async fn search_patterns<'d, E: Evaluate>(
     }
     // Screened sets not decided on yet (picks, and the sets calls were filled with).
     let mut queue: Vec<ConceptSet> = Vec::new();
+    let (plan, mut cores) = (params.plan(), 0);
     loop {
         driver.set_rule(screen);
         driver.purpose = Some(Purpose::Screening);
@@ -643,6 +648,9 @@ async fn search_patterns<'d, E: Evaluate>(
             flat.into_iter().for_each(|by| s.explain(by));
             if let Some(c) = core {
                 s.confirm(c);
+                // Keep fresh confirmation's share for this core and the next ([`Params::plan`]).
+                cores += 1;
+                driver.set_budget(plan.search_cap(cores));
             }
         }
     }

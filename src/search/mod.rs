@@ -10,8 +10,9 @@
 //! served from it, and the run continues exactly where the killed one stopped.
 //!
 //! Budgets count inferences (every observation, answered or not; one model call each), and
-//! `--budget` caps every phase of a search together ([`Params::max_calls`]). With the paper's
-//! fixed count an algorithm evaluates at most `search_budget / samples` sets, each with `samples` observations; with
+//! `--budget` caps every phase of a search together ([`Params::max_calls`]); how it is split among
+//! the phases is [`budget::Plan`] ([`Params::plan`]). With the paper's fixed count an algorithm
+//! evaluates at most `plan().search / samples` sets, each with `samples` observations; with
 //! sequential sampling ([`Rule`]) a set may get up to `max_samples`, and fewer sets fit. No set is
 //! evaluated twice: more observations of a set continue its observation indices.
 //!
@@ -21,6 +22,7 @@
 //! and [`shrink::shrink`] reduces one failing set to a minimal failing subset through a driver.
 
 pub mod beam;
+pub mod budget;
 pub mod confirm;
 pub mod cs;
 pub mod ebh;
@@ -123,8 +125,10 @@ pub struct Params {
     /// paper's fixed count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_samples: Option<u32>,
-    /// The part of `budget` set aside for shrinking failure modes to cores after the search (0:
-    /// no shrink phase). The paper's algorithms search with `budget − shrink`.
+    /// The part of `budget` set aside for shrinking failure modes to cores after the search and
+    /// confirming them on fresh scenes (0: neither). The paper's algorithms search with
+    /// `budget − shrink`; `interact`, which shrinks as it searches, keeps confirmation's share
+    /// per core instead ([`budget::Plan`]).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shrink: u64,
     /// The indifference zone δ around τ of the anytime-valid test ([`cs`]): a reported core is
@@ -174,12 +178,6 @@ pub const SHRINK_SHARE: u64 = 4;
 /// wrong one time in four at an error of 0.35 (a single concept's partial effect); at up to 20
 /// observations it is wrong about once in a hundred.
 pub const SHRINK_MAX_FACTOR: u32 = 4;
-
-/// Fresh confirmation keeps 1/`CONFIRM_SHARE` of the shrink budget: at the default 250, 62
-/// inferences, enough to confirm three or four strong cores (about 16 observations each at
-/// 0.85); it also gets whatever the search and shrink phase leave. A half share left most of
-/// its 125 unspent on the graded profiles (one or two candidates a run).
-pub const CONFIRM_SHARE: u64 = 4;
 
 /// `--algo interact` confirms cores with up to this many times m observations.
 pub const CONFIRM_MAX_FACTOR: u32 = 8;
@@ -248,7 +246,7 @@ impl Params {
         if !self.lambda.is_finite() || self.lambda < 0.0 {
             return bad("lambda", &format!("must be a non-negative number, got {}", self.lambda));
         }
-        if self.algo != Algo::Interact && self.shrink > 0 && self.search_budget() < u64::from(self.samples) {
+        if self.algo != Algo::Interact && self.shrink > 0 && self.plan().search < u64::from(self.samples) {
             return bad(
                 "shrink",
                 &format!(
@@ -257,10 +255,10 @@ impl Params {
                 ),
             );
         }
-        if self.beam_budget > self.search_budget() {
+        if self.beam_budget > self.plan().search {
             return bad(
                 "beam-budget",
-                &format!("{} exceeds the search's budget {}", self.beam_budget, self.search_budget()),
+                &format!("{} exceeds the search's budget {}", self.beam_budget, self.plan().search),
             );
         }
         if self.batch == 0 {
@@ -325,29 +323,19 @@ impl Params {
         self.budget
     }
 
-    /// What the search phase may spend: for the paper's algorithms the budget less the part set
-    /// aside for shrinking (`budget − shrink`, the budget their PFM / MFR / Div are computed
-    /// over); `interact`, which shrinks each failure to its core as it finds it, the whole
-    /// budget less the confirmation reserve (the shrink phase after it gets what it leaves:
-    /// [`Params::shrink_budget`]).
-    pub fn search_budget(&self) -> u64 {
-        match self.algo {
-            Algo::Interact => self.budget.saturating_sub(self.confirm_reserve()),
-            _ => self.budget.saturating_sub(self.shrink),
-        }
-    }
-
-    /// The shrink phase's budget once the search spent `spent`: what is left of `--budget` less
-    /// the confirmation reserve (for the paper's algorithms at least `--shrink` less it).
-    pub fn shrink_budget(&self, spent: u64) -> u64 {
-        self.budget.saturating_sub(self.confirm_reserve()).saturating_sub(spent)
-    }
-
-    /// Inferences kept for fresh confirmation ([`confirm`]) out of the shrink budget:
-    /// 1/[`CONFIRM_SHARE`] of it (0 without a shrink phase: no cores, nothing to confirm).
-    /// Confirmation also gets whatever the search and the shrink phase leave.
-    pub fn confirm_reserve(&self) -> u64 {
-        self.shrink / CONFIRM_SHARE
+    /// How `--budget` is split among the search, the shrink phase and fresh confirmation: the
+    /// one place that decides it ([`budget::Plan`]).
+    pub fn plan(&self) -> budget::Plan {
+        let cap = self.confirm_rule().max_samples;
+        budget::Plan::new(
+            self.budget,
+            self.shrink,
+            self.algo == Algo::Interact,
+            self.threshold,
+            self.delta,
+            self.samples,
+            cap,
+        )
     }
 
     /// How fresh confirmation runs with these parameters and `budget` inferences.
@@ -364,7 +352,7 @@ impl Params {
 
     /// Sets the search phase's budget pays for with the fixed count.
     pub fn max_sets(&self) -> usize {
-        (self.search_budget() / u64::from(self.samples)) as usize
+        (self.plan().search / u64::from(self.samples)) as usize
     }
 
     /// The default `--shrink` for a budget.
@@ -713,7 +701,7 @@ pub async fn run_counted<E: Evaluate>(
     space: &Space,
     eval: &mut E,
 ) -> Searched<(Vec<SetStats>, Option<CallsBy>), E> {
-    let mut driver = Driver::new(eval, params.rule(), params.search_budget());
+    let mut driver = Driver::new(eval, params.rule(), params.plan().search_cap(0));
     match params.algo {
         Algo::Random => random::run(params, space, &mut driver).await?,
         Algo::Beam => beam::run(params, space, &mut driver).await?,

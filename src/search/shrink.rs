@@ -231,7 +231,21 @@ pub struct Found {
 /// subset are settled by the rule (`--algo interact` confirms its cores during the search and
 /// leaves this phase little or no budget: they are reported this way).
 pub async fn run<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, roots: &[ConceptSet]) -> Searched<Found, E> {
+    let budget = driver.budget();
+    run_capped(driver, space, roots, move |_| budget).await
+}
+
+/// [`run`] with a budget that depends on the cores found so far: `cap(k)` is what the phase
+/// may spend in all while it holds k cores (a run keeps fresh confirmation's share for each:
+/// [`super::budget::Plan::shrink_cap`]).
+pub async fn run_capped<E: Evaluate>(
+    driver: &mut Driver<'_, E>,
+    space: &Space,
+    roots: &[ConceptSet],
+    cap: impl Fn(usize) -> u64,
+) -> Searched<Found, E> {
     let mut found = Found::default();
+    driver.set_budget(cap(0));
     // Not distinct: (set, part).
     let mut flat: Vec<(ConceptSet, ConceptSet)> = Vec::new();
     for &root in roots {
@@ -255,6 +269,7 @@ pub async fn run<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, roots: 
             }
             Shrunk::Unaffordable => {}
         }
+        driver.set_budget(cap(found.cores.len()));
     }
     // A core tested again later (as a subset of another root) has more observations now.
     for c in &mut found.cores {

@@ -59,7 +59,7 @@ fn run_fn(p: &Params, space: &Space) -> (Vec<SetStats>, Vec<Vec<ConceptSet>>) {
 
 fn assert_sound(h: &[SetStats], space: &Space, p: &Params) {
     // Interact screens a set with one observation and spends the shrink budget too.
-    let most = if p.algo == Algo::Interact { p.search_budget() as usize } else { p.max_sets() };
+    let most = if p.algo == Algo::Interact { p.plan().search as usize } else { p.max_sets() };
     assert!(h.len() <= most);
     let distinct: std::collections::HashSet<_> = h.iter().map(|s| s.set).collect();
     assert_eq!(distinct.len(), h.len(), "a set was evaluated twice");
@@ -297,7 +297,7 @@ fn sequential_sampling_never_exceeds_m_nor_the_budget_and_is_seeded() {
             let (h, asked) = go(0);
             let spent: u32 = asked.iter().map(Ask::len).sum();
             let what = format!("{} at budget {budget}", algo.name());
-            assert!(u64::from(spent) <= p.search_budget(), "{what}: spent {spent}");
+            assert!(u64::from(spent) <= p.plan().search, "{what}: spent {spent}");
             assert_eq!(h.iter().map(SetStats::observations).sum::<u32>(), spent, "{what}: every observation counted");
             // Interact screens with one observation and escalates only sets that answer wrong; its
             // shrinking may take a set and a subset to 2·M for the lift test.
@@ -326,7 +326,7 @@ fn sequential_sampling_never_exceeds_m_nor_the_budget_and_is_seeded() {
                             || !triage.fails(s)))
             };
             let open: Vec<&SetStats> = h.iter().filter(|s| !done(s)).collect();
-            assert!(open.is_empty() || u64::from(spent) == p.search_budget(), "{what}: {open:?}");
+            assert!(open.is_empty() || u64::from(spent) == p.plan().search, "{what}: {open:?}");
             if budget >= 300 {
                 assert!(h.iter().any(|s| s.observations() > 5), "{what}: some set was topped up");
             }

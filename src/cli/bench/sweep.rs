@@ -51,7 +51,7 @@ pub fn run(args: &SearchBenchArgs, sweep: &Sweep, base: &Params, b: &Bench) -> E
     for &value in &sweep.values {
         let at = sweep.param.apply(base, value);
         // The beam phase of GPTS cannot outgrow the search phase.
-        let at = Params { beam_budget: at.beam_budget.min(at.search_budget()), ..at };
+        let at = Params { beam_budget: at.beam_budget.min(at.plan().search), ..at };
         if let Err(e) = at.validate() {
             eprintln!("error: `--sweep {}={value}`: {e}", sweep.param.name());
             return ExitCode::from(2);

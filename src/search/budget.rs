@@ -1,0 +1,123 @@
+//! How `--budget` is split among a search command's phases — the search, the shrink phase and
+//! fresh confirmation ([`super::confirm`]) — in one place: [`Plan`], computed by
+//! [`super::Params::plan`] and read by every algorithm, the run and the text that tells a user
+//! where the calls went.
+//!
+//! Confirmation is paid per candidate, not by a fixed share: each candidate core keeps
+//! [`Plan::confirm_each`] fresh observations, what the anytime-valid test ([`super::cs`]) needs
+//! to establish a mode halfway between τ + δ and 1 (0.85 at the defaults) above τ − δ at its
+//! expected counts — 16 observations, 20 in rounds of m = 5. While a phase looks for cores it
+//! keeps that much for every candidate it holds and one more, so the candidate it finds next is
+//! paid too; e-BH rejects every candidate whose e-value reaches 20 when all of them do, so the
+//! same count suffices for every candidate of a run whose candidates are all real.
+//!
+//! - The paper's algorithms search with `total − shrink` (their PFM / MFR / Div are over it, so
+//!   their decisions are the paper's); the shrink phase gets the rest less the confirmation of
+//!   the cores it holds and one more ([`Plan::shrink_cap`]).
+//! - `interact` shrinks as it searches, so it searches with the whole budget less the
+//!   confirmation of its cores and one more ([`Plan::search_cap`]): each core it confirms moves
+//!   its cap down by `confirm_each`. The shrink phase after it finds those cores again at no
+//!   cost, and gets what the search left in the same way.
+//! - Confirmation gets everything the phases before it left.
+//!
+//! Without a shrink phase (`--shrink 0`, the paper's setting) there is no confirmation either:
+//! the search gets the whole budget less nothing but `--shrink` itself.
+
+use super::cs;
+
+/// The split of `--budget` (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Plan {
+    /// `--budget`: every model call of the command.
+    pub total: u64,
+    /// What the search phase may spend before it holds a candidate core.
+    pub search: u64,
+    /// Whether the shrink phase and fresh confirmation run (`--shrink` > 0).
+    pub phases: bool,
+    /// Whether the search keeps confirmation's share per core it finds (`interact`); the paper's
+    /// algorithms search with a fixed `search`.
+    pub per_core: bool,
+    /// Fresh observations kept per candidate core for confirmation.
+    pub confirm_each: u64,
+}
+
+impl Plan {
+    /// The split for a total budget, `--shrink`, whether the search finds cores itself, and the
+    /// confirmation's τ, δ, round size m and per-candidate cap.
+    pub fn new(total: u64, shrink: u64, per_core: bool, tau: f64, delta: f64, m: u32, cap: u32) -> Plan {
+        let phases = shrink > 0;
+        let confirm_each = if phases { u64::from(confirm_each(tau, delta, m, cap)) } else { 0 };
+        let search = match per_core {
+            true => total.saturating_sub(confirm_each),
+            false => total.saturating_sub(shrink),
+        };
+        Plan { total, search, phases, per_core, confirm_each }
+    }
+
+    /// Inferences kept for confirming `candidates` cores.
+    pub fn reserve(&self, candidates: usize) -> u64 {
+        self.confirm_each * candidates as u64
+    }
+
+    /// What the search may spend in all once it holds `cores` cores: for `interact` the total
+    /// less the confirmation of those cores and one more; for the paper's algorithms `search`.
+    pub fn search_cap(&self, cores: usize) -> u64 {
+        match self.per_core {
+            true => self.total.saturating_sub(self.reserve(cores + 1)),
+            false => self.search,
+        }
+    }
+
+    /// What the shrink phase may spend, counted from its start, once the search spent `spent`
+    /// and the phase holds `cores` cores: the rest less the confirmation of those cores and one
+    /// more (0 without a shrink phase).
+    pub fn shrink_cap(&self, spent: u64, cores: usize) -> u64 {
+        match self.phases {
+            true => self.total.saturating_sub(spent).saturating_sub(self.reserve(cores + 1)),
+            false => 0,
+        }
+    }
+
+    /// What fresh confirmation may spend once the phases before it spent `spent`.
+    pub fn confirm_budget(&self, spent: u64) -> u64 {
+        self.total.saturating_sub(spent)
+    }
+}
+
+/// Fresh observations a candidate needs: the first n at which a mode at (τ + δ + 1) / 2, with
+/// its counts at that rate, is established above τ − δ by the 95 % confidence sequence, rounded
+/// up to whole rounds of `m` and at most `cap`.
+pub fn confirm_each(tau: f64, delta: f64, m: u32, cap: u32) -> u32 {
+    let p = (tau + delta + 1.0) / 2.0;
+    let n = (1..=cap)
+        .find(|&n| cs::verdict((p * f64::from(n)).round() as u32, n, tau, delta) == cs::Verdict::Fails)
+        .unwrap_or(cap);
+    n.div_ceil(m.max(1)).saturating_mul(m.max(1)).min(cap)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_candidate_keeps_what_the_test_needs_for_a_085_mode() {
+        // 16 observations at 0.85 (cs's own figure), 20 in rounds of 5.
+        assert_eq!(confirm_each(0.6, 0.1, 5, 40), 20);
+        assert_eq!(confirm_each(0.6, 0.1, 1, 40), 16);
+        assert_eq!(confirm_each(0.6, 0.1, 5, 10), 10, "never above the cap");
+    }
+
+    #[test]
+    fn the_paper_algorithms_search_with_budget_less_shrink_and_interact_keeps_per_core() {
+        let paper = Plan::new(1000, 250, false, 0.6, 0.1, 5, 40);
+        assert_eq!((paper.search_cap(0), paper.search_cap(7)), (750, 750));
+        assert_eq!(paper.shrink_cap(750, 0), 230);
+        assert_eq!(paper.shrink_cap(750, 3), 170);
+        assert_eq!(paper.confirm_budget(900), 100);
+        let interact = Plan::new(1000, 250, true, 0.6, 0.1, 5, 40);
+        assert_eq!((interact.search, interact.search_cap(0), interact.search_cap(4)), (980, 980, 900));
+        assert_eq!(interact.shrink_cap(900, 4), 0);
+        let off = Plan::new(1000, 0, true, 0.6, 0.1, 5, 40);
+        assert_eq!((off.search_cap(3), off.shrink_cap(0, 0), off.reserve(5)), (1000, 0, 0));
+    }
+}
