@@ -497,26 +497,35 @@ impl<'s> PatternSearcher<'s> {
 
     /// A sampled space: the unexplored open unions of two or three hot concepts — those whose
     /// sets failed most beyond the base rate `base` (a z-score over every answer of a set that
-    /// holds them, at least [`HOT_Z`]; the [`HOT_CONCEPTS`] highest) — strongest first. The parts
+    /// holds them and no hotter concept, at least [`HOT_Z`]; the [`HOT_CONCEPTS`] highest) —
+    /// strongest first. The parts
     /// of a failure mode that each carry some of its signal stand out this way long before the
     /// pattern surrogate, whose prior weighs a pair among every pair of the lattice, takes them
     /// up.
     fn combos(&mut self, history: &[SetStats], base: f64) -> Vec<ConceptSet> {
-        let mut per: std::collections::HashMap<crate::ir::ConceptId, (f64, f64)> = Default::default();
-        for s in history {
-            for c in s.set.iter() {
-                let e = per.entry(c).or_default();
-                e.0 += f64::from(s.wrong);
-                e.1 += f64::from(s.answered());
+        // Greedy, explaining away: the hottest concept first, then the next over the sets that
+        // hold none chosen so far (a concept that only rode along with a hot one in the sets the
+        // search followed it into is not hot on its own).
+        let mut hot: Vec<(f64, crate::ir::ConceptId)> = Vec::new();
+        let mut chosen = ConceptSet::EMPTY;
+        while hot.len() < HOT_CONCEPTS {
+            let mut per: std::collections::BTreeMap<crate::ir::ConceptId, (f64, f64)> = Default::default();
+            for s in history.iter().filter(|s| !s.set.intersects(chosen)) {
+                for c in s.set.iter() {
+                    let e = per.entry(c).or_default();
+                    e.0 += f64::from(s.wrong);
+                    e.1 += f64::from(s.answered());
+                }
             }
+            let best = per
+                .into_iter()
+                .map(|(c, (w, a))| ((w - a * base) / (a * base * (1.0 - base)).max(1e-9).sqrt(), c))
+                .filter(|(z, _)| *z >= HOT_Z)
+                .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+            let Some((z, c)) = best else { break };
+            chosen.insert(c);
+            hot.push((z, c));
         }
-        let mut hot: Vec<(f64, crate::ir::ConceptId)> = per
-            .into_iter()
-            .map(|(c, (w, a))| ((w - a * base) / (a * base * (1.0 - base)).max(1e-9).sqrt(), c))
-            .filter(|(z, _)| *z >= HOT_Z)
-            .collect();
-        hot.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        hot.truncate(HOT_CONCEPTS);
         let max = self.params.max_size;
         let mut out: Vec<(f64, ConceptSet)> = Vec::new();
         for i in 0..hot.len() {
