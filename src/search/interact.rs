@@ -544,10 +544,8 @@ impl<'s> PatternSearcher<'s> {
                 continue;
             }
             self.join(set);
-            if let Some(i) = self.board.position(set) {
-                if !self.board.explored[i] && !self.board.covered[i] {
-                    picks.push(set);
-                }
+            if self.board.position(set).is_some_and(|i| !self.board.explored[i] && !self.board.covered[i]) {
+                picks.push(set);
             }
         }
         picks

@@ -220,14 +220,7 @@ fn print(w: &mut impl Write, max_size: usize, rows: &[Row]) -> std::io::Result<(
     for r in rows {
         let mb = |m: Option<f64>| m.map_or("—".to_string(), |m| format!("{m:.0} MB"));
         let search = match &r.search {
-            Some(s) => format!(
-                " {:.1} s / {} | {} / {} of {} |",
-                s.seconds,
-                mb(s.peak_mb),
-                s.pair,
-                s.triple,
-                s.seeds
-            ),
+            Some(s) => format!(" {:.1} s / {} | {} / {} of {} |", s.seconds, mb(s.peak_mb), s.pair, s.triple, s.seeds),
             None if searched => " — | — |".to_string(),
             None => String::new(),
         };
