@@ -217,6 +217,9 @@ pub struct AlgoResult {
     pub repeated: Stat,
     /// Per planted mode, in the profile's order: how often this algorithm recovered it.
     pub planted: Vec<ModeRecovery>,
+    /// Per seed (0, 1, …): the share of planted modes recovered and found exactly as a core, so
+    /// two settings on the same seeds can be compared pair by pair.
+    pub per_seed: Vec<[Option<f64>; 2]>,
 }
 
 /// One planted mode across an algorithm's seeds.
@@ -399,6 +402,7 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                 calls: col(&|r| Some(r.calls), count),
                 wall_s: col(&|r| Some(r.wall_s), count),
                 repeated: col(&|r| Some(r.repeated), count),
+                per_seed: rows.iter().map(|r| [r.core_recovered, r.exact]).collect(),
                 planted: planted
                     .iter()
                     .enumerate()

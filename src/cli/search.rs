@@ -53,7 +53,8 @@ pub struct SearchArgs {
     /// The run's seed [default: 0]
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Most valid concept sets searched over; a larger lattice is refused with the ways out
+    /// Most valid concept sets listed for a search; past it `interact` and `random` draw from the
+    /// lattice, and `beam` and `gpts` are refused with the ways out
     #[arg(long, default_value_t = crate::lattice::DEFAULT_MAX_SETS)]
     pub max_sets: u64,
     #[command(flatten)]
@@ -128,6 +129,42 @@ fn valid_sets(domain: &crate::ir::Domain, max_size: usize, max_sets: u64) -> Res
     Ok(lattice.sets)
 }
 
+/// A lattice past `--max-sets` (counted exactly by its diagram, not listed): a sampled space
+/// for `interact` (its pattern surrogate) and `random`, which draw from it; for `beam`, `gpts` and
+/// interact's regression surrogates, which score every listed set, the limit is theirs (R0070),
+/// and the message names the algorithms that go beyond it. `None`: the lattice fits, list it.
+fn search_space(
+    domain: &crate::ir::Domain,
+    world: &Arc<dyn World>,
+    params: &Params,
+    max_sets: u64,
+) -> Result<Option<crate::search::Space>, ExitCode> {
+    let validity = crate::lattice::Validity::new(domain);
+    let diagram = crate::lattice::Diagram::build(&validity, params.max_size);
+    let total = diagram.total();
+    if total <= u128::from(max_sets) {
+        return Ok(None);
+    }
+    let samples = params.algo == Algo::Random
+        || (params.algo == Algo::Interact && params.surrogate == crate::search::interact::Surrogate::Patterns);
+    if !samples {
+        let what = match params.algo {
+            Algo::Interact => format!("`--algo interact --surrogate {}`", params.surrogate.name()),
+            algo => format!("`--algo {}`", algo.name()),
+        };
+        eprintln!(
+            "error[{}]: {what} scores every valid set, and domain `{}` has {total} of up to {} concepts, more than `--max-sets` ({max_sets})\n  help: `--algo interact` (its default surrogate) and `--algo random` draw from a lattice of any size; or raise `--max-sets`, or add constraints",
+            crate::diag::codes::LATTICE_TOO_LARGE,
+            domain.name,
+            params.max_size,
+        );
+        return Err(ExitCode::from(1));
+    }
+    let world = world.clone();
+    let keep: crate::search::space::Keep = Arc::new(move |s| world.task(s).is_ok());
+    Ok(Some(crate::search::Space::sampled(Arc::new(diagram), keep, domain.concepts.len())))
+}
+
 /// Everything a search does before its first model call: the domain compiled, the parameters
 /// checked (a flag left out takes the value an existing run folder recorded, so the same command,
 /// or a shorter one, never changes the plan of a run), the model and renderer built, the lattice
@@ -192,18 +229,29 @@ pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
     }
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
-    let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
-    let (space, dropped) = runner::search_space(sets, domain.concepts.len(), world.as_ref());
+    let (space, dropped) = match search_space(&domain, &world, &config.params, args.max_sets)? {
+        Some(space) => (space, 0),
+        None => {
+            let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
+            runner::search_space(sets, domain.concepts.len(), world.as_ref())
+        }
+    };
     if dropped > 0 {
         eprintln!(
             "note: {dropped} valid sets have no determined ground truth and are not searched (see `revelio check`)"
         );
     }
-    if space.sets.is_empty() {
+    if space.total() == 0 {
         eprintln!("error: domain `{}` has no valid concept set with a ground truth to search", domain.name);
         return Err(ExitCode::from(1));
     }
-    let prompts = estimate::sample_prompts(world.as_ref(), &space.sets);
+    let drawn: Vec<ConceptSet> = if space.is_sampled() {
+        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(0);
+        (0..64).filter_map(|_| space.draw(&mut rng)).collect()
+    } else {
+        Vec::new()
+    };
+    let prompts = estimate::sample_prompts(world.as_ref(), if space.is_sampled() { &drawn } else { &space.sets });
     let image = estimate::image_size(&renderer, &domain);
     // The budget caps every phase; a search may stop short of it.
     let estimate = Estimate::new("search", model.as_ref(), config.params.max_calls(), true, &prompts, image);

@@ -307,7 +307,14 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             checked.iter().filter(|c| c.status == Status::Confirmed).map(|c| c.stats.set).collect();
         found.cores.retain(|c| kept.contains(&c.stats.set));
     }
-    let mut summary = summarize(&setup.domain, config, space.sets.len(), &history, &found, eval.spend.clone());
+    let mut summary = summarize(
+        &setup.domain,
+        config,
+        usize::try_from(space.total()).unwrap_or(usize::MAX),
+        &history,
+        &found,
+        eval.spend.clone(),
+    );
     if let Some((checked, spent, budget, parts)) = &confirmation {
         let row = |s: &SetStats| SetRow::new(&setup.domain, s);
         let rows: Vec<CheckedRow> =

@@ -136,20 +136,50 @@ impl std::str::FromStr for Supersets {
     }
 }
 
-/// The lattice as the search sees it: which sets were evaluated, which hold a confirmed core.
-struct Board<'s> {
-    space: &'s Space,
+/// The lattice as the search sees it: which sets were evaluated, which hold a confirmed core. Its
+/// sets are the space's, or for a sampled space the pool drawn so far ([`Board::push`]).
+struct Board {
+    sets: Vec<ConceptSet>,
+    index: std::collections::HashMap<ConceptSet, u32>,
     explored: Vec<bool>,
     covered: Vec<bool>,
+    /// Every set evaluated (a pool set may join after it was).
+    seen: std::collections::HashSet<ConceptSet>,
+    /// Sets whose supersets are covered.
+    asides: Vec<ConceptSet>,
 }
 
-impl<'s> Board<'s> {
-    fn new(space: &'s Space) -> Board<'s> {
-        Board { space, explored: vec![false; space.sets.len()], covered: vec![false; space.sets.len()] }
+impl Board {
+    fn new(space: &Space) -> Board {
+        Board {
+            sets: space.sets.clone(),
+            index: space.sets.iter().enumerate().map(|(i, s)| (*s, i as u32)).collect(),
+            explored: vec![false; space.sets.len()],
+            covered: vec![false; space.sets.len()],
+            seen: Default::default(),
+            asides: Vec::new(),
+        }
+    }
+
+    fn position(&self, set: ConceptSet) -> Option<usize> {
+        self.index.get(&set).map(|&i| i as usize)
+    }
+
+    /// Add a set to the pool (a sampled space); false when it is in it already.
+    fn push(&mut self, set: ConceptSet) -> bool {
+        if self.index.contains_key(&set) {
+            return false;
+        }
+        self.index.insert(set, self.sets.len() as u32);
+        self.sets.push(set);
+        self.explored.push(self.seen.contains(&set));
+        self.covered.push(self.asides.iter().any(|a| a.is_subset_of(set)));
+        true
     }
 
     fn explore(&mut self, set: ConceptSet) {
-        if let Some(i) = self.space.position(set) {
+        self.seen.insert(set);
+        if let Some(i) = self.position(set) {
             self.explored[i] = true;
         }
     }
@@ -163,7 +193,8 @@ impl<'s> Board<'s> {
     }
 
     fn cover(&mut self, core: ConceptSet) {
-        for (i, s) in self.space.sets.iter().enumerate() {
+        self.asides.push(core);
+        for (i, s) in self.sets.iter().enumerate() {
             if core.is_subset_of(*s) {
                 self.covered[i] = true;
             }
@@ -171,7 +202,7 @@ impl<'s> Board<'s> {
     }
 
     fn is_covered(&self, set: ConceptSet) -> bool {
-        self.space.position(set).is_some_and(|i| self.covered[i])
+        self.position(set).is_some_and(|i| self.covered[i])
     }
 
     /// The unexplored set with the highest score among the open (`covered == false`) or the
@@ -185,7 +216,7 @@ impl<'s> Board<'s> {
     /// [`Board::argmax`].
     fn best_at(&self, covered: bool, k: usize, score: impl Fn(usize, ConceptSet) -> f64) -> Vec<ConceptSet> {
         let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
-        for (i, set) in self.space.sets.iter().enumerate() {
+        for (i, set) in self.sets.iter().enumerate() {
             if self.explored[i] || self.covered[i] != covered {
                 continue;
             }
@@ -197,13 +228,13 @@ impl<'s> Board<'s> {
             best.insert(at, (v, i));
             best.truncate(k);
         }
-        best.into_iter().map(|(_, i)| self.space.sets[i]).collect()
+        best.into_iter().map(|(_, i)| self.sets[i]).collect()
     }
 
     /// [`Board::argmax`] with the set's position in the space handed to the score too.
     fn argmax_at(&self, covered: bool, score: impl Fn(usize, ConceptSet) -> f64) -> Option<(ConceptSet, f64)> {
         let mut best: Option<(usize, f64)> = None;
-        for (i, set) in self.space.sets.iter().enumerate() {
+        for (i, set) in self.sets.iter().enumerate() {
             if self.explored[i] || self.covered[i] != covered {
                 continue;
             }
@@ -212,23 +243,23 @@ impl<'s> Board<'s> {
                 best = Some((i, v));
             }
         }
-        best.map(|(i, v)| (self.space.sets[i], v))
+        best.map(|(i, v)| (self.sets[i], v))
     }
 }
 
 /// The search state between rounds: surrogate, Gibbs chain, lattice bookkeeping, random stream.
-pub struct Searcher<'s> {
+pub struct Searcher {
     params: Params,
     basis: Basis,
     gibbs: Gibbs,
-    board: Board<'s>,
+    board: Board,
     rng: ChaCha8Rng,
     /// Draws so far that saw no open set failing: every other one explores the open sets anyway.
     idle: u64,
 }
 
-impl<'s> Searcher<'s> {
-    pub fn new(params: &Params, space: &'s Space, (order, prior): (Order, Prior)) -> Searcher<'s> {
+impl Searcher {
+    pub fn new(params: &Params, space: &Space, (order, prior): (Order, Prior)) -> Searcher {
         Searcher {
             params: params.clone(),
             basis: Basis::new(&space.sets, space.dim, order),
@@ -366,38 +397,197 @@ pub const ESCALATE: u32 = 3;
 /// is shrunk one concept at a time.
 pub const JUMPS: usize = 3;
 
+/// A sampled space's first pool: this many uniform draws per inference of the budget (at most
+/// [`POOL_MOST`]), besides every valid single concept. A screen tests one set of the pool, so
+/// the draws hold many times the sets the budget can screen.
+pub const POOL_PER_CALL: u64 = 8;
+
+/// The most uniform draws in a sampled space's first pool.
+pub const POOL_MOST: u64 = 20_000;
+
+/// A sampled space's hot patterns: the open patterns likeliest to be cores, this many at each
+/// pick. Each joins the pool with [`EXPAND`] draws that hold it, and every union of two or three
+/// of them that is a valid set joins it too: so the parts of a failure mode that each carry some
+/// of its signal meet in the sets the search can pick.
+pub const HOT: usize = 16;
+
+/// Draws holding a hot pattern that join the pool (sizes uniform from one more concept to the
+/// largest).
+pub const EXPAND: usize = 12;
+
+/// A sampled space: one pick in this many (rounded up) screens an untested union of hot concepts
+/// ([`PatternSearcher::combos`]).
+pub const COMBO_SHARE: usize = 4;
+
+/// A concept is hot when the sets that hold it failed this many standard deviations above the
+/// base rate.
+pub const HOT_Z: f64 = 2.0;
+
+/// The most hot concepts combined.
+pub const HOT_CONCEPTS: usize = 8;
+
 /// The pattern surrogate's search state.
 pub struct PatternSearcher<'s> {
     params: Params,
     space: &'s Space,
     patterns: Patterns,
-    board: Board<'s>,
+    board: Board,
     /// Patterns that are not (and hold no) confirmed core.
     open: Vec<bool>,
     cores: Vec<ConceptSet>,
+    /// Every set whose supersets were set aside (cores and explained families).
+    closed: Vec<ConceptSet>,
     rng: ChaCha8Rng,
     /// How much of the history the board has marked explored.
     marked: usize,
+    /// A sampled space: hot patterns and unions already added to the pool.
+    expanded: std::collections::HashSet<ConceptSet>,
 }
 
 impl<'s> PatternSearcher<'s> {
     pub fn new(params: &Params, space: &'s Space) -> PatternSearcher<'s> {
-        let patterns = Patterns::new(space);
-        PatternSearcher {
+        let patterns = if space.is_sampled() { Patterns::pooled(space) } else { Patterns::new(space) };
+        let mut searcher = PatternSearcher {
             params: params.clone(),
             space,
             open: vec![true; patterns.len()],
             patterns,
             board: Board::new(space),
             cores: Vec::new(),
+            closed: Vec::new(),
             rng: ChaCha8Rng::seed_from_u64(params.seed ^ STREAM),
             marked: 0,
+            expanded: Default::default(),
+        };
+        if space.is_sampled() {
+            // The first pool: every valid single concept, then uniform draws (their own stream, so
+            // the picks' stream is the same whatever the pool's size).
+            let mut draws = ChaCha8Rng::seed_from_u64(params.seed ^ STREAM ^ 0x706f_6f6c);
+            for c in 0..space.dim as u32 {
+                searcher.join(ConceptSet::single(crate::ir::ConceptId(c)));
+            }
+            let n = (POOL_PER_CALL * params.search_budget()).min(POOL_MOST) as usize;
+            for s in super::random::distinct_draws(&mut draws, space, n) {
+                searcher.join(s);
+            }
+        }
+        searcher
+    }
+
+    /// Add a valid set to a sampled space's pool.
+    fn join(&mut self, set: ConceptSet) {
+        if set.is_empty() || self.board.position(set).is_some() || !self.space.contains(set) {
+            return;
+        }
+        let space = self.space;
+        self.board.push(set);
+        self.patterns.add(set, |p| space.contains(p));
+        while self.open.len() < self.patterns.len() {
+            let p = self.patterns.pattern(self.open.len() as u32);
+            self.open.push(!self.closed.iter().any(|c| c.is_subset_of(p)));
         }
     }
 
-    /// Mark every set of `history` explored.
+    /// Mark every set of `history` explored (a sampled space: and add it to the pool, so that its
+    /// sub-patterns are indexed).
     fn catch_up(&mut self, history: &[SetStats]) {
+        if self.space.is_sampled() {
+            for s in &history[self.marked..] {
+                self.join(s.set);
+            }
+        }
         self.board.explore_since(history, &mut self.marked);
+    }
+
+    /// A sampled space: the unexplored open unions of two or three hot concepts — those whose
+    /// sets failed most beyond the base rate `base` (a z-score over every answer of a set that
+    /// holds them and no hotter concept, at least [`HOT_Z`]; the [`HOT_CONCEPTS`] highest) —
+    /// strongest first. The parts
+    /// of a failure mode that each carry some of its signal stand out this way long before the
+    /// pattern surrogate, whose prior weighs a pair among every pair of the lattice, takes them
+    /// up.
+    fn combos(&mut self, history: &[SetStats], base: f64) -> Vec<ConceptSet> {
+        // Greedy, explaining away: the hottest concept first, then the next over the sets that
+        // hold none chosen so far (a concept that only rode along with a hot one in the sets the
+        // search followed it into is not hot on its own).
+        let mut hot: Vec<(f64, crate::ir::ConceptId)> = Vec::new();
+        let mut chosen = ConceptSet::EMPTY;
+        while hot.len() < HOT_CONCEPTS {
+            let mut per: std::collections::BTreeMap<crate::ir::ConceptId, (f64, f64)> = Default::default();
+            for s in history.iter().filter(|s| !s.set.intersects(chosen)) {
+                for c in s.set.iter() {
+                    let e = per.entry(c).or_default();
+                    e.0 += f64::from(s.wrong);
+                    e.1 += f64::from(s.answered());
+                }
+            }
+            let best = per
+                .into_iter()
+                .map(|(c, (w, a))| ((w - a * base) / (a * base * (1.0 - base)).max(1e-9).sqrt(), c))
+                .filter(|(z, _)| *z >= HOT_Z)
+                .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+            let Some((z, c)) = best else { break };
+            chosen.insert(c);
+            hot.push((z, c));
+        }
+        let max = self.params.max_size;
+        let mut out: Vec<(f64, ConceptSet)> = Vec::new();
+        for i in 0..hot.len() {
+            for j in i + 1..hot.len() {
+                let two = ConceptSet::single(hot[i].1).with(hot[j].1);
+                out.push((hot[i].0 + hot[j].0, two));
+                for k in j + 1..hot.len() {
+                    out.push(((hot[i].0 + hot[j].0 + hot[k].0) * 2.0 / 3.0, two.with(hot[k].1)));
+                }
+            }
+        }
+        out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut picks = Vec::new();
+        for (_, set) in out {
+            if set.len() > max {
+                continue;
+            }
+            self.join(set);
+            if self.board.position(set).is_some_and(|i| !self.board.explored[i] && !self.board.covered[i]) {
+                picks.push(set);
+            }
+        }
+        picks
+    }
+
+    /// A sampled space: the hot patterns of `fit` ([`HOT`]) join the pool with sets that hold
+    /// them and their unions.
+    fn grow(&mut self, fit: &Fit) {
+        let mut ranked: Vec<(f64, u32)> = (0..self.patterns.len() as u32)
+            .filter(|&j| self.open[j as usize])
+            .map(|j| (fit.q_mean(&self.patterns, j), j))
+            .filter(|(q, _)| *q > 0.0)
+            .collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let hot: Vec<ConceptSet> = ranked.iter().take(HOT).map(|&(_, j)| self.patterns.pattern(j)).collect();
+        let max = self.params.max_size;
+        let mut new = Vec::new();
+        for (i, &h) in hot.iter().enumerate() {
+            if self.expanded.insert(h) && h.len() < max {
+                for _ in 0..EXPAND {
+                    let size = self.rng.random_range(h.len() + 1..=max);
+                    new.extend(self.space.draw_containing(h, size, &mut self.rng));
+                }
+            }
+            for (k, &g) in hot.iter().enumerate().skip(i + 1) {
+                let two = h.union(g);
+                if two.len() <= max && self.expanded.insert(two) {
+                    new.push(two);
+                }
+                for &f in hot.iter().skip(k + 1) {
+                    let three = two.union(f);
+                    if three.len() <= max && self.expanded.insert(three) {
+                        new.push(three);
+                    }
+                }
+            }
+        }
+        new.into_iter().for_each(|s| self.join(s));
     }
 
     /// Up to `room` new sets to screen beside a call's `asks` (a narrow step of the search):
@@ -436,6 +626,7 @@ impl<'s> PatternSearcher<'s> {
     /// `set` and its supersets are no longer open patterns, and (unless supersets are kept) its
     /// supersets leave the sets to pick.
     fn set_aside(&mut self, set: ConceptSet) {
+        self.closed.push(set);
         for j in 0..self.patterns.len() {
             if set.is_subset_of(self.patterns.pattern(j as u32)) {
                 self.open[j] = false;
@@ -459,12 +650,21 @@ impl<'s> PatternSearcher<'s> {
     /// `n` picks ([`PatternSearcher::propose`]).
     fn pick(&mut self, history: &[SetStats], n: usize) -> Vec<ConceptSet> {
         self.catch_up(history);
-        let fit = self.fit(history);
+        let mut fit = self.fit(history);
         let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
+        if self.space.is_sampled() {
+            let before = self.board.sets.len();
+            self.grow(&fit);
+            let combos = self.combos(history, fit.base);
+            picks.extend(combos.into_iter().take(n.div_ceil(COMBO_SHARE)));
+            if self.board.sets.len() > before {
+                fit = self.fit(history);
+            }
+        }
         // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
         // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
         let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
-        for _ in 0..n {
+        while picks.len() < n {
             let di = fit.draw_dilution(self.rng.random::<f64>());
             if !ranked.iter().any(|(d, _)| *d == di) {
                 let scorer = fit.scorer(
@@ -507,7 +707,7 @@ impl<'s> PatternSearcher<'s> {
     /// The sub-patterns of a failing set, most probably a core first (ties: pattern order), that
     /// are still open.
     pub fn candidates(&self, fit: &Fit, set: ConceptSet) -> Vec<ConceptSet> {
-        let Some(i) = self.space.position(set) else { return Vec::new() };
+        let Some(i) = self.patterns.pool_position(set) else { return Vec::new() };
         let mut subs: Vec<(f64, u32)> = self
             .patterns
             .subs(i)

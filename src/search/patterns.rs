@@ -74,27 +74,38 @@ const CONFIRM_STEP: f64 = 0.05;
 /// patterns (pairs, then single concepts) so the index stays within ~128 MB.
 const MAX_ENTRIES: usize = 32 << 20;
 
-/// Patterns and, for every set of the search space, its sub-patterns.
+/// Patterns and, for every set of the pool (the search space's sets, or for a sampled space the
+/// sets drawn so far), its sub-patterns.
 pub struct Patterns {
-    /// Valid sets of at most `max` concepts, in the space's order.
+    /// Valid sets of at most `max` concepts: in the space's order, or as the pool met them.
     pats: Vec<ConceptSet>,
     index: HashMap<ConceptSet, u32>,
-    /// For space set i: `subs[offsets[i]..offsets[i + 1]]`.
+    /// The pool's position of each of its sets.
+    pool: HashMap<ConceptSet, u32>,
+    /// For pool set i: `subs[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<u32>,
     subs: Vec<u32>,
     /// Per entry of `subs`: how many concepts the set has beyond the pattern.
     extra: Vec<u8>,
-    /// Concepts per space set.
+    /// Concepts per pool set.
     set_len: Vec<u8>,
     /// Concepts per pattern.
     pat_len: Vec<u8>,
     /// logit of each pattern's prior.
     logit_prior: Vec<f64>,
     /// For pattern j: its proper sub-patterns, `parents[parent_at[j]..parent_at[j + 1]]`.
-    parent_at: Vec<u32>,
     parents: Vec<u32>,
+    parent_at: Vec<u32>,
+    /// Valid patterns per size in the whole lattice (the Occam prior's denominators).
+    per_size: Vec<f64>,
     /// The largest pattern size indexed.
     pub max: usize,
+}
+
+/// The Occam prior's logit for a pattern among `of` of its size.
+fn logit_prior(of: f64) -> f64 {
+    let p = (EXPECTED_CORES / of.max(1.0)).min(0.2);
+    (p / (1.0 - p)).ln()
 }
 
 impl Patterns {
@@ -123,15 +134,9 @@ impl Patterns {
             offsets.push(subs.len() as u32);
         }
         let pat_len: Vec<u8> = pats.iter().map(|p| p.len() as u8).collect();
-        let mut per_size = vec![0usize; max + 1];
-        pat_len.iter().for_each(|&k| per_size[usize::from(k)] += 1);
-        let logit_prior = pat_len
-            .iter()
-            .map(|&k| {
-                let p = (EXPECTED_CORES / per_size[usize::from(k)] as f64).min(0.2);
-                (p / (1.0 - p)).ln()
-            })
-            .collect();
+        let mut per_size = vec![0.0; max + 1];
+        pat_len.iter().for_each(|&k| per_size[usize::from(k)] += 1.0);
+        let logit_prior = pat_len.iter().map(|&k| logit_prior(per_size[usize::from(k)])).collect();
         let mut parent_at = vec![0u32];
         let mut parents = Vec::new();
         for p in &pats {
@@ -142,6 +147,7 @@ impl Patterns {
             parent_at,
             parents,
             set_len: space.sets.iter().map(|s| s.len() as u8).collect(),
+            pool: space.sets.iter().enumerate().map(|(i, s)| (*s, i as u32)).collect(),
             pats,
             index,
             offsets,
@@ -149,8 +155,65 @@ impl Patterns {
             extra,
             pat_len,
             logit_prior,
+            per_size,
             max,
         }
+    }
+
+    /// No pool yet, for a sampled space: sets join with [`Patterns::add`]; the prior counts the
+    /// whole lattice's patterns (the diagram's exact counts per size).
+    pub fn pooled(space: &Space) -> Patterns {
+        let counts = space.counts();
+        let per_size = (0..=MAX_PATTERN).map(|k| counts.get(k).map_or(0.0, |&c| c as f64)).collect();
+        Patterns {
+            pats: Vec::new(),
+            index: HashMap::new(),
+            pool: HashMap::new(),
+            offsets: vec![0],
+            subs: Vec::new(),
+            extra: Vec::new(),
+            set_len: Vec::new(),
+            pat_len: Vec::new(),
+            logit_prior: Vec::new(),
+            parents: Vec::new(),
+            parent_at: vec![0],
+            per_size,
+            max: MAX_PATTERN,
+        }
+    }
+
+    /// Add `set` to the pool (at the next position) with its sub-patterns, the valid ones
+    /// (`valid`) not indexed yet becoming patterns; false when it is already in the pool.
+    pub fn add(&mut self, set: ConceptSet, valid: impl Fn(ConceptSet) -> bool) -> bool {
+        if self.pool.contains_key(&set) {
+            return false;
+        }
+        self.pool.insert(set, self.set_len.len() as u32);
+        let max = self.max;
+        for_each_subset(set, max, |p| {
+            let j = match self.index.get(&p) {
+                Some(&j) => Some(j),
+                None if valid(p) => {
+                    let j = self.pats.len() as u32;
+                    // Smaller subsets come first, so the pattern's parts are indexed already.
+                    for_each_subset(p, p.len() - 1, |t| self.parents.extend(self.index.get(&t)));
+                    self.parent_at.push(self.parents.len() as u32);
+                    self.pats.push(p);
+                    self.index.insert(p, j);
+                    self.pat_len.push(p.len() as u8);
+                    self.logit_prior.push(logit_prior(self.per_size[p.len()]));
+                    Some(j)
+                }
+                None => None,
+            };
+            if let Some(j) = j {
+                self.subs.push(j);
+                self.extra.push((set.len() - p.len()) as u8);
+            }
+        });
+        self.offsets.push(self.subs.len() as u32);
+        self.set_len.push(set.len() as u8);
+        true
     }
 
     pub fn len(&self) -> usize {
@@ -169,14 +232,19 @@ impl Patterns {
         self.index.get(&p).copied()
     }
 
-    /// The sub-patterns of the space's set `i`.
+    /// The pool's position of `set`.
+    pub fn pool_position(&self, set: ConceptSet) -> Option<usize> {
+        self.pool.get(&set).map(|&i| i as usize)
+    }
+
+    /// The sub-patterns of the pool's set `i`.
     pub fn subs(&self, i: usize) -> &[u32] {
         &self.subs[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
-    /// The sub-patterns of any set (the space's sets read the index; others are enumerated).
-    fn subs_of(&self, space: &Space, set: ConceptSet) -> Vec<u32> {
-        match space.position(set) {
+    /// The sub-patterns of any set (the pool's sets read the index; others are enumerated).
+    fn subs_of(&self, set: ConceptSet) -> Vec<u32> {
+        match self.pool_position(set) {
             Some(i) => self.subs(i).to_vec(),
             None => {
                 let mut out = Vec::new();
@@ -188,7 +256,7 @@ impl Patterns {
 
     /// The evidence of every pattern from the evaluated sets (`history`), given the confirmed
     /// cores.
-    pub fn fit(&self, space: &Space, history: &[SetStats], cores: &[ConceptSet], threshold: f64) -> Fit {
+    pub fn fit(&self, _space: &Space, history: &[SetStats], cores: &[ConceptSet], threshold: f64) -> Fit {
         let base = base_rate(history, cores);
         let smoothed =
             |s: &SetStats| (f64::from(s.wrong) + base * PRIOR_WEIGHT) / (f64::from(s.answered()) + PRIOR_WEIGHT);
@@ -202,7 +270,7 @@ impl Patterns {
             let bg = s.set.proper_subsets().filter_map(|sub| tested.get(&sub)).fold(base, |a, &v| a.max(v));
             let bg = bg.min(1.0 - 1e-9);
             let (w, n) = (f64::from(s.wrong), f64::from(s.answered()));
-            let subs = self.subs_of(space, s.set);
+            let subs = self.subs_of(s.set);
             for &j in &subs {
                 let k = s.set.len() - usize::from(self.pat_len[j as usize]);
                 for (di, d) in DILUTIONS.iter().enumerate() {

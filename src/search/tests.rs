@@ -561,3 +561,51 @@ fn interact_confirms_what_its_triage_finds_at_the_full_rule() {
     }
     assert!(found >= 9, "the triple found on {found} of 10 seeds");
 }
+
+/// A sampled space (never listed) of `n` independent concepts of which 0 and 1 exclude each
+/// other, sets of up to 4.
+fn sampled(n: usize) -> Space {
+    use crate::lattice::testkit::{Dom, num};
+    let mut b = Dom::new(crate::ir::Selection::Priority);
+    b.world("on", num(0.0));
+    let ids: Vec<_> = (0..n).map(|i| b.world_concept(&format!("c{i}"), "on", num(1.0))).collect();
+    b.exclusive("x", &ids[..2]);
+    let d = b.build();
+    let diagram = crate::lattice::Diagram::build(&crate::lattice::Validity::new(&d), 4);
+    Space::sampled(std::sync::Arc::new(diagram), std::sync::Arc::new(|_| true), n)
+}
+
+#[test]
+fn a_sampled_space_counts_and_draws_without_listing() {
+    let space = sampled(40);
+    assert!(space.is_sampled() && space.sets.is_empty());
+    // C(40, k) minus the sets holding both 0 and 1 (C(38, k − 2)).
+    assert_eq!(space.total(), 40 + (780 - 1) + (9880 - 38) + (91390 - 703));
+    assert!(space.contains(bits(&[2, 5])) && !space.contains(bits(&[0, 1])));
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+    let held = space.draw_containing(bits(&[2, 5]), 4, &mut rng).unwrap();
+    assert!(bits(&[2, 5]).is_subset_of(held) && held.len() == 4 && space.contains(held));
+}
+
+#[test]
+fn random_on_a_sampled_space_draws_distinct_valid_sets_and_extends_its_prefix() {
+    let space = sampled(40);
+    let p = params(Algo::Random, 500);
+    let (a, _) = run_fn(&p, &space);
+    assert_eq!(a.len(), 100);
+    assert_sound(&a, &space, &p);
+    let (longer, _) = run_fn(&params(Algo::Random, 1000), &space);
+    assert_eq!(a[..], longer[..100], "a larger budget extends the draws");
+}
+
+#[test]
+fn interact_on_a_sampled_space_is_sound_seeded_and_within_budget() {
+    let space = sampled(40);
+    let p = Params { batch: 8, ..params(Algo::Interact, 600) };
+    let (a, asked) = run_fn(&p, &space);
+    assert_sound(&a, &space, &p);
+    assert_eq!(a, run_fn(&p, &space).0, "decisions are a pure function of the seed and the answers");
+    let spent: u64 = a.iter().map(|s| u64::from(s.observations())).sum();
+    assert!(spent <= p.search_budget());
+    assert!(asked.len() > 1);
+}
