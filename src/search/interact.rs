@@ -466,7 +466,7 @@ impl<'s> PatternSearcher<'s> {
             for c in 0..space.dim as u32 {
                 searcher.join(ConceptSet::single(crate::ir::ConceptId(c)));
             }
-            let n = (POOL_PER_CALL * params.search_budget()).min(POOL_MOST) as usize;
+            let n = (POOL_PER_CALL * params.plan().search).min(POOL_MOST) as usize;
             for s in super::random::distinct_draws(&mut draws, space, n) {
                 searcher.join(s);
             }

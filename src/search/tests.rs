@@ -606,6 +606,6 @@ fn interact_on_a_sampled_space_is_sound_seeded_and_within_budget() {
     assert_sound(&a, &space, &p);
     assert_eq!(a, run_fn(&p, &space).0, "decisions are a pure function of the seed and the answers");
     let spent: u64 = a.iter().map(|s| u64::from(s.observations())).sum();
-    assert!(spent <= p.search_budget());
+    assert!(spent <= p.plan().search);
     assert!(asked.len() > 1);
 }
