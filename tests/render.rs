@@ -358,6 +358,17 @@ fn a_new_domain_checks_renders_and_searches() {
     let (code, text) = revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml"]);
     assert_eq!(code, Some(0), "{text}");
     assert!(text.contains("figures    `crate` (Crate, concept `crate`): "), "{text}");
+    // `--save` writes the image the model was shown: the domain camera's frame, the same bytes
+    // as `render` draws for that set and seed when no scene was resampled.
+    let (code, text) =
+        revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml", "--save", "shown.png"]);
+    assert_eq!(code, Some(0), "{text}");
+    let shown = std::fs::read(dir.path().join("shown.png")).unwrap();
+    assert_eq!(shown, std::fs::read(dir.path().join("one.png")).unwrap(), "ask shows what render draws");
+    let (code, text) = revelio(&[
+        "ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml", "--renderer", "none", "--save", "x.png",
+    ]);
+    assert_eq!(code, Some(2), "{text}");
     let (code, text) = revelio(&["fmt", "--check", "."]);
     assert_eq!(code, Some(0), "{text}");
     let (code, text) = revelio(&["render", "yard.rev", "--all", "-o", "sheet.png"]);
