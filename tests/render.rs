@@ -366,7 +366,16 @@ fn a_new_domain_checks_renders_and_searches() {
     let shown = std::fs::read(dir.path().join("shown.png")).unwrap();
     assert_eq!(shown, std::fs::read(dir.path().join("one.png")).unwrap(), "ask shows what render draws");
     let (code, text) = revelio(&[
-        "ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml", "--renderer", "none", "--save", "x.png",
+        "ask",
+        "yard.rev",
+        "crate",
+        "fog",
+        "--model",
+        "sim:yard/sim.toml",
+        "--renderer",
+        "none",
+        "--save",
+        "x.png",
     ]);
     assert_eq!(code, Some(2), "{text}");
     let (code, text) = revelio(&["fmt", "--check", "."]);

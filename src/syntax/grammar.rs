@@ -185,9 +185,19 @@ pub fn block_keywords(block: Block) -> &'static [&'static str] {
         Block::Region => &["x", "y", "z", "scenic"],
         Block::Camera => &["at", "look_at", "fov", "size"],
         Block::Parts => &["box", "cylinder", "capsule", "sphere", "plane", "cone"],
-        Block::Concept => {
-            &["description", "category", "add", "set", "probe", "scenic", "prompt", "shape", "target", "move", "drawn_by"]
-        }
+        Block::Concept => &[
+            "description",
+            "category",
+            "add",
+            "set",
+            "probe",
+            "scenic",
+            "prompt",
+            "shape",
+            "target",
+            "move",
+            "drawn_by",
+        ],
         Block::Question => &["text", "option"],
         Block::Rules => &["rule"],
         Block::Rule => &["when", "expect", "elements", "safe"],
