@@ -765,6 +765,11 @@ pub struct RenderBindings {
     /// Builtin-renderer shape overriding the kind's default look for the entities this concept
     /// adds.
     pub shape: Option<Vec<ShapePart>>,
+    /// `drawn_by STAGE`: the stage item that draws the entities of this concept that have no
+    /// part of their own in a scene (a staircase drawn as steps); the visibility figures measure
+    /// that item's parts for them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawn_by: Option<String>,
 }
 
 /// What a concept does to the anchor scene graph.

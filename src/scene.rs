@@ -55,4 +55,25 @@ pub struct SceneEntity {
     pub attrs: BTreeMap<String, SceneValue>,
     /// The parts to draw (entity-local frame), conditions resolved.
     pub shape: Vec<ShapePart>,
+    /// What draws the entity when it has no part of its own: its concept's `drawn_by STAGE`.
+    /// The visibility figures measure these stage parts for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawn_by: Option<StandIn>,
+}
+
+impl SceneEntity {
+    /// Whether nothing in the frame is the entity's: no part of its own and no stand-in, so no
+    /// renderer figure can say whether it is seen.
+    pub fn draws_nothing(&self) -> bool {
+        self.shape.is_empty() && self.drawn_by.is_none()
+    }
+}
+
+/// The stage item that stands for an entity with no part of its own, and which parts of
+/// [`Scene::stage`] it drew in this scene (none when its `when` does not hold: then the entity
+/// is measured at 0 px, not excused).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StandIn {
+    pub stage: String,
+    pub parts: Vec<u32>,
 }

@@ -358,6 +358,26 @@ fn a_new_domain_checks_renders_and_searches() {
     let (code, text) = revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml"]);
     assert_eq!(code, Some(0), "{text}");
     assert!(text.contains("figures    `crate` (Crate, concept `crate`): "), "{text}");
+    // `--save` writes the image the model was shown: the domain camera's frame, the same bytes
+    // as `render` draws for that set and seed when no scene was resampled.
+    let (code, text) =
+        revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml", "--save", "shown.png"]);
+    assert_eq!(code, Some(0), "{text}");
+    let shown = std::fs::read(dir.path().join("shown.png")).unwrap();
+    assert_eq!(shown, std::fs::read(dir.path().join("one.png")).unwrap(), "ask shows what render draws");
+    let (code, text) = revelio(&[
+        "ask",
+        "yard.rev",
+        "crate",
+        "fog",
+        "--model",
+        "sim:yard/sim.toml",
+        "--renderer",
+        "none",
+        "--save",
+        "x.png",
+    ]);
+    assert_eq!(code, Some(2), "{text}");
     let (code, text) = revelio(&["fmt", "--check", "."]);
     assert_eq!(code, Some(0), "{text}");
     let (code, text) = revelio(&["render", "yard.rev", "--all", "-o", "sheet.png"]);
@@ -421,4 +441,44 @@ fn the_render_lint_and_the_guard_name_an_entity_that_draws_nothing() {
     let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
     let (_, seen) = r.render_seen(&scene).unwrap();
     assert_eq!(revelio::run::observe::unseen(&d, &scene, &seen), None);
+}
+
+/// Issue 31: `drawn_by STAGE` names what draws an entity with no part of its own. The render
+/// lint and the visibility guard then measure that stage's parts for it (no R0108), and they
+/// measure those parts, not anything else: moved behind the camera, the same stairs are 0 px
+/// and the guard names the stage.
+#[test]
+fn the_guard_and_the_render_lint_measure_the_stage_an_entity_is_drawn_by() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/good/drawn_by.rev");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let d = revelio::check::compile_source("drawn_by.rev", &text).unwrap();
+    let r = renderer();
+    let plan = revelio::run::visible::Plan { scenes: 2, sample: None, larger: None };
+    let tallies = revelio::run::visible::survey(&d, &r, plan).unwrap();
+    assert!(tallies.iter().all(|t| t.undrawn.is_empty() && t.invisible == 0), "{tallies:?}");
+    assert!(revelio::run::visible::lint(&d, &tallies).is_empty());
+    let stairs = d.concepts.iter().find(|c| c.name == "stairs").unwrap().id;
+    let single = tallies.iter().find(|t| t.set == revelio::ir::ConceptSet::single(stairs)).unwrap();
+    assert_eq!(single.figures.len(), 2, "the stairs are measured in both scenes: {single:?}");
+    assert!(single.figures.iter().all(|&(px, contrast)| px >= 25 && contrast >= 0.03), "{single:?}");
+
+    // The guard: the stairs' figures are the four steps' pixels.
+    let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
+    let e = scene.entities.iter().find(|e| e.name == "stairs").unwrap();
+    assert!(e.shape.is_empty());
+    let by = e.drawn_by.as_ref().expect("the stand-in is in the scene");
+    assert_eq!((by.stage.as_str(), by.parts.len()), ("steps", 4));
+    let (_, seen) = r.render_seen(&scene).unwrap();
+    let v = seen.iter().find(|v| v.entity == "stairs").unwrap();
+    assert!(v.pixels >= 25, "{v:?}");
+    assert_eq!(revelio::run::observe::unseen(&d, &scene, &seen), None);
+
+    // The same stairs with the steps behind the camera: measured at 0 px, hidden, stage named.
+    let behind = text.replacen("stage steps at (10m, 0m, 0m)", "stage steps at (-10m, 0m, 0m)", 1);
+    let d = revelio::check::compile_source("drawn_by.rev", &behind).unwrap();
+    let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
+    let (_, seen) = r.render_seen(&scene).unwrap();
+    assert_eq!(seen.iter().find(|v| v.entity == "stairs").unwrap().pixels, 0);
+    let why = revelio::run::observe::unseen(&d, &scene, &seen).expect("steps behind the camera are not seen");
+    assert!(why.contains("`stairs` (Staircase) (drawn by stage `steps`) has 0 px"), "{why}");
 }

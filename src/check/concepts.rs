@@ -78,6 +78,7 @@ impl Checker<'_> {
                     | ConceptStmt::Prompt(_)
                     | ConceptStmt::Shape(_)
                     | ConceptStmt::Target { .. }
+                    | ConceptStmt::DrawnBy { .. }
             );
             if single {
                 let span = stmt_span(s);
@@ -127,8 +128,13 @@ impl Checker<'_> {
                         c.effects.push(e);
                     }
                 }
-                ConceptStmt::Shape(_) => {}
+                ConceptStmt::Shape(_) | ConceptStmt::DrawnBy { .. } => {}
             }
+        }
+        if let Some(ConceptStmt::DrawnBy { stage, span }) =
+            stmts.iter().find(|s| matches!(s, ConceptStmt::DrawnBy { .. }))
+        {
+            c.render.drawn_by = self.lower_drawn_by(&c, stage, *span);
         }
         // Shapes last, so `self` knows every kind this concept adds.
         for s in stmts {
@@ -444,6 +450,37 @@ impl Checker<'_> {
         Some(Effect::MoveTarget { region, span })
     }
 
+    /// `drawn_by STAGE`: only a concept that adds an entity has something for a stage to draw.
+    fn lower_drawn_by(&mut self, c: &Concept, stage: &Ident, span: Span) -> Option<String> {
+        if c.kind == ConceptKind::Modifier {
+            self.error(
+                Diagnostic::error(codes::MISPLACED_STATEMENT, span, "a modifier adds nothing a stage could draw")
+                    .with_label("`drawn_by` in a modifier")
+                    .with_help("put `drawn_by STAGE` in the concept that adds the entity the stage draws"),
+            );
+            return None;
+        }
+        if !c.effects.iter().any(|e| matches!(e, Effect::Add { .. })) {
+            self.error(
+                Diagnostic::error(
+                    codes::MISPLACED_STATEMENT,
+                    span,
+                    format!("concept `{}` adds no entity for a stage to draw", c.name),
+                )
+                .with_label("`drawn_by` without an `add`")
+                .with_help("`drawn_by STAGE` names what draws an entity the concept adds; a world setting needs none"),
+            );
+            return None;
+        }
+        if self.stages.get(&stage.name).is_none() {
+            let d = unknown("stage", stage, self.stages.names());
+            self.error(d);
+            return None;
+        }
+        self.refer(stage, self.stages.span(&stage.name));
+        Some(stage.name.clone())
+    }
+
     // ------------------------------------------------------------------ constraints
 
     pub(crate) fn lower_constraints(&mut self, items: &[(u32, &Item)]) {
@@ -606,7 +643,8 @@ fn stmt_span(s: &ConceptStmt) -> Span {
         | ConceptStmt::Set { span, .. }
         | ConceptStmt::Probe { span, .. }
         | ConceptStmt::Target { span, .. }
-        | ConceptStmt::Move { span, .. } => *span,
+        | ConceptStmt::Move { span, .. }
+        | ConceptStmt::DrawnBy { span, .. } => *span,
         ConceptStmt::Shape(p) => p.span,
     }
 }

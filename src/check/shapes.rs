@@ -118,7 +118,8 @@ impl Checker<'_> {
         has
     }
 
-    /// Warn about a kind some concept places that still draws nothing, and about a look that
+    /// Warn about a kind some concept places that still draws nothing (a concept with its own
+    /// `shape { … }` or a `drawn_by STAGE` draws what it adds), and about a look that
     /// nothing placed ever wears: no concept adds its kind nor any kind below it, and it is no
     /// scenery (`Extra`, which the sampler places). Only a domain is linted: a module checked
     /// alone is a part whose concepts or looks may live elsewhere. Looks in the stdlib are
@@ -128,13 +129,18 @@ impl Checker<'_> {
             return;
         }
         let n = self.d.kinds.len();
+        // `placed`: some concept adds the kind; `bare`: one that draws it no other way (no
+        // `shape { … }` of its own, no `drawn_by STAGE`) adds it.
         let mut placed: Vec<Option<Span>> = vec![None; n];
+        let mut bare: Vec<Option<Span>> = vec![None; n];
         for c in &self.d.concepts {
+            let drawn = c.render.drawn_by.is_some() || c.render.shape.as_ref().is_some_and(|s| !s.is_empty());
             for e in &c.effects {
-                if let Effect::Add { kind, span, .. } = e
-                    && placed[kind.index()].is_none()
-                {
-                    placed[kind.index()] = Some(*span);
+                if let Effect::Add { kind, span, .. } = e {
+                    placed[kind.index()].get_or_insert(*span);
+                    if !drawn {
+                        bare[kind.index()].get_or_insert(*span);
+                    }
                 }
             }
         }
@@ -153,7 +159,7 @@ impl Checker<'_> {
         }
         for k in 0..n {
             let name = self.d.kinds[k].name.clone();
-            if let Some(add) = placed[k]
+            if let Some(add) = bare[k]
                 && !has_look[k]
             {
                 let d = Diagnostic::warning(
@@ -163,7 +169,9 @@ impl Checker<'_> {
                 )
                 .with_label("no `shape { … }`, no `look`, and no ancestor kind with one")
                 .with_related(add, "placed here")
-                .with_help(format!("give it a look with `look {name} {{ … }}`, or on a kind it descends from"));
+                .with_help(format!(
+                    "give it a look with `look {name} {{ … }}`, or on a kind it descends from; if a `stage` draws it, say so with `drawn_by STAGE` in the concept"
+                ));
                 self.error(d);
             }
             if let Some((span, source)) = self.look_spans[k]

@@ -601,6 +601,7 @@ mod tests {
             yaw_deg: 0.0,
             attrs: Default::default(),
             shape: vec![],
+            drawn_by: None,
         };
         let ids = scenic_ids(&[mk("ped"), mk("ped"), mk("2x"), mk("ego"), mk("a-b"), mk("junction")]);
         assert_eq!(ids, ["ped", "ped_2", "obj_2x", "obj_ego", "a_b", "obj_junction"]);

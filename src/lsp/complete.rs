@@ -89,6 +89,7 @@ pub fn complete(a: &Analysis, text: &str, offset: u32) -> Vec<CompletionItem> {
             out
         }
         "move" => names(ix, &[Sort::Region]),
+        "drawn_by" => names(ix, &[Sort::Stage]),
         "in" if first == "add"
             || first == "when"
             || first == "where"

@@ -32,6 +32,7 @@ pub fn entity(name: &str, position: [f64; 3], shape: Vec<ShapePart>) -> SceneEnt
         yaw_deg: 0.0,
         attrs: BTreeMap::new(),
         shape,
+        drawn_by: None,
     }
 }
 

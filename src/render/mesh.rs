@@ -238,8 +238,22 @@ struct Placed<'a> {
 
 /// Build the frame's triangles. `eye` orders translucent parts back to front.
 pub fn build(scene: &Scene, eye: [f64; 3]) -> Mesh {
-    let mut placed: Vec<Placed> =
-        scene.stage.iter().map(|part| Placed { part, xf: part_xf(&Xf::identity(), part), entity: 0.0 }).collect();
+    // A stage part that stands for an entity (`drawn_by`) carries the entity's id, so the
+    // visibility figures measure it as that entity.
+    let mut stage_ids = vec![0.0f32; scene.stage.len()];
+    for (i, e) in scene.entities.iter().enumerate() {
+        for &p in e.drawn_by.iter().flat_map(|s| &s.parts) {
+            if let Some(id) = stage_ids.get_mut(p as usize) {
+                *id = (i + 1) as f32;
+            }
+        }
+    }
+    let mut placed: Vec<Placed> = scene
+        .stage
+        .iter()
+        .zip(stage_ids)
+        .map(|(part, entity)| Placed { part, xf: part_xf(&Xf::identity(), part), entity })
+        .collect();
     let mut shadows = Vec::new();
     let ids = (1..=scene.entities.len()).map(|i| i as f32).chain(std::iter::repeat(0.0));
     for (e, entity) in scene.entities.iter().chain(&scene.extras).zip(ids) {

@@ -473,14 +473,15 @@ pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Opti
         .zip(seen)
         .filter(|(e, _)| e.concept.is_some())
         .filter_map(|(e, v)| {
-            if e.shape.is_empty() {
+            if e.draws_nothing() {
                 return (!accept_undrawn)
                     .then(|| format!("`{}` ({}) draws nothing, so it cannot be measured", e.name, e.kind));
             }
             let t = domain.visibility.threshold(&e.kind, e.concept.as_deref());
             (!t.holds(v.pixels, v.contrast)).then(|| {
+                let by = e.drawn_by.as_ref().map(|s| format!(" (drawn by stage `{}`)", s.stage)).unwrap_or_default();
                 format!(
-                    "`{}` ({}) has {} px at contrast {:.3}, needs {} px at {:.3}",
+                    "`{}` ({}){by} has {} px at contrast {:.3}, needs {} px at {:.3}",
                     e.name, e.kind, v.pixels, v.contrast, t.pixels, t.contrast
                 )
             })

@@ -3,7 +3,8 @@
 //! asked, draw each with the builtin renderer and count the scenes in which an entity a concept
 //! placed is not visible by the domain's thresholds — the scenes the observe pipeline would
 //! resample or record as `invisible`. An entity that draws nothing cannot be measured: it is
-//! named (R0108), not counted hidden. Each set's figures are kept for `--figures`.
+//! named (R0108), not counted hidden; one whose concept says `drawn_by STAGE` is measured by
+//! that stage's parts. Each set's figures are kept for `--figures`.
 
 use std::collections::BTreeSet;
 
@@ -119,7 +120,7 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
             }
             let (_, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
             t.scenes += 1;
-            for e in scene.entities.iter().filter(|e| e.shape.is_empty()) {
+            for e in scene.entities.iter().filter(|e| e.draws_nothing()) {
                 let Some(concept) = &e.concept else { continue };
                 let key = (e.name.clone(), e.kind.clone(), concept.clone());
                 if !t.undrawn.contains(&key) {
@@ -131,7 +132,7 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
                     .entities
                     .iter()
                     .zip(&seen)
-                    .filter(|(e, _)| e.concept.is_some() && !e.shape.is_empty())
+                    .filter(|(e, _)| e.concept.is_some() && !e.draws_nothing())
                     .map(|(_, v)| (v.pixels, v.contrast)),
             );
             // Judged on what can be measured: an undrawn entity is R0108's, not R0107's.
@@ -139,7 +140,7 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
                 unseen(domain, &scene, &seen)
             } else {
                 let (drawn, seen): (Vec<_>, Vec<_>) =
-                    scene.entities.iter().cloned().zip(seen).filter(|(e, _)| !e.shape.is_empty()).unzip();
+                    scene.entities.iter().cloned().zip(seen).filter(|(e, _)| !e.draws_nothing()).unzip();
                 unseen(domain, &crate::scene::Scene { entities: drawn, ..scene.clone() }, &seen)
             };
             if let Some(why) = why {
@@ -184,7 +185,7 @@ pub fn lint(domain: &Domain, tallies: &[Tally]) -> Vec<Diagnostic> {
                 format!("`{entity}` ({kind}) of concept `{concept}` draws nothing, so its visibility cannot be measured"),
             )
             .with_help(format!(
-                "give `{kind}` a look with at least one part; if something else draws it (a `stage` with `when has {concept}`), accept it with `allow R0108` and a `///` reason"
+                "give `{kind}` a look with at least one part; if a `stage` draws it, name that stage with `drawn_by STAGE` in concept `{concept}` so that it is measured; or accept it unmeasured with `allow R0108` and a `///` reason"
             )),
         );
     }

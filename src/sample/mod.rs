@@ -64,7 +64,7 @@ use crate::ir::{
     Value,
 };
 use crate::lattice::Validity;
-use crate::scene::{Scene, SceneEntity, SceneValue};
+use crate::scene::{Scene, SceneEntity, SceneValue, StandIn};
 use place::{Axis, Footprint, Must, Placed};
 pub use rng::domain_hash;
 use view::{Sight, View};
@@ -221,6 +221,20 @@ impl<'d> Sampler<'d> {
         }
         let guarded: Vec<Sight> = sights.into_iter().flatten().collect();
         let extras = self.extras(&mut rng, &mut concrete, &mut placed, &view, &guarded);
+        // Stage parts in item order, remembering which item drew which (for `drawn_by`).
+        let mut stage = Vec::new();
+        let mut drawn: Vec<(&str, std::ops::Range<u32>)> = Vec::with_capacity(d.stage.len());
+        for s in &d.stage {
+            let start = stage.len() as u32;
+            stage.extend(stage_parts(d, &concrete, s));
+            drawn.push((&s.name, start..stage.len() as u32));
+        }
+        for (e, a) in entities.iter_mut().zip(&concrete.entities).filter(|(e, _)| e.shape.is_empty()) {
+            let by = d.concepts[a.concept.index()].render.drawn_by.as_ref();
+            if let Some((name, parts)) = by.and_then(|by| drawn.iter().find(|(n, _)| n == by)) {
+                e.drawn_by = Some(StandIn { stage: (*name).to_owned(), parts: parts.clone().collect() });
+            }
+        }
         let mut scene = Scene {
             domain: d.name.clone(),
             domain_hash: self.hash.clone(),
@@ -230,7 +244,7 @@ impl<'d> Sampler<'d> {
             environment: environment(d, &concrete.world),
             entities,
             extras,
-            stage: d.stage.iter().flat_map(|s| stage_parts(d, &concrete, s)).collect(),
+            stage,
             camera: d.camera.clone(),
         };
         if n == 0 && !set.is_empty() {
@@ -346,6 +360,7 @@ fn scene_entity(
         yaw_deg: yaw_of(d, e),
         attrs: k.attrs.iter().zip(&e.attrs).map(|(a, v)| (a.name.clone(), scene_value(d, v))).collect(),
         shape,
+        drawn_by: None,
     }
 }
 

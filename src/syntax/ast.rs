@@ -266,6 +266,12 @@ pub enum ConceptStmt {
         region: Ident,
         span: Span,
     },
+    /// `drawn_by STAGE`: the stage item that draws the concept's entities that draw nothing
+    /// themselves.
+    DrawnBy {
+        stage: Ident,
+        span: Span,
+    },
 }
 
 impl ConceptStmt {
@@ -282,6 +288,7 @@ impl ConceptStmt {
             ConceptStmt::Shape(_) => "shape",
             ConceptStmt::Target { .. } => "target",
             ConceptStmt::Move { .. } => "move",
+            ConceptStmt::DrawnBy { .. } => "drawn_by",
         }
     }
 }

@@ -45,6 +45,7 @@ pub fn keyword_text(r: Rule) -> Option<&'static str> {
         kw_shape => "shape",
         kw_target => "target",
         kw_move => "move",
+        kw_drawn_by => "drawn_by",
         kw_text => "text",
         kw_option => "option",
         kw_when => "when",
@@ -184,9 +185,19 @@ pub fn block_keywords(block: Block) -> &'static [&'static str] {
         Block::Region => &["x", "y", "z", "scenic"],
         Block::Camera => &["at", "look_at", "fov", "size"],
         Block::Parts => &["box", "cylinder", "capsule", "sphere", "plane", "cone"],
-        Block::Concept => {
-            &["description", "category", "add", "set", "probe", "scenic", "prompt", "shape", "target", "move"]
-        }
+        Block::Concept => &[
+            "description",
+            "category",
+            "add",
+            "set",
+            "probe",
+            "scenic",
+            "prompt",
+            "shape",
+            "target",
+            "move",
+            "drawn_by",
+        ],
         Block::Question => &["text", "option"],
         Block::Rules => &["rule"],
         Block::Rule => &["when", "expect", "elements", "safe"],

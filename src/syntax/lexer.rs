@@ -128,6 +128,7 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
     "shape",
     "target",
     "move",
+    "drawn_by",
     "text",
     "option",
     "when",

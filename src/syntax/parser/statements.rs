@@ -70,6 +70,7 @@ impl Builder<'_> {
                     _ => ConceptStmt::Target { world: None, filter: self.idents(Children::of(c.next())), span },
                 }
             }
+            Some(Rule::kw_drawn_by) => ConceptStmt::DrawnBy { stage: self.ident(c.next()), span },
             _ => ConceptStmt::Move { region: self.ident(c.next()), span },
         })
     }
