@@ -18,7 +18,7 @@
 //!
 //! A rule's state returns to a single "done" value after its last concept (or dies there), so
 //! the width of a level is the number of distinct states of the rules whose concepts straddle
-//! it: one node per level for independent concepts, a few thousand for the shipped domains.
+//! it: one node per level for independent concepts, a few hundred for the shipped domains (69 driving, 240 delivery, 560 indoor).
 //!
 //! **Counts.** Every node holds the number of valid completions by size, up to `max_size`
 //! (128-bit, exact); the root's counts are the lattice's counts per size. Sampling walks down,
