@@ -54,6 +54,8 @@ pub struct ScaleBenchArgs {
 /// The planted modes' concepts: a pair and a triple (indices below 30, so every size has them).
 const PAIR: [usize; 2] = [5, 9];
 const TRIPLE: [usize; 3] = [13, 17, 21];
+/// Fewest concepts a domain needs to hold the planted modes (concepts are `c0`…).
+const PLANTED_WITHIN: usize = 22;
 
 /// A sim profile for [`generated`]: base error 0.05, the pair and the triple failing at 0.9, each
 /// of their concepts alone at 0.3–0.35 (a signal a search can follow).
@@ -183,6 +185,11 @@ pub fn run(args: &ScaleBenchArgs) -> ExitCode {
         let lattice_s = started.elapsed().as_secs_f64();
         let nodes = diagram.nodes();
         let search = if args.search_seeds == 0 {
+            None
+        } else if n < PLANTED_WITHIN {
+            eprintln!(
+                "note: no search on the generated domain of {n} concepts: its planted modes need at least {PLANTED_WITHIN}"
+            );
             None
         } else {
             match search(domain, args, diagram) {
