@@ -306,7 +306,7 @@ const STABLE: &[(&str, &[&str])] = &[
         &[
             "… on `delivery` with sim:delivery@…: # sets (# inferences) of # valid, in <time>",
             "PFM #% MFR #% Div # (# failure modes at FR ≥ #)",
-            "shrink: # cores from # inferences of # (up to # observations per set, # to test a core's lift)…",
+            "shrink: # candidate cores, shrunk and tested during the search (# calls explaining failures, # calls in core tests; up to # observations per set, # to test a core's lift); the shrink phase after it: # calls of #",
             "spend: # calls, # input / # output tokens (# thinking), $#",
             "run folder: runs/delivery (journal.jsonl, summary.json; `revelio validate runs/delivery` re-checks the top sets)",
             "report: runs/delivery/report/index.html",
