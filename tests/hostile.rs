@@ -260,10 +260,11 @@ fn wide_domain(dir: &Path, concepts: usize) -> PathBuf {
 }
 
 #[test]
-fn an_unconstrained_128_concept_domain_is_checked_and_counted_and_refused_only_by_search() {
+fn an_unconstrained_128_concept_domain_is_checked_counted_and_searched_by_sampling() {
     // 275 million sets of up to five: `check` took 6.5 min and 8.4 GB, `search` sat silent. Now
     // `check` lints from the lattice's diagram and a stated sample, `lattice` counts exactly,
-    // and the searches that score every set refuse with the ways out.
+    // the default search draws from the diagram, and what needs every set listed (`lattice
+    // --list`, the searches that score every set) refuses with the ways out.
     let dir = tempfile::tempdir().unwrap();
     let wide = wide_domain(dir.path(), 128);
     let profile = write(dir.path(), "sim.toml", "name = \"plain\"\n");
@@ -274,18 +275,30 @@ fn an_unconstrained_128_concept_domain_is_checked_and_counted_and_refused_only_b
     assert!(!text(&o).contains("R0070"), "{}", text(&o));
     let o = revelio_in_3gb(&["lattice", s(&wide)]);
     assert!(o.status.success() && text(&o).contains("275584032"), "{}", text(&o));
-    for args in [
-        vec!["lattice", s(&wide), "--list"],
-        vec!["search", s(&wide), "--model", &model, "--renderer", "none", "--out", s(&out)],
-    ] {
-        let o = revelio_in_3gb(&args);
-        let all = text(&o);
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {all}");
-        assert!(all.contains("R0070"), "{args:?}: {all}");
-        assert!(all.contains("more than 1000000 valid concept sets of up to 5 concepts"), "{args:?}: {all}");
-        assert!(all.contains("`--max-size 3` gives 349632") && all.contains("`--max-sets`"), "{args:?}: {all}");
-    }
+    let o = revelio_in_3gb(&["lattice", s(&wide), "--list"]);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("R0070") && all.contains("more than 1000000 valid concept sets of up to 5 concepts"), "{all}");
+    assert!(all.contains("`--max-size 3` gives 349632") && all.contains("`--max-sets`"), "{all}");
+    let search = |algo: &str, out: &std::path::Path| {
+        let args = ["search", s(&wide), "--model", &model, "--renderer", "none", "--budget", "60", "--algo", algo];
+        revelio_in_3gb(&[&args[..], &["--out", s(out)]].concat())
+    };
+    let o = search("gpts", &out);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("R0070") && all.contains("`--algo gpts` scores every valid set"), "{all}");
+    assert!(all.contains("`--algo interact` (its default surrogate) and `--algo random`"), "{all}");
     assert!(!out.join("journal.jsonl").exists(), "nothing was asked");
+    // The default search and random draw from the diagram, within the budget.
+    for algo in ["interact", "random"] {
+        let run = dir.path().join(algo);
+        let o = search(algo, &run);
+        assert!(o.status.success(), "{algo}: {}", text(&o));
+        assert!(text(&o).contains("of 275584032 valid"), "{algo}: {}", text(&o));
+        let lines = std::fs::read_to_string(run.join("journal.jsonl")).unwrap().lines().count();
+        assert!(lines > 0 && lines <= 60, "{algo}: {lines} journal lines");
+    }
     // The ways out work: a smaller size, or a raised limit.
     let o = revelio(&["lattice", s(&wide), "--max-size", "2", "--list"], &[]);
     assert!(o.status.success() && text(&o).lines().count() == 8256, "{}", text(&o));
