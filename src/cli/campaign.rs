@@ -2,8 +2,9 @@
 //! run a grid of searches (domains × models × algorithms × seeds, [`crate::run::campaign`]).
 //! Every cell is prepared exactly as `revelio search` prepares a run (its flags are parsed by
 //! the same definitions), then the cells run in this process, up to `--concurrency` at once
-//! (each on a thread of its own), under one concurrency limit and one spend cap. Each cell is an ordinary run folder under the file's `out`, so the
-//! same command resumes, and `report`, `validate`, `compare` work on each. `--shard I/N` runs a
+//! (each on a thread of its own), under one concurrency limit and one spend cap. Each cell is an
+//! ordinary run folder under the file's `out`, so the same command resumes, and `report`,
+//! `validate`, `compare` work on each. `--shard I/N` runs a
 //! fixed, disjoint part of the cells (a Slurm job array, a Kubernetes Indexed Job:
 //! `docs/campaigns.md`); a run without `--shard` whose cells are all finished writes
 //! `index.html` and `compare.csv` into `out`.
