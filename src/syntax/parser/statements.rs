@@ -70,7 +70,12 @@ impl Builder<'_> {
                     _ => ConceptStmt::Target { world: None, filter: self.idents(Children::of(c.next())), span },
                 }
             }
-            Some(Rule::kw_drawn_by) => ConceptStmt::DrawnBy { stage: self.ident(c.next()), span },
+            Some(Rule::kw_drawn_by) => {
+                // The statement ends at its stage name, not at the comment or blank after it.
+                let stage = self.ident(c.next());
+                let span = crate::ir::Span { end: stage.span.end.max(span.start), ..span };
+                ConceptStmt::DrawnBy { stage, span }
+            }
             _ => ConceptStmt::Move { region: self.ident(c.next()), span },
         })
     }
