@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use super::*;
-use crate::outcome::{Answer, Usage};
+use crate::outcome::Answer;
 
 fn names(s: &[&str]) -> Vec<String> {
     s.iter().map(|c| c.to_string()).collect()
@@ -15,29 +15,7 @@ fn row(concepts: &[&str], wrong: u32, answered: u32) -> SetRow {
 }
 
 fn record(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
-    Record {
-        phase,
-        set: names(set),
-        obs,
-        seed: 0,
-        image: String::new(),
-        prompt: String::new(),
-        raw: String::new(),
-        parsed: None,
-        answer: Some(Answer::Unparsed),
-        expected: 0,
-        outcome,
-        usage: Usage::default(),
-        latency_ms: 0,
-        cached: false,
-        model: None,
-        visibility: Vec::new(),
-        resamples: 0,
-        repeats: 0,
-        attempts: 1,
-        rate_limited: 0,
-        waited_ms: 0,
-    }
+    Record { answer: Some(Answer::Unparsed), ..Record::test(phase, set, obs, outcome) }
 }
 
 #[test]

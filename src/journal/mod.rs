@@ -127,6 +127,37 @@ fn is_zero(n: &u32) -> bool {
     *n == 0
 }
 
+#[cfg(test)]
+impl Record {
+    /// A test's observation of `set` (concept names): its phase, index and outcome, one attempt,
+    /// and empty or zero everywhere else (set what a test needs with `..Record::test(…)`).
+    pub(crate) fn test(phase: Phase, set: &[&str], obs: u32, outcome: Outcome) -> Record {
+        Record {
+            phase,
+            set: set.iter().map(|c| c.to_string()).collect(),
+            obs,
+            seed: 0,
+            image: String::new(),
+            prompt: String::new(),
+            raw: String::new(),
+            parsed: None,
+            answer: None,
+            expected: 0,
+            outcome,
+            usage: Usage::default(),
+            latency_ms: 0,
+            cached: false,
+            model: None,
+            visibility: Vec::new(),
+            resamples: 0,
+            repeats: 0,
+            attempts: 1,
+            rate_limited: 0,
+            waited_ms: 0,
+        }
+    }
+}
+
 /// What can go wrong with a run folder.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
@@ -415,9 +446,6 @@ mod tests {
 
     fn record(obs: u32) -> Record {
         Record {
-            phase: Phase::Search,
-            set: vec!["a".into(), "b".into()],
-            obs,
             seed: 7,
             image: "i".into(),
             prompt: "p".into(),
@@ -425,17 +453,8 @@ mod tests {
             parsed: Some(0),
             answer: Some(Answer::Option(0)),
             expected: 1,
-            outcome: Outcome::Wrong,
-            usage: Usage::default(),
             latency_ms: 3,
-            cached: false,
-            model: None,
-            visibility: vec![],
-            resamples: 0,
-            repeats: 0,
-            attempts: 1,
-            rate_limited: 0,
-            waited_ms: 0,
+            ..Record::test(Phase::Search, &["a", "b"], obs, Outcome::Wrong)
         }
     }
 

@@ -32,55 +32,38 @@ pub(crate) trait Bits: Copy + PartialEq {
     fn top(self) -> Self;
 }
 
-impl Bits for u64 {
-    const ZERO: Self = 0;
-    fn narrow(s: ConceptSet) -> Self {
-        s.words()[0]
-    }
-    fn widen(self) -> ConceptSet {
-        ConceptSet::from_bits(self as u128)
-    }
-    fn with(self, c: u32) -> Self {
-        self | 1 << c
-    }
-    fn and(self, o: Self) -> Self {
-        self & o
-    }
-    fn is_zero(self) -> bool {
-        self == 0
-    }
-    fn count(self) -> u32 {
-        self.count_ones()
-    }
-    fn top(self) -> Self {
-        1 << (63 - self.leading_zeros())
-    }
+/// One machine word: `$narrow` takes its part of a set (a `u64`'s is within the low 128 bits).
+macro_rules! word_bits {
+    ($word:ty, $narrow:expr) => {
+        impl Bits for $word {
+            const ZERO: Self = 0;
+            fn narrow(s: ConceptSet) -> Self {
+                $narrow(s)
+            }
+            fn widen(self) -> ConceptSet {
+                ConceptSet::from_bits(u128::from(self))
+            }
+            fn with(self, c: u32) -> Self {
+                self | 1 << c
+            }
+            fn and(self, o: Self) -> Self {
+                self & o
+            }
+            fn is_zero(self) -> bool {
+                self == 0
+            }
+            fn count(self) -> u32 {
+                self.count_ones()
+            }
+            fn top(self) -> Self {
+                1 << (<$word>::BITS - 1 - self.leading_zeros())
+            }
+        }
+    };
 }
 
-impl Bits for u128 {
-    const ZERO: Self = 0;
-    fn narrow(s: ConceptSet) -> Self {
-        s.low_bits()
-    }
-    fn widen(self) -> ConceptSet {
-        ConceptSet::from_bits(self)
-    }
-    fn with(self, c: u32) -> Self {
-        self | 1 << c
-    }
-    fn and(self, o: Self) -> Self {
-        self & o
-    }
-    fn is_zero(self) -> bool {
-        self == 0
-    }
-    fn count(self) -> u32 {
-        self.count_ones()
-    }
-    fn top(self) -> Self {
-        1 << (127 - self.leading_zeros())
-    }
-}
+word_bits!(u64, |s: ConceptSet| s.words()[0]);
+word_bits!(u128, ConceptSet::low_bits);
 
 impl Bits for ConceptSet {
     const ZERO: Self = ConceptSet::EMPTY;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use super::*;
 use crate::journal::{Journal, Phase, Record};
 use crate::lattice::testkit::driving;
-use crate::outcome::{Answer, Outcome, Usage};
+use crate::outcome::{Answer, Outcome};
 use crate::run::runner::summarize;
 use crate::run::summary::Spend;
 use crate::run::summary::{RunConfig, ValidatedSet, Validation};
@@ -79,27 +79,13 @@ fn fixture(renderer: &str) -> Fixture {
             };
             journal
                 .append(&Record {
-                    phase: Phase::Search,
-                    set: names.iter().map(|s| s.to_string()).collect(),
-                    obs: i as u32,
                     seed: i as u64,
                     image,
                     prompt: "p".into(),
                     raw,
-                    parsed: None,
                     answer: Some(answer),
-                    expected: 0,
-                    outcome,
-                    usage: Usage::default(),
                     latency_ms: 1,
-                    cached: false,
-                    model: None,
-                    visibility: Vec::new(),
-                    resamples: 0,
-                    repeats: 0,
-                    attempts: 1,
-                    rate_limited: 0,
-                    waited_ms: 0,
+                    ..Record::test(Phase::Search, names, i as u32, outcome)
                 })
                 .unwrap();
             stats.add(outcome);
@@ -324,27 +310,12 @@ fn invisible_observations_are_counted_and_an_unknown_outcome_is_a_clear_error() 
     let f = fixture("builtin");
     let path = f.dir.join("journal.jsonl");
     let invisible = Record {
-        phase: Phase::Search,
-        set: vec!["debris_far".into()],
-        obs: 5,
         seed: 5,
         image: crate::hash::sha256_hex(b"unseen"),
         prompt: "p".into(),
         raw: "`debris` stayed hidden in 4 scenes".into(),
-        parsed: None,
-        answer: None,
-        expected: 0,
-        outcome: Outcome::Invisible,
-        usage: Usage::default(),
-        latency_ms: 0,
-        cached: false,
-        model: None,
-        visibility: Vec::new(),
         resamples: 4,
-        repeats: 0,
-        attempts: 1,
-        rate_limited: 0,
-        waited_ms: 0,
+        ..Record::test(Phase::Search, &["debris_far"], 5, Outcome::Invisible)
     };
     let mut text = std::fs::read_to_string(&path).unwrap();
     text.push_str(&serde_json::to_string(&invisible).unwrap());
@@ -538,27 +509,13 @@ fn wide_fixture(n: usize, sets: usize) -> (Fixture, Domain) {
             let outcome = if fails { Outcome::Wrong } else { Outcome::Correct };
             journal
                 .append(&Record {
-                    phase: Phase::Search,
-                    set: names.clone(),
-                    obs: i,
                     seed: u64::from(i),
                     image: crate::hash::sha256_hex(format!("{k} {i}").as_bytes()),
                     prompt: "p".into(),
                     raw: "Answer: A".into(),
-                    parsed: None,
                     answer: Some(Answer::Option(u32::from(fails))),
-                    expected: 0,
-                    outcome,
-                    usage: Usage::default(),
                     latency_ms: 1,
-                    cached: false,
-                    model: None,
-                    visibility: Vec::new(),
-                    resamples: 0,
-                    repeats: 0,
-                    attempts: 1,
-                    rate_limited: 0,
-                    waited_ms: 0,
+                    ..Record::test(Phase::Search, &names.iter().map(String::as_str).collect::<Vec<_>>(), i, outcome)
                 })
                 .unwrap();
             stats.add(outcome);
