@@ -81,6 +81,35 @@ fn stopped(stop: &Stop) -> Result<(), RunError> {
     }
 }
 
+/// What ends a run of tasks: the first task's error, kept, stops the others (its stop reason, or
+/// an interruption); a task that could not finish (`what` names it) is an error of its own.
+#[derive(Default)]
+struct FirstError(Option<RunError>);
+
+impl FirstError {
+    fn failed(&mut self, stop: &Stop, e: RunError) {
+        stop.request(match &e {
+            RunError::Stopped(reason) => reason.clone(),
+            _ => StopReason::Interrupted,
+        });
+        self.0.get_or_insert(e);
+    }
+
+    fn join_failed(&mut self, what: &str, e: tokio::task::JoinError) {
+        self.0.get_or_insert(RunError::Search(format!("a {what} task failed: {e}")));
+    }
+
+    /// After every task: the journal synced, then the first error or the stop's reason.
+    fn finish(self, progress: &mut Progress, journal: &Journal, stop: &Stop) -> Result<(), RunError> {
+        progress.finish();
+        journal.sync()?;
+        if let Some(e) = self.0 {
+            return Err(e);
+        }
+        stopped(stop)
+    }
+}
+
 /// One finished probe observation: its outcome and its statement marks.
 struct ProbeObs {
     set: usize,
@@ -153,7 +182,7 @@ pub async fn probe(
             });
         }
     }
-    let mut first_error = None;
+    let mut first_error = FirstError::default();
     while let Some(joined) = tasks.join_next().await {
         match joined {
             Ok(Ok(Some((o, rec)))) => {
@@ -165,24 +194,11 @@ pub async fn probe(
                 finished.push(o);
             }
             Ok(Ok(None)) => {}
-            Ok(Err(e)) => {
-                r.stop.request(match &e {
-                    RunError::Stopped(reason) => reason.clone(),
-                    _ => StopReason::Interrupted,
-                });
-                first_error.get_or_insert(e);
-            }
-            Err(e) => {
-                first_error.get_or_insert(RunError::Search(format!("a probe task failed: {e}")));
-            }
+            Ok(Err(e)) => first_error.failed(&r.stop, e),
+            Err(e) => first_error.join_failed("probe", e),
         }
     }
-    progress.finish();
-    r.journal.sync()?;
-    if let Some(e) = first_error {
-        return Err(e);
-    }
-    stopped(&r.stop)?;
+    first_error.finish(&mut progress, &r.journal, &r.stop)?;
     let mut out: Vec<ProbedSet> = sets
         .iter()
         .map(|&s| ProbedSet {
@@ -304,7 +320,7 @@ pub async fn transfer(
             });
         }
     }
-    let mut first_error = None;
+    let mut first_error = FirstError::default();
     while let Some(joined) = tasks.join_next().await {
         match joined {
             Ok(Ok((i, recs))) => {
@@ -318,24 +334,11 @@ pub async fn transfer(
                     progress.inc(&total);
                 }
             }
-            Ok(Err(e)) => {
-                r.stop.request(match &e {
-                    RunError::Stopped(reason) => reason.clone(),
-                    _ => StopReason::Interrupted,
-                });
-                first_error.get_or_insert(e);
-            }
-            Err(e) => {
-                first_error.get_or_insert(RunError::Search(format!("a transfer task failed: {e}")));
-            }
+            Ok(Err(e)) => first_error.failed(&r.stop, e),
+            Err(e) => first_error.join_failed("transfer", e),
         }
     }
-    progress.finish();
-    r.journal.sync()?;
-    if let Some(e) = first_error {
-        return Err(e);
-    }
-    stopped(&r.stop)?;
+    first_error.finish(&mut progress, &r.journal, &r.stop)?;
     Ok((stats, spend))
 }
 
