@@ -106,27 +106,37 @@ fn out_dir(args: &SearchArgs, domain: &crate::ir::Domain) -> PathBuf {
     }
 }
 
-/// The valid sets of `domain` up to `max_size`, enumerated once per process for each domain and
-/// limit (a campaign prepares many cells of one domain).
-fn valid_sets(domain: &crate::ir::Domain, max_size: usize, max_sets: u64) -> Result<Vec<ConceptSet>, ExitCode> {
+/// The valid sets of `domain` up to `max_size` that have a ground truth, and how many valid sets
+/// were left out for having none: enumerated and judged once per process for each domain and
+/// limit. A campaign prepares many cells of one domain, on several threads at once; judging every
+/// set is most of a cell's preparation, so the first cell of a domain does it and the others wait
+/// for its answer rather than repeat it.
+fn listed_sets(
+    domain: &crate::ir::Domain,
+    world: &dyn World,
+    max_size: usize,
+    max_sets: u64,
+) -> Result<(Vec<ConceptSet>, usize), ExitCode> {
     type Key = (String, usize, u64);
-    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Vec<ConceptSet>>>> =
+    type Listed = Arc<std::sync::OnceLock<Result<(Vec<ConceptSet>, usize), String>>>;
+    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Listed>>> =
         std::sync::OnceLock::new();
     let key = (domain.identity().to_string(), max_size, max_sets);
-    let seen = SEEN.get_or_init(Default::default);
-    if let Some(sets) = seen.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
-        return Ok(sets.clone());
-    }
-    let lattice = {
+    let once =
+        SEEN.get_or_init(Default::default).lock().unwrap_or_else(|p| p.into_inner()).entry(key).or_default().clone();
+    let listed = once.get_or_init(|| {
         let mut work = super::progress::Work::new();
-        Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
-    };
-    let lattice = lattice.map_err(|too_large| {
-        eprintln!("{}", too_large.plain());
+        let lattice = Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
+            .map_err(|too_large| too_large.plain())?;
+        let before = lattice.sets.len();
+        let kept: Vec<ConceptSet> = lattice.sets.into_iter().filter(|s| world.task(*s).is_ok()).collect();
+        let dropped = before - kept.len();
+        Ok((kept, dropped))
+    });
+    listed.clone().map_err(|message| {
+        eprintln!("{message}");
         ExitCode::from(1)
-    })?;
-    seen.lock().unwrap_or_else(|p| p.into_inner()).insert(key, lattice.sets.clone());
-    Ok(lattice.sets)
+    })
 }
 
 /// A lattice past `--max-sets` (counted exactly by its diagram, not listed): a sampled space
@@ -232,8 +242,8 @@ pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
     let (space, dropped) = match search_space(&domain, &world, &config.params, args.max_sets)? {
         Some(space) => (space, 0),
         None => {
-            let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
-            runner::search_space(sets, domain.concepts.len(), world.as_ref())
+            let (sets, dropped) = listed_sets(&domain, world.as_ref(), config.params.max_size, args.max_sets)?;
+            (crate::search::Space::new(sets, domain.concepts.len()), dropped)
         }
     };
     if dropped > 0 {
