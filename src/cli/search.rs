@@ -128,10 +128,8 @@ fn listed_sets(
         let mut work = super::progress::Work::new();
         let lattice = Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
             .map_err(|too_large| too_large.plain())?;
-        let before = lattice.sets.len();
-        let kept: Vec<ConceptSet> = lattice.sets.into_iter().filter(|s| world.task(*s).is_ok()).collect();
-        let dropped = before - kept.len();
-        Ok((kept, dropped))
+        let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world);
+        Ok((space.sets, dropped))
     });
     listed.clone().map_err(|message| {
         eprintln!("{message}");
