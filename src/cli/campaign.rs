@@ -243,50 +243,60 @@ fn run_with(args: &CampaignArgs, search: &SearchCell<'_>, say: &Say<'_>) -> Exit
     }
 }
 
-/// Every cell prepared as `revelio search` prepares a run, on as many threads as this machine
-/// has cores: the cells of one domain share its judged lattice (the first to need it builds it,
-/// the others wait for it), the rest of a cell's preparation is its own. A cell that cannot start
-/// stops the campaign before any model call, so a typo in one model spec spends nothing.
+/// Every cell prepared as `revelio search` prepares a run. The first cell of each domain and of
+/// each model is prepared first, one after another: a domain or model that cannot start is said
+/// once, and the first cell of a domain builds the space its other cells share (judging every
+/// valid set, most of a cell's preparation). The other cells follow on as many threads as this
+/// machine has cores. A cell that cannot start stops the campaign before any model call, so a
+/// typo in one model spec spends nothing.
 fn prepare_cells(
     args: &CampaignArgs,
     campaign: &Campaign,
     cells: &[Cell],
     say: &Say<'_>,
 ) -> Result<Vec<(Cell, Prepared)>, ExitCode> {
-    let mut argv = Vec::with_capacity(cells.len());
+    let (mut first, mut rest) = (Vec::new(), Vec::new());
+    let (mut domains, mut models) = (std::collections::HashSet::new(), std::collections::HashSet::new());
     for cell in cells {
         match cell_args(args, campaign, cell) {
-            Ok(a) => argv.push((cell.clone(), a)),
+            Ok(a) => {
+                let new = domains.insert(&cell.domain) | models.insert(&cell.model);
+                if new { &mut first } else { &mut rest }.push((cell.clone(), a));
+            }
             Err(e) => {
                 say(&format!("error: {e}"));
                 return Err(ExitCode::from(2));
             }
         }
     }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let prepared = each(argv, cores, &|(cell, a): (Cell, super::search::SearchArgs)| {
+    let prepare_one = |(cell, a): (Cell, super::search::SearchArgs)| {
         prepare(&a).map(|mut p| {
             p.estimate.what = cell.name.clone();
             (cell, p)
         })
-    });
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = Vec::with_capacity(cells.len());
-    for (cell, p) in cells.iter().zip(prepared) {
-        match p {
-            Ok(Ok(p)) => out.push(p),
-            Ok(Err(code)) => {
-                say(&format!("error: cell `{}` cannot start (above)", cell.name));
-                return Err(code);
-            }
-            Err(panic) => {
-                say(&format!(
-                    "error: cell `{}` cannot start: its preparation panicked (a bug in revelio): {panic}",
-                    cell.name
-                ));
-                return Err(ExitCode::from(1));
+    for (batch, workers) in [(first, 1), (rest, cores)] {
+        let names: Vec<String> = batch.iter().map(|(c, _)| c.name.clone()).collect();
+        for (name, p) in names.into_iter().zip(each(batch, workers, &prepare_one)) {
+            match p {
+                Ok(Ok(p)) => out.push(p),
+                Ok(Err(code)) => {
+                    say(&format!("error: cell `{name}` cannot start (above)"));
+                    return Err(code);
+                }
+                Err(panic) => {
+                    say(&format!(
+                        "error: cell `{name}` cannot start: its preparation panicked (a bug in revelio): {panic}"
+                    ));
+                    return Err(ExitCode::from(1));
+                }
             }
         }
     }
+    // In the file's order, as the cells are run and reported.
+    out.sort_by_key(|(c, _)| cells.iter().position(|d| d.name == c.name));
     Ok(out)
 }
 
@@ -383,7 +393,6 @@ mod tests {
     use super::*;
     use crate::run::observe::{Task, World};
     use std::sync::Mutex;
-    use std::sync::atomic::{AtomicUsize, Ordering};
 
     #[test]
     fn a_panic_in_one_items_work_is_that_items_error() {
@@ -394,16 +403,17 @@ mod tests {
         assert_eq!(ok, [0, 10, 30, 40, 50], "the other items ran, in order");
     }
 
-    /// The domain's world, except that the search panics (a bug) once it has asked for `left`
-    /// tasks: in the middle of the search, with the run folder open.
+    /// The domain's world, except that the search panics (a bug) at the first task it asks for
+    /// once the run folder `out` journaled an observation: in the middle of the search (interact asks for the
+    /// tasks of one batch of sets at a time), with the run folder open.
     struct PanicsLater {
         world: Arc<dyn World>,
-        left: AtomicUsize,
+        out: PathBuf,
     }
 
     impl World for PanicsLater {
         fn task(&self, set: crate::ir::ConceptSet) -> Result<Task, String> {
-            if self.left.fetch_sub(1, Ordering::SeqCst) == 0 {
+            if journal_lines(&self.out) > 0 {
                 panic!("a bug in the middle of the search");
             }
             self.world.task(set)
@@ -413,14 +423,14 @@ mod tests {
         }
     }
 
-    const BROKEN: &str = "driving-sim-driving_paper-random-s0";
+    const BROKEN: &str = "driving-sim-driving_paper-interact-s0";
 
     /// `search_cell`, except that cell `BROKEN`'s search panics midway.
     fn broken_search(rt: &tokio::runtime::Handle, p: &Prepared) -> Result<Summary, RunError> {
         if !p.setup.out.ends_with(BROKEN) {
             return search_cell(rt, p);
         }
-        let world = Arc::new(PanicsLater { world: p.setup.world.clone(), left: AtomicUsize::new(2) });
+        let world = Arc::new(PanicsLater { world: p.setup.world.clone(), out: p.setup.out.clone() });
         let s = &p.setup;
         let mut setup = runner::Setup::new(s.domain.clone(), world, s.model.clone(), s.renderer.clone(), s.out.clone());
         (setup.concurrency, setup.gate, setup.purse, setup.stop) =
@@ -446,7 +456,7 @@ mod tests {
     fn campaign(out: &Path) -> PathBuf {
         let file = out.with_extension("toml");
         let text = format!(
-            "out = {:?}\nbudget = 12\nsamples = 2\nrenderer = \"none\"\ndomains = [\"domains/driving.rev\"]\nmodels = [\"sim:examples/sim/driving_paper.toml\"]\nalgos = [\"random\", \"beam\"]\n",
+            "out = {:?}\nbudget = 40\nsamples = 2\nrenderer = \"none\"\ndomains = [\"domains/driving.rev\"]\nmodels = [\"sim:examples/sim/driving_paper.toml\"]\nalgos = [\"interact\", \"beam\"]\n",
             out.display().to_string()
         );
         std::fs::write(&file, text).unwrap();
