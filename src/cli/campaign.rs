@@ -1,17 +1,18 @@
 //! `revelio campaign FILE.toml [--shard I/N] [--dry-run] [--max-cost USD] [--concurrency C]`:
 //! run a grid of searches (domains × models × algorithms × seeds, [`crate::run::campaign`]).
 //! Every cell is prepared exactly as `revelio search` prepares a run (its flags are parsed by
-//! the same definitions), then the cells run in this process, up to `--concurrency` at once
-//! (each on a thread of its own), under one concurrency limit and one spend cap. Each cell is an
-//! ordinary run folder under the file's `out`, so the same command resumes, and `report`,
-//! `validate`, `compare` work on each. `--shard I/N` runs a
+//! the same definitions; the cells of one domain share its search space), then the cells run in
+//! this process, up to `--concurrency` at once (each on a thread of its own), under one
+//! concurrency limit and one spend cap. Each cell is an ordinary run folder under the file's
+//! `out`, so the same command resumes, and `report`, `validate`, `compare` work on each. A cell
+//! that fails, by an error or a panic, fails alone: the others go on. `--shard I/N` runs a
 //! fixed, disjoint part of the cells (a Slurm job array, a Kubernetes Indexed Job:
 //! `docs/campaigns.md`); a run without `--shard` whose cells are all finished writes
 //! `index.html` and `compare.csv` into `out`.
 //!
-//! Exit codes: 0 every cell finished, 1 a cell failed or the spend cap stopped the campaign
-//! (what was asked is journaled; a rerun with a larger cap resumes), 2 a usage error, 130
-//! interrupted.
+//! Exit codes: 0 every cell finished, 1 a cell failed (a panic included) or the spend cap
+//! stopped the campaign (what was asked is journaled; a rerun with a larger cap resumes), 2 a
+//! usage error, 130 interrupted.
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::{Arc, PoisonError};
