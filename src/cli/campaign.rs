@@ -289,7 +289,8 @@ fn prepare_cells(
                 }
                 Err(panic) => {
                     say(&format!(
-                        "error: cell `{name}` cannot start: its preparation panicked (a bug in revelio): {panic}"
+                        "error: cell `{name}` cannot start: its preparation panicked (a bug in revelio): {}",
+                        terminal_safe(&panic)
                     ));
                     return Err(ExitCode::from(1));
                 }
