@@ -1,7 +1,7 @@
 //! `revelio campaign` through the binary: an 8-cell grid against sim profiles run in two shards
 //! and then without `--shard` equals the grid run in one go (same cells, same summaries), the
-//! rerun adds no observation, and the campaign folder gets `index.html` and `compare.csv`; a dry
-//! run writes nothing.
+//! rerun adds no observation, and the campaign folder gets `index.html` and `compare.csv`; a cell
+//! is the run `revelio search` makes alone with its flags; a dry run writes nothing.
 use std::path::Path;
 use std::process::Command;
 
@@ -62,6 +62,28 @@ fn sharded_campaign_equals_unsharded() {
 
     let all = campaign(&f1, &[]);
     assert_eq!(all.0, 0, "{}", all.2);
+    // A cell is the run `revelio search` makes alone with the same flags: the same observations
+    // and summary.
+    let alone = tmp.path().join("alone");
+    let o = Command::new(env!("CARGO_BIN_EXE_revelio"))
+        .args(["search", "domains/driving.rev", "--model", "sim:examples/sim/driving_fog.toml", "--algo", "beam"])
+        .args(["--seed", "1", "--budget", "20", "--samples", "2", "--renderer", "none", "--no-cache"])
+        .args(["--concurrency", "8", "--json", "--out"])
+        .arg(&alone)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let cell = one.join("driving-sim-driving_fog-beam-s1");
+    let sorted = |d: &Path| {
+        let mut v: Vec<String> =
+            std::fs::read_to_string(d.join("journal.jsonl")).unwrap().lines().map(String::from).collect();
+        v.sort();
+        v
+    };
+    assert_eq!(sorted(&cell), sorted(&alone), "the cell's observations are the lone search's");
+    let summary = |d: &Path| std::fs::read_to_string(d.join("summary.json")).unwrap();
+    assert_eq!(summary(&cell), summary(&alone), "the cell's summary is the lone search's");
     for shard in ["0/2", "1/2"] {
         let r = campaign(&f2, &["--shard", shard]);
         assert_eq!(r.0, 0, "{}", r.2);

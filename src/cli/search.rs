@@ -82,7 +82,8 @@ pub struct SearchArgs {
 pub(crate) struct Prepared {
     pub setup: Setup,
     pub config: RunConfig,
-    pub space: crate::search::Space,
+    /// Shared by the cells of a campaign that search one domain (a listed space is built once).
+    pub space: Arc<crate::search::Space>,
     pub estimate: Estimate,
     /// The configuration an existing run folder recorded (a resume).
     pub previous: Option<RunConfig>,
@@ -106,27 +107,44 @@ fn out_dir(args: &SearchArgs, domain: &crate::ir::Domain) -> PathBuf {
     }
 }
 
-/// The valid sets of `domain` up to `max_size`, enumerated once per process for each domain and
-/// limit (a campaign prepares many cells of one domain).
-fn valid_sets(domain: &crate::ir::Domain, max_size: usize, max_sets: u64) -> Result<Vec<ConceptSet>, ExitCode> {
+/// The space of the valid sets of `domain` up to `max_size` that have a ground truth, and how
+/// many valid sets were left out for having none: enumerated, judged and indexed once per process
+/// for each domain and limit. A campaign prepares many cells of one domain, on several threads at
+/// once; judging and indexing every set is most of a cell's preparation, so the first cell of a
+/// domain does it, the others wait for it and share the space it built.
+fn listed_space(
+    domain: &crate::ir::Domain,
+    world: &dyn World,
+    max_size: usize,
+    max_sets: u64,
+) -> Result<(Arc<crate::search::Space>, usize), ExitCode> {
     type Key = (String, usize, u64);
-    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Vec<ConceptSet>>>> =
+    type Listed = Arc<std::sync::OnceLock<Result<(Arc<crate::search::Space>, usize), String>>>;
+    static SEEN: std::sync::OnceLock<std::sync::Mutex<std::collections::HashMap<Key, Listed>>> =
         std::sync::OnceLock::new();
     let key = (domain.identity().to_string(), max_size, max_sets);
-    let seen = SEEN.get_or_init(Default::default);
-    if let Some(sets) = seen.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
-        return Ok(sets.clone());
-    }
-    let lattice = {
+    let once =
+        SEEN.get_or_init(Default::default).lock().unwrap_or_else(|p| p.into_inner()).entry(key).or_default().clone();
+    let listed = once.get_or_init(|| {
         let mut work = super::progress::Work::new();
-        Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
-    };
-    let lattice = lattice.map_err(|too_large| {
-        eprintln!("{}", too_large.plain());
+        let lattice = Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
+            .map_err(|too_large| too_large.plain())?;
+        // Judged on every core (the rule of `runner::search_space`), in the lattice's order.
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let chunk = lattice.sets.len().div_ceil(cores).max(1);
+        let kept: Vec<ConceptSet> = std::thread::scope(|scope| {
+            let parts: Vec<_> = (lattice.sets.chunks(chunk))
+                .map(|c| scope.spawn(move || c.iter().copied().filter(|s| world.task(*s).is_ok()).collect::<Vec<_>>()))
+                .collect();
+            parts.into_iter().flat_map(|p| p.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
+        });
+        let dropped = lattice.sets.len() - kept.len();
+        Ok((Arc::new(crate::search::Space::new(kept, domain.concepts.len())), dropped))
+    });
+    listed.clone().map_err(|message| {
+        eprintln!("{message}");
         ExitCode::from(1)
-    })?;
-    seen.lock().unwrap_or_else(|p| p.into_inner()).insert(key, lattice.sets.clone());
-    Ok(lattice.sets)
+    })
 }
 
 /// A lattice past `--max-sets` (counted exactly by its diagram, not listed): a sampled space
@@ -230,11 +248,8 @@ pub(crate) fn prepare(args: &SearchArgs) -> Result<Prepared, ExitCode> {
     let config = RunConfig::new(&domain, &args.file, &args.model, model.as_ref(), settings, &renderer, params);
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(&domain));
     let (space, dropped) = match search_space(&domain, &world, &config.params, args.max_sets)? {
-        Some(space) => (space, 0),
-        None => {
-            let sets = valid_sets(&domain, config.params.max_size, args.max_sets)?;
-            runner::search_space(sets, domain.concepts.len(), world.as_ref())
-        }
+        Some(space) => (Arc::new(space), 0),
+        None => listed_space(&domain, world.as_ref(), config.params.max_size, args.max_sets)?,
     };
     if dropped > 0 {
         eprintln!(
