@@ -415,16 +415,16 @@ pub const HOT: usize = 16;
 /// largest).
 pub const EXPAND: usize = 12;
 
-/// A sampled space: one pick in this many (rounded up) screens an untested union of hot concepts
-/// ([`PatternSearcher::combos`]).
-pub const COMBO_SHARE: usize = 4;
+/// A sampled space: one pick in this many (rounded up) screens a set of the concepts likeliest to
+/// carry a failure mode's signal ([`PatternSearcher::concept_sets`]).
+pub const CONCEPT_SHARE: usize = 2;
 
-/// A concept is hot when the sets that hold it failed this many standard deviations above the
-/// base rate.
-pub const HOT_Z: f64 = 2.0;
+/// The prior Beta(a, b) of a concept's own effect in [`PatternSearcher::concept_effects`]: mean
+/// 0.05, as strong as two answers.
+pub const EFFECT_PRIOR: (f64, f64) = (0.1, 1.9);
 
-/// The most hot concepts combined.
-pub const HOT_CONCEPTS: usize = 8;
+/// EM rounds of the noisy-OR fit of the concepts' effects.
+pub const EFFECT_ROUNDS: usize = 20;
 
 /// The pattern surrogate's search state.
 pub struct PatternSearcher<'s> {
@@ -499,52 +499,109 @@ impl<'s> PatternSearcher<'s> {
         self.board.explore_since(history, &mut self.marked);
     }
 
-    /// A sampled space: the unexplored open unions of two or three hot concepts — those whose
-    /// sets failed most beyond the base rate `base` (a z-score over every answer of a set that
-    /// holds them and no hotter concept, at least [`HOT_Z`]; the [`HOT_CONCEPTS`] highest) —
-    /// strongest first. The parts
-    /// of a failure mode that each carry some of its signal stand out this way long before the
-    /// pattern surrogate, whose prior weighs a pair among every pair of the lattice, takes them
-    /// up.
-    fn combos(&mut self, history: &[SetStats], base: f64) -> Vec<ConceptSet> {
-        // Greedy, explaining away: the hottest concept first, then the next over the sets that
-        // hold none chosen so far (a concept that only rode along with a hot one in the sets the
-        // search followed it into is not hot on its own).
-        let mut hot: Vec<(f64, crate::ir::ConceptId)> = Vec::new();
-        let mut chosen = ConceptSet::EMPTY;
-        while hot.len() < HOT_CONCEPTS {
-            let mut per: std::collections::BTreeMap<crate::ir::ConceptId, (f64, f64)> = Default::default();
-            for s in history.iter().filter(|s| !s.set.intersects(chosen)) {
+    /// The evaluated sets that fail as tested so far (FR ≥ τ) and hold no set already set aside:
+    /// each is being explained (escalated, shrunk, confirmed) as itself, so screening a superset
+    /// of it would only measure it again.
+    fn failing(&self, history: &[SetStats]) -> Vec<ConceptSet> {
+        history
+            .iter()
+            .filter(|s| s.is_failure_mode(self.params.threshold))
+            .map(|s| s.set)
+            .filter(|&s| !self.closed.iter().any(|c| c.is_subset_of(s)))
+            .collect()
+    }
+
+    /// Each concept's own effect under a noisy-OR model of the evaluated sets — a set's answer is
+    /// wrong when the base error or any of its concepts "fires", concept c with chance e_c — fitted
+    /// by EM ([`EFFECT_ROUNDS`] rounds, a Beta([`EFFECT_PRIOR`]) prior on each e_c): per concept,
+    /// the wrong answers it is expected to have caused and the answers of the sets that hold it.
+    /// A concept that only rode along with a failing one gets little of the blame. Sets that hold
+    /// a set aside (a confirmed core, an explained family) are left out: their failures are
+    /// explained.
+    fn concept_effects(&self, history: &[SetStats], base: f64) -> Vec<(f64, f64)> {
+        let data: Vec<&SetStats> =
+            history.iter().filter(|s| s.answered() > 0 && !self.closed.iter().any(|c| c.is_subset_of(s.set))).collect();
+        let (a0, b0) = EFFECT_PRIOR;
+        let dim = self.space.dim;
+        let mut e = vec![a0 / (a0 + b0); dim];
+        let mut acc = vec![(0.0, 0.0); dim];
+        for _ in 0..EFFECT_ROUNDS {
+            acc.iter_mut().for_each(|a| *a = (0.0, 0.0));
+            for s in &data {
+                let right = (1.0 - base) * s.set.iter().map(|c| 1.0 - e[c.0 as usize]).product::<f64>();
+                let p = (1.0 - right).max(1e-12);
+                let (w, n) = (f64::from(s.wrong), f64::from(s.answered()));
                 for c in s.set.iter() {
-                    let e = per.entry(c).or_default();
-                    e.0 += f64::from(s.wrong);
-                    e.1 += f64::from(s.answered());
+                    let a = &mut acc[c.0 as usize];
+                    a.0 += w * e[c.0 as usize] / p;
+                    a.1 += n;
                 }
             }
-            let best = per
-                .into_iter()
-                .map(|(c, (w, a))| ((w - a * base) / (a * base * (1.0 - base)).max(1e-9).sqrt(), c))
-                .filter(|(z, _)| *z >= HOT_Z)
-                .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
-            let Some((z, c)) = best else { break };
-            chosen.insert(c);
-            hot.push((z, c));
-        }
-        let max = self.params.max_size;
-        let mut out: Vec<(f64, ConceptSet)> = Vec::new();
-        for i in 0..hot.len() {
-            for j in i + 1..hot.len() {
-                let two = ConceptSet::single(hot[i].1).with(hot[j].1);
-                out.push((hot[i].0 + hot[j].0, two));
-                for k in j + 1..hot.len() {
-                    out.push(((hot[i].0 + hot[j].0 + hot[k].0) * 2.0 / 3.0, two.with(hot[k].1)));
-                }
+            for (ec, a) in e.iter_mut().zip(&acc) {
+                *ec = (a.0 + a0) / (a.1 + a0 + b0);
             }
         }
-        out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        acc
+    }
+
+    /// A sampled space: up to `n` unexplored open sets of the largest size made of the concepts
+    /// likeliest to carry a failure mode's signal, from each concept's own effect
+    /// ([`PatternSearcher::concept_effects`], under the base error `base`): the first set holds
+    /// the concepts of the highest mean effect, each other one those of the highest draws from
+    /// their posteriors (Thompson sampling), drawn afresh per set. Concepts are taken in turn
+    /// while they keep the set valid and free of every `blocked` set. A concept tested on its own
+    /// ([`Params::samples`] answers) is left to the pattern surrogate (its heredity term lifts
+    /// every pattern that holds it) and is drawn no more. Concepts never tested have the widest
+    /// draws and get tried; the parts of a failure mode each fail above the base rate on their
+    /// own, so their effects rise together and they meet in one set — a set the pattern
+    /// surrogate, whose prior weighs a pair among every pair of the lattice, would take up only
+    /// much later.
+    fn concept_sets(&mut self, history: &[SetStats], base: f64, n: usize, blocked: &[ConceptSet]) -> Vec<ConceptSet> {
+        let effects = self.concept_effects(history, base);
+        let (a0, b0) = EFFECT_PRIOR;
+        let size = self.params.max_size;
+        // Concepts measured on their own: their effect is known, and the pattern surrogate's
+        // heredity takes up the patterns that hold them.
+        let alone: ConceptSet = history
+            .iter()
+            .filter(|s| s.set.len() == 1 && s.answered() >= self.params.samples)
+            .fold(ConceptSet::EMPTY, |a, s| a.union(s.set));
         let mut picks = Vec::new();
-        for (_, set) in out {
-            if set.len() > max {
+        for attempt in 0..n * 4 {
+            if picks.len() == n {
+                break;
+            }
+            // The first set of a call: the concepts of the highest mean effect.
+            let exploit = attempt == 0;
+            let mut drawn: Vec<(f64, u32)> = effects
+                .iter()
+                .enumerate()
+                .map(|(c, &(fired, answers))| {
+                    let (a, b) = (a0 + fired, b0 + (answers - fired).max(0.0));
+                    if exploit {
+                        return (a / (a + b), c as u32);
+                    }
+                    if alone.contains(crate::ir::ConceptId(c as u32)) {
+                        return (-1.0, c as u32);
+                    }
+                    let x = super::surrogate::gamma(&mut self.rng, a);
+                    let y = super::surrogate::gamma(&mut self.rng, b);
+                    (x / (x + y).max(1e-300), c as u32)
+                })
+                .collect();
+            drawn.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+            let mut set = ConceptSet::EMPTY;
+            for &(v, c) in &drawn {
+                if set.len() == size || v < 0.0 {
+                    break;
+                }
+                let next = set.with(crate::ir::ConceptId(c));
+                if blocked.iter().any(|b| b.is_subset_of(next)) || !self.space.contains(next) {
+                    continue;
+                }
+                set = next;
+            }
+            if set.is_empty() || picks.contains(&set) {
                 continue;
             }
             self.join(set);
@@ -557,9 +614,10 @@ impl<'s> PatternSearcher<'s> {
 
     /// A sampled space: the hot patterns of `fit` ([`HOT`]) join the pool with sets that hold
     /// them and their unions.
-    fn grow(&mut self, fit: &Fit) {
+    fn grow(&mut self, fit: &Fit, blocked: &[ConceptSet]) {
         let mut ranked: Vec<(f64, u32)> = (0..self.patterns.len() as u32)
             .filter(|&j| self.open[j as usize])
+            .filter(|&j| !blocked.iter().any(|b| b.is_subset_of(self.patterns.pattern(j))))
             .map(|j| (fit.q_mean(&self.patterns, j), j))
             .filter(|(q, _)| *q > 0.0)
             .collect();
@@ -652,15 +710,20 @@ impl<'s> PatternSearcher<'s> {
         self.catch_up(history);
         let mut fit = self.fit(history);
         let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
+        // A sampled space: the sets that fail as tested (being explained) and those set aside; a
+        // superset of one is not screened.
+        let mut blocked: Vec<ConceptSet> = Vec::new();
         if self.space.is_sampled() {
+            blocked = self.failing(history);
+            blocked.extend(self.board.asides.iter().copied());
             let before = self.board.sets.len();
-            self.grow(&fit);
-            let combos = self.combos(history, fit.base);
-            picks.extend(combos.into_iter().take(n.div_ceil(COMBO_SHARE)));
+            self.grow(&fit, &blocked);
+            picks.extend(self.concept_sets(history, fit.base, n.div_ceil(CONCEPT_SHARE), &blocked));
             if self.board.sets.len() > before {
                 fit = self.fit(history);
             }
         }
+        let holds_blocked = |set: ConceptSet| blocked.iter().any(|b| b.is_subset_of(set));
         // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
         // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
         let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
@@ -675,7 +738,12 @@ impl<'s> PatternSearcher<'s> {
                     self.params.samples,
                     self.params.threshold,
                 );
-                ranked.push((di, self.board.best_at(false, n, |i, _| scorer.score(&self.patterns, i))));
+                ranked.push((
+                    di,
+                    self.board.best_at(false, n, |i, set| {
+                        if holds_blocked(set) { f64::NEG_INFINITY } else { scorer.score(&self.patterns, i) }
+                    }),
+                ));
             }
             let best = ranked.iter().find(|(d, _)| *d == di).map(|(_, best)| best);
             let open = best.and_then(|b| b.iter().find(|s| !picks.contains(s))).map(|&set| (set, 0.0));

@@ -608,4 +608,9 @@ fn interact_on_a_sampled_space_is_sound_seeded_and_within_budget() {
     let spent: u64 = a.iter().map(|s| u64::from(s.observations())).sum();
     assert!(spent <= p.plan().search);
     assert!(asked.len() > 1);
+    // Each planted mode is tested as itself (not only inside larger sets), past its screen.
+    for mode in [bits(&[2, 5]), bits(&[6, 7])] {
+        let s = a.iter().find(|s| s.set == mode);
+        assert!(s.is_some_and(|s| s.observations() >= interact::ESCALATE), "{mode:?} not tested as itself: {s:?}");
+    }
 }
