@@ -325,8 +325,8 @@ fn fail(e: &RunError) -> ExitCode {
     ExitCode::from(e.exit_code())
 }
 
-/// Where the candidates came from, when some are minimal failure modes no core explains: `
-/// (2 of them minimal failure modes no core explained; 4 more the budget could not pay)`.
+/// Where the candidates came from, when some are minimal failure modes no core explains:
+/// `2 of them minimal failure modes no core explained, 4 more the budget could not pay; `.
 fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     let mut parts = Vec::new();
     if c.unexplained > 0 {
@@ -335,7 +335,7 @@ fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     if c.unpaid > 0 {
         parts.push(format!("{} more the budget could not pay", c.unpaid));
     }
-    if parts.is_empty() { String::new() } else { format!(" ({})", parts.join("; ")) }
+    if parts.is_empty() { String::new() } else { format!("{}; ", parts.join(", ")) }
 }
 
 /// The human summary: metrics, then the distinct cores (with their supersets) and the failure
@@ -375,7 +375,7 @@ pub fn print_summary(
     if let Some(c) = &s.confirmation {
         writeln!(
             w,
-            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {}{} (zone τ ± {}, up to {} observations each, {} inferences of {}){}",
+            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} ({}zone τ ± {}, up to {} observations each, {} inferences of {}){}",
             c.confirmed,
             c.candidates,
             c.q,
