@@ -43,7 +43,8 @@ pub struct SearchArgs {
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
     /// The part of the budget set aside for shrinking failure modes to minimal cores (the
-    /// paper's algorithms search with the rest); 0 turns it off, the paper's setting
+    /// paper's algorithms search with the rest; interact keeps it for confirming the minimal
+    /// failure modes no core of its explains); 0 turns it off, the paper's setting
     /// [default: budget / 4]
     #[arg(long, value_name = "B")]
     pub shrink: Option<u64>,
