@@ -247,8 +247,7 @@ impl Params {
         if !self.lambda.is_finite() || self.lambda < 0.0 {
             return bad("lambda", &format!("must be a non-negative number, got {}", self.lambda));
         }
-        // Interact keeps `--shrink` too: for the minimal failure modes no core of its explains.
-        if self.shrink > 0 && self.plan().search < u64::from(self.samples) {
+        if self.algo != Algo::Interact && self.shrink > 0 && self.plan().search < u64::from(self.samples) {
             return bad(
                 "shrink",
                 &format!(
