@@ -41,11 +41,11 @@ use crate::search::{CallsBy, Driver, Params, Rule, SearchError, Searched, SetSta
 const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings", "format"];
 
 /// Check that `new` may continue the run whose `config.json` is `old`, holding `made` model
-/// calls of the search and its shrink phase. A larger `--budget` extends the run (the search
-/// replays its decisions against the journal and goes on where the smaller budget stopped; the
-/// shrink phase then starts over from the larger search's failure modes, served from the
-/// journal wherever it asks again); a smaller one is refused, and so is a plan that would give
-/// the search phase less than it had.
+/// calls of the search, its shrink phase and fresh confirmation. A larger `--budget` extends the
+/// run (the search replays its decisions against the journal and goes on where the smaller
+/// budget stopped; the shrink phase then starts over from the larger search's failure modes,
+/// served from the journal wherever it asks again); a smaller one is refused, and so is a plan
+/// that would give the search phase less than it had.
 pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: u64) -> Result<(), ResumeError> {
     let was = upgrade(dir, old.clone())?;
     let view = |c: &RunConfig| {
@@ -148,7 +148,11 @@ fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Jo
     let write = match journal.config() {
         None => true,
         Some(old) => {
-            let made = journal.records.iter().filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink)).count();
+            let made = journal
+                .records
+                .iter()
+                .filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink | Phase::Confirm))
+                .count();
             check_resume(out, old, config, made as u64)?;
             *old != serde_json::to_value(config).expect("configurations serialise")
         }
