@@ -390,7 +390,7 @@ struct Confirmed {
     candidates: Vec<Core>,
     /// How many of `candidates` are such unexplained minimal failure modes.
     unexplained: usize,
-    /// Minimal failure modes left out because the budget could not pay for them.
+    /// Candidates left out (the weakest) because the budget could not pay for them.
     unpaid: usize,
     /// Every candidate after confirmation, in `candidates` order.
     checked: Vec<Checked>,

@@ -277,7 +277,7 @@ pub struct ConfirmSummary {
     /// shrink phase explains (the rest are its cores).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unexplained: usize,
-    /// Minimal failure modes not sent: the budget paid for the candidates before them only.
+    /// Candidates not sent (the weakest): the budget paid for the ones before them only.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unpaid: usize,
     /// Every candidate with its fresh observations, e-value and status.
