@@ -43,7 +43,8 @@ pub struct SearchArgs {
     #[arg(long, value_name = "M")]
     pub max_samples: Option<u32>,
     /// The part of the budget set aside for shrinking failure modes to minimal cores (the
-    /// paper's algorithms search with the rest); 0 turns it off, the paper's setting
+    /// paper's algorithms search with the rest; interact keeps it for confirming the minimal
+    /// failure modes no core of its explains); 0 turns it off, the paper's setting
     /// [default: budget / 4]
     #[arg(long, value_name = "B")]
     pub shrink: Option<u64>,
@@ -340,6 +341,19 @@ fn fail(e: &RunError) -> ExitCode {
     ExitCode::from(e.exit_code())
 }
 
+/// Where the candidates came from, when some are minimal failure modes no core explains:
+/// `2 of them minimal failure modes no core explained, 4 more the budget could not pay; `.
+fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
+    let mut parts = Vec::new();
+    if c.unexplained > 0 {
+        parts.push(format!("{} of them minimal failure modes no core explained", c.unexplained));
+    }
+    if c.unpaid > 0 {
+        parts.push(format!("{} more the budget could not pay", c.unpaid));
+    }
+    if parts.is_empty() { String::new() } else { format!("{}; ", parts.join(", ")) }
+}
+
 /// The human summary: metrics, then the distinct cores (with their supersets) and the failure
 /// modes no core explains.
 pub fn print_summary(
@@ -377,10 +391,11 @@ pub fn print_summary(
     if let Some(c) = &s.confirmation {
         writeln!(
             w,
-            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} (zone τ ± {}, up to {} observations each, {} inferences of {}){}",
+            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} ({}zone τ ± {}, up to {} observations each, {} inferences of {}){}",
             c.confirmed,
             c.candidates,
             c.q,
+            candidates_note(c),
             c.delta,
             c.cap,
             c.inferences,
@@ -649,6 +664,8 @@ mod tests {
             inferences: 67,
             candidates: 3,
             confirmed: 1,
+            unexplained: 2,
+            unpaid: 4,
             checked: rows,
         });
         let mut out = Vec::new();

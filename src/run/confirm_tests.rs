@@ -7,6 +7,7 @@ use super::runner::{self, Setup};
 use super::testkit::FakeWorld;
 use super::tests::{block_on, config};
 use crate::ir::testkit::{lattice, numbered};
+use crate::search::confirm::Status;
 use crate::search::{Algo, Space};
 use crate::vlm::sim::{Profile, SimModel};
 
@@ -34,7 +35,7 @@ fn a_graded_landscape_reports_no_false_core() {
             let space = Space::new(lattice(8, 4), 8);
             let mut cfg = config(&s, algo);
             cfg.params.budget = 400;
-            cfg.params.beam_budget = 200;
+            cfg.params.beam_budget = 100;
             cfg.params.shrink = 200;
             cfg.params.seed = seed;
             let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
@@ -64,4 +65,60 @@ fn a_graded_landscape_reports_no_false_core() {
         }
     }
     assert!(candidates > 0 && confirmed > 0, "{confirmed} of {candidates}");
+}
+
+/// A planted mode that interact's search reached but did not confirm itself — a minimal failure
+/// mode no core of its explains — goes to fresh confirmation as a candidate, and when e-BH
+/// confirms it, it is reported as a core with its fresh evidence.
+#[test]
+fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
+    let d = numbered(8);
+    // c0 + c7 at 0.95 holds c0 at 0.57, just under τ. `--shrink 300` of 400 leaves interact's
+    // search 80 calls: it reaches failing pairs but cannot pay its own core test for them.
+    const NEAR: &str = "name = \"near\"\nbase_error = 0.06\n\
+[[mode]]\nconcepts = [\"c0\"]\nerror = 0.57\n\
+[[mode]]\nconcepts = [\"c0\", \"c7\"]\nerror = 0.95\n\
+[[mode]]\nconcepts = [\"c5\", \"c6\"]\nerror = 0.9\n";
+    let profile = Profile::parse(NEAR, "near.toml", &d).unwrap();
+    let mut reached = 0;
+    for seed in 0..10 {
+        let dir = tempfile::tempdir().unwrap();
+        let world = Arc::new(FakeWorld(d.clone()));
+        let s =
+            Setup::new(Arc::new(d.clone()), world, Arc::new(SimModel { profile: profile.clone() }), None, dir.path());
+        let space = Space::new(lattice(8, 4), 8);
+        let mut cfg = config(&s, Algo::Interact);
+        cfg.params.budget = 400;
+        cfg.params.shrink = 300;
+        cfg.params.beam_budget = 40;
+        cfg.params.seed = seed;
+        let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        let c = r.summary.confirmation.as_ref().unwrap();
+        let checked = r.confirmation.as_ref().unwrap();
+        assert_eq!(checked.len(), c.candidates);
+        // The shrink phase's cores come first, the unexplained minimal failure modes after them.
+        let (cores, loose) = checked.split_at(c.candidates - c.unexplained);
+        for k in loose {
+            let set = k.stats.set;
+            assert!(!cores.iter().any(|c| c.stats.set.is_subset_of(set)), "a core explains {set:?}");
+            // Minimal on the search's evidence: every valid one-smaller subset evaluated, passing.
+            for sub in set.one_smaller().filter(|s| space.contains(*s)) {
+                let h = r.history.iter().find(|h| h.set == sub).expect("its parts were evaluated");
+                assert!(!h.is_failure_mode(cfg.params.threshold), "{sub:?} fails");
+            }
+            if k.status != Status::Confirmed {
+                continue;
+            }
+            let names: Vec<String> = d.set_names(set).into_iter().map(String::from).collect();
+            let core =
+                r.summary.cores.iter().find(|c| c.set.concepts == names).expect("a confirmed candidate is a core");
+            let fresh = core.confirmed.as_ref().expect("with its fresh evidence");
+            assert_eq!((fresh.wrong, fresh.answered), (k.stats.wrong, k.stats.answered()));
+            assert!(profile.error_for(set) > 0.5, "{names:?} is no failure mode");
+            if profile.error_for(set) >= 0.7 {
+                reached += 1;
+            }
+        }
+    }
+    assert!(reached > 0, "no planted mode confirmed from the unexplained minimal failure modes in 10 seeds");
 }

@@ -33,7 +33,7 @@ use super::{MAX_API_ERRORS, ResumeError, RunError};
 use crate::search::confirm::{self, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
-use crate::search::shrink::{self, Found};
+use crate::search::shrink::{self, Core, Found};
 use crate::search::{CallsBy, Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 
 /// Fields of `config.json` a resume may change: where things are, not what the run is (and the
@@ -41,11 +41,11 @@ use crate::search::{CallsBy, Driver, Params, Rule, SearchError, Searched, SetSta
 const LOCATION_FIELDS: &[&str] = &["domain_file", "model_spec", "model_settings", "format"];
 
 /// Check that `new` may continue the run whose `config.json` is `old`, holding `made` model
-/// calls of the search and its shrink phase. A larger `--budget` extends the run (the search
-/// replays its decisions against the journal and goes on where the smaller budget stopped; the
-/// shrink phase then starts over from the larger search's failure modes, served from the
-/// journal wherever it asks again); a smaller one is refused, and so is a plan that would give
-/// the search phase less than it had.
+/// calls of the search, its shrink phase and fresh confirmation. A larger `--budget` extends the
+/// run (the search replays its decisions against the journal and goes on where the smaller
+/// budget stopped; the shrink phase then starts over from the larger search's failure modes,
+/// served from the journal wherever it asks again); a smaller one is refused, and so is a plan
+/// that would give the search phase less than it had.
 pub fn check_resume(dir: &Path, old: &serde_json::Value, new: &RunConfig, made: u64) -> Result<(), ResumeError> {
     let was = upgrade(dir, old.clone())?;
     let view = |c: &RunConfig| {
@@ -148,7 +148,11 @@ fn open_run(out: &Path, config: &RunConfig, corrupt: OnCorrupt) -> Result<Arc<Jo
     let write = match journal.config() {
         None => true,
         Some(old) => {
-            let made = journal.records.iter().filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink)).count();
+            let made = journal
+                .records
+                .iter()
+                .filter(|r| matches!(r.phase, Phase::Search | Phase::Shrink | Phase::Confirm))
+                .count();
             check_resume(out, old, config, made as u64)?;
             *old != serde_json::to_value(config).expect("configurations serialise")
         }
@@ -259,10 +263,11 @@ pub struct RunReport {
     pub summary: Summary,
     /// The search's evaluated sets (before the shrink phase).
     pub history: Vec<SetStats>,
-    /// The shrink phase's cores — with confirmation, only the confirmed ones — and refuted
+    /// The reported cores — with confirmation, the confirmed candidates (the shrink phase's
+    /// cores and the minimal failure modes no core explains) — and the shrink phase's refuted
     /// failure modes (empty when it was off).
     pub found: Found,
-    /// Every candidate core after fresh confirmation, in the shrink phase's order (`None`
+    /// Every candidate core after fresh confirmation, strongest search evidence first (`None`
     /// without a shrink phase).
     pub confirmation: Option<Vec<Checked>>,
     /// Observations served from the journal (a resumed run).
@@ -301,11 +306,8 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         Err(e) => return Err(run_error(e)),
     };
     // Only the confirmed candidates are reported as cores.
-    let candidates = found.cores.clone();
-    if let Some((checked, _, _, _)) = &confirmation {
-        let kept: Vec<ConceptSet> =
-            checked.iter().filter(|c| c.status == Status::Confirmed).map(|c| c.stats.set).collect();
-        found.cores.retain(|c| kept.contains(&c.stats.set));
+    if let Some(c) = &confirmation {
+        found.cores = c.confirmed_cores();
     }
     let mut summary = summarize(
         &setup.domain,
@@ -315,15 +317,14 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         &found,
         eval.spend.clone(),
     );
-    if let Some((checked, spent, budget, parts)) = &confirmation {
+    if let Some(c) = &confirmation {
         let row = |s: &SetStats| SetRow::new(&setup.domain, s);
         let rows: Vec<CheckedRow> =
-            checked.iter().map(|c| CheckedRow { set: row(&c.stats), e_value: c.e, status: c.status }).collect();
-        for core in &mut summary.cores {
-            let at = candidates.iter().position(|c| setup.domain.set_names(c.stats.set) == core.set.concepts);
-            if let Some(i) = at {
+            c.checked.iter().map(|k| CheckedRow { set: row(&k.stats), e_value: k.e, status: k.status }).collect();
+        for (core, found) in summary.cores.iter_mut().zip(&found.cores) {
+            if let Some(i) = c.candidates.iter().position(|k| k.stats.set == found.stats.set) {
                 core.confirmed = Some(rows[i].set.clone());
-                core.part = parts[i].as_ref().map(row);
+                core.part = c.parts[i].as_ref().map(row);
             }
         }
         summary.borderline = rows.iter().filter(|r| r.status == Status::Borderline).cloned().collect();
@@ -331,10 +332,12 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             q: params.fdr,
             delta: params.delta,
             cap: params.confirm_plan(0).cap,
-            budget: *budget,
-            inferences: *spent,
+            budget: c.budget,
+            inferences: c.spent,
             candidates: rows.len(),
             confirmed: rows.iter().filter(|r| r.status == Status::Confirmed).count(),
+            unexplained: c.unexplained,
+            unpaid: c.unpaid,
             checked: rows,
         });
     }
@@ -364,7 +367,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
         summary,
         history,
         found,
-        confirmation: confirmation.map(|c| c.0),
+        confirmation: confirmation.map(|c| c.checked),
         replayed: eval.replayed,
         dropped_torn_line,
         set_aside,
@@ -380,28 +383,74 @@ fn run_error(e: SearchError<RunError>) -> RunError {
     }
 }
 
-/// What fresh confirmation gave: every candidate checked, the inferences spent and given, and
-/// per candidate its near-threshold part (the one-smaller subset that fails most, when its
-/// observed rate is at least τ − 2δ: within δ of the zone).
-type Confirmed = (Vec<Checked>, u64, u64, Vec<Option<SetStats>>);
+/// What fresh confirmation gave.
+struct Confirmed {
+    /// The candidates sent, strongest search evidence first: the shrink phase's cores, then the
+    /// minimal failure modes no core explains ([`unexplained`]).
+    candidates: Vec<Core>,
+    /// How many of `candidates` are such unexplained minimal failure modes.
+    unexplained: usize,
+    /// Candidates left out (the weakest) because the budget could not pay for them.
+    unpaid: usize,
+    /// Every candidate after confirmation, in `candidates` order.
+    checked: Vec<Checked>,
+    /// Inferences spent and given.
+    spent: u64,
+    budget: u64,
+    /// Per candidate, its near-threshold part: the one-smaller subset that fails most, when its
+    /// observed rate is at least τ − 2δ (within δ of the zone).
+    parts: Vec<Option<SetStats>>,
+}
+
+impl Confirmed {
+    /// The candidates e-BH confirmed, as reported cores: highest FR first (ties: higher
+    /// interval lower bound, more answered observations, canonical order).
+    fn confirmed_cores(&self) -> Vec<Core> {
+        let mut cores: Vec<Core> = self
+            .candidates
+            .iter()
+            .zip(&self.checked)
+            .filter(|(_, k)| k.status == Status::Confirmed)
+            .map(|(c, _)| c.clone())
+            .collect();
+        shrink::sort_cores(&mut cores);
+        cores
+    }
+}
 
 /// What [`search_and_shrink`] hands back.
 struct Searched2 {
     /// The search's history.
     history: Vec<SetStats>,
-    /// The shrink's findings (the candidates of confirmation).
+    /// The shrink's findings (its cores are candidates of confirmation).
     found: Found,
     /// When the shrink phase ran: its budget, inferences and the subsets it evaluated beyond
     /// the search.
     shrink: Option<(u64, u64, usize)>,
     /// Interact: where the search's calls went.
     calls: Option<CallsBy>,
-    /// Fresh confirmation of the shrink's cores (when it ran).
+    /// Fresh confirmation of the candidates (when the shrink phase ran).
     confirmation: Option<Confirmed>,
 }
 
-/// The search, then the shrink phase, then fresh confirmation of the shrink's cores, all within
-/// `--budget` together.
+/// The minimal failure modes of `history` that none of `cores` explains, as candidate cores,
+/// strongest search evidence first ([`shrink::roots`]' order): failure modes whose every valid
+/// one-smaller subset was evaluated and passes, holding no core. `interact` confirms only some
+/// of its cores during the search (the rest ran out of its confirmation rule's budget or
+/// triage); on a graded landscape these hold most of the planted modes it reached.
+fn unexplained(history: &[SetStats], space: &Space, threshold: f64, cores: &[Core]) -> Vec<Core> {
+    let minimal = shrink::minimal_failures(history, space, threshold);
+    shrink::roots(history, threshold)
+        .into_iter()
+        .filter(|s| minimal.contains(s))
+        .filter(|s| !cores.iter().any(|c| c.stats.set.is_subset_of(*s)))
+        .filter_map(|set| history.iter().find(|h| h.set == set))
+        .map(|s| Core { stats: s.clone(), minimal: true, root: s.set })
+        .collect()
+}
+
+/// The search, then the shrink phase, then fresh confirmation of the shrink's cores and of the
+/// minimal failure modes no core explains, all within `--budget` together.
 async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator) -> Searched<Searched2, Evaluator> {
     let (history, calls) = crate::search::run_counted(params, space, eval).await?;
     if params.shrink == 0 {
@@ -427,12 +476,20 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
         p.set_label("confirm");
     }
     let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
-    let candidates: Vec<(ConceptSet, u32)> =
-        found.cores.iter().map(|c| (c.stats.set, of(c.stats.set).map_or(0, SetStats::observations))).collect();
-    let (checked, confirm_spent) = confirm::confirm(eval, &candidates, params.confirm_plan(budget)).await?;
+    // The family: the shrink's cores, then the unexplained minimal failure modes, as many as
+    // the budget pays (decided before any fresh observation).
+    let loose = unexplained(&everything, space, params.threshold, &found.cores);
+    let mut candidates = found.cores.clone();
+    candidates.extend(loose.iter().cloned());
+    let paid = plan.paid(budget, candidates.len());
+    let unpaid = candidates.len() - paid;
+    candidates.truncate(paid);
+    let unexplained = candidates.len().saturating_sub(found.cores.len());
+    let asked: Vec<(ConceptSet, u32)> =
+        candidates.iter().map(|c| (c.stats.set, of(c.stats.set).map_or(0, SetStats::observations))).collect();
+    let (checked, confirm_spent) = confirm::confirm(eval, &asked, params.confirm_plan(budget)).await?;
     let near = params.threshold - 2.0 * params.delta;
-    let parts = found
-        .cores
+    let parts = candidates
         .iter()
         .map(|c| {
             c.stats
@@ -444,7 +501,8 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
                 .cloned()
         })
         .collect();
-    let confirmation = Some((checked, confirm_spent, budget, parts));
+    let confirmation =
+        Some(Confirmed { candidates, unexplained, unpaid, checked, spent: confirm_spent, budget, parts });
     Ok(Searched2 { history, found, shrink: Some(shrink), calls, confirmation })
 }
 

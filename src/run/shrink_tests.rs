@@ -112,7 +112,8 @@ fn every_algorithm_makes_at_most_budget_model_calls_with_shrink_on() {
             let plan = cfg.params.plan();
             assert_eq!(
                 sh.budget,
-                plan.shrink_cap(r.summary.metrics.inferences, c.candidates),
+                // The shrink phase's cores: the candidates but the unexplained minimal failure modes.
+                plan.shrink_cap(r.summary.metrics.inferences, c.candidates - c.unexplained),
                 "{what}: the shrink phase gets what is left but fresh confirmation's share per candidate and one more"
             );
             assert_eq!(

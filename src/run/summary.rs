@@ -196,6 +196,10 @@ pub struct SetRow {
     pub core: Option<usize>,
 }
 
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
 fn unit_interval() -> [f64; 2] {
     [0.0, 1.0]
 }
@@ -269,6 +273,13 @@ pub struct ConfirmSummary {
     /// Candidates sent to confirmation, and how many of them e-BH confirmed.
     pub candidates: usize,
     pub confirmed: usize,
+    /// How many of the candidates are minimal failure modes of the search that no core of the
+    /// shrink phase explains (the rest are its cores).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unexplained: usize,
+    /// Candidates not sent (the weakest): the budget paid for the ones before them only.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unpaid: usize,
     /// Every candidate with its fresh observations, e-value and status.
     pub checked: Vec<CheckedRow>,
 }

@@ -14,11 +14,17 @@
 //! - The paper's algorithms search with `total − shrink` (their PFM / MFR / Div are over it, so
 //!   their decisions are the paper's); the shrink phase gets the rest less the confirmation of
 //!   the cores it holds and one more ([`Plan::shrink_cap`]).
-//! - `interact` shrinks as it searches, so it searches with the whole budget less the
-//!   confirmation of its cores and one more ([`Plan::search_cap`]): each core it confirms moves
-//!   its cap down by `confirm_each`. The shrink phase after it finds those cores again at no
-//!   cost, and gets what the search left in the same way.
-//! - Confirmation gets everything the phases before it left.
+//! - `interact` shrinks as it searches, so it searches with the whole budget less `--shrink`
+//!   ([`Plan::unexplained`]: kept for its minimal failure modes that no core it confirmed
+//!   explains, which go to confirmation too) and less the confirmation of its cores and one more
+//!   ([`Plan::search_cap`]): each core it confirms moves its cap down by `confirm_each`. The
+//!   shrink phase after it finds those cores again at no cost, and gets what the search left in
+//!   the same way (nothing, when the search spent its cap).
+//! - Confirmation gets everything the phases before it left. Its candidates are the shrink
+//!   phase's cores, then the minimal failure modes no core explains, strongest search evidence
+//!   first; the family e-BH controls is the first [`Plan::paid`] of them — as many as the budget
+//!   pays at `confirm_each` each, decided before any fresh observation — and the rest are not
+//!   sent.
 //!
 //! Without a shrink phase (`--shrink 0`, the paper's setting) there is no confirmation either:
 //! the search gets the whole budget less nothing but `--shrink` itself.
@@ -39,6 +45,10 @@ pub struct Plan {
     pub per_core: bool,
     /// Fresh observations kept per candidate core for confirmation.
     pub confirm_each: u64,
+    /// Inferences `interact` keeps besides its cores' share for confirming the minimal failure
+    /// modes its search leaves unexplained (`--shrink`; `confirm_each` each); 0 for the paper's
+    /// algorithms, whose shrink phase shrinks those failure modes instead.
+    pub unexplained: u64,
 }
 
 impl Plan {
@@ -47,11 +57,12 @@ impl Plan {
     pub fn new(total: u64, shrink: u64, per_core: bool, tau: f64, delta: f64, m: u32, cap: u32) -> Plan {
         let phases = shrink > 0;
         let confirm_each = if phases { u64::from(confirm_each(tau, delta, m, cap)) } else { 0 };
+        let unexplained = if per_core && phases { shrink } else { 0 };
         let search = match per_core {
-            true => total.saturating_sub(confirm_each),
+            true => total.saturating_sub(unexplained).saturating_sub(confirm_each),
             false => total.saturating_sub(shrink),
         };
-        Plan { total, search, phases, per_core, confirm_each }
+        Plan { total, search, phases, per_core, confirm_each, unexplained }
     }
 
     /// Inferences kept for confirming `candidates` cores.
@@ -60,20 +71,25 @@ impl Plan {
     }
 
     /// What the search may spend in all once it holds `cores` cores: for `interact` the total
-    /// less the confirmation of those cores and one more; for the paper's algorithms `search`.
+    /// less [`Plan::unexplained`] and the confirmation of those cores and one more; for the
+    /// paper's algorithms `search`.
     pub fn search_cap(&self, cores: usize) -> u64 {
         match self.per_core {
-            true => self.total.saturating_sub(self.reserve(cores + 1)),
+            true => self.total.saturating_sub(self.unexplained).saturating_sub(self.reserve(cores + 1)),
             false => self.search,
         }
     }
 
     /// What the shrink phase may spend, counted from its start, once the search spent `spent`
-    /// and the phase holds `cores` cores: the rest less the confirmation of those cores and one
-    /// more (0 without a shrink phase).
+    /// and the phase holds `cores` cores: the rest less [`Plan::unexplained`] and the
+    /// confirmation of those cores and one more (0 without a shrink phase).
     pub fn shrink_cap(&self, spent: u64, cores: usize) -> u64 {
         match self.phases {
-            true => self.total.saturating_sub(spent).saturating_sub(self.reserve(cores + 1)),
+            true => self
+                .total
+                .saturating_sub(spent)
+                .saturating_sub(self.unexplained)
+                .saturating_sub(self.reserve(cores + 1)),
             false => 0,
         }
     }
@@ -81,6 +97,15 @@ impl Plan {
     /// What fresh confirmation may spend once the phases before it spent `spent`.
     pub fn confirm_budget(&self, spent: u64) -> u64 {
         self.total.saturating_sub(spent)
+    }
+
+    /// How many of `candidates` candidates (strongest first) a confirmation budget of `budget`
+    /// pays: `confirm_each` each, the last one possibly in part. Decided from the budget and the
+    /// search's ordering alone, before any fresh observation, so the family e-BH controls does
+    /// not depend on what confirmation sees.
+    pub fn paid(&self, budget: u64, candidates: usize) -> usize {
+        let each = self.confirm_each.max(1);
+        usize::try_from(budget.div_ceil(each)).unwrap_or(usize::MAX).min(candidates)
     }
 }
 
@@ -115,9 +140,20 @@ mod tests {
         assert_eq!(paper.shrink_cap(750, 3), 170);
         assert_eq!(paper.confirm_budget(900), 100);
         let interact = Plan::new(1000, 250, true, 0.6, 0.1, 5, 40);
-        assert_eq!((interact.search, interact.search_cap(0), interact.search_cap(4)), (980, 980, 900));
-        assert_eq!(interact.shrink_cap(900, 4), 0);
+        // `--shrink` is kept for the minimal failure modes no core of the search explains.
+        assert_eq!((interact.search, interact.search_cap(0), interact.search_cap(4)), (730, 730, 650));
+        assert_eq!(interact.shrink_cap(650, 4), 0);
+        assert_eq!(interact.confirm_budget(650), 350);
         let off = Plan::new(1000, 0, true, 0.6, 0.1, 5, 40);
         assert_eq!((off.search_cap(3), off.shrink_cap(0, 0), off.reserve(5)), (1000, 0, 0));
+    }
+
+    #[test]
+    fn confirmation_sends_the_candidates_its_budget_pays_strongest_first() {
+        let plan = Plan::new(1000, 250, true, 0.6, 0.1, 5, 40);
+        assert_eq!(plan.paid(350, 30), 18, "20 each, the last in part");
+        assert_eq!(plan.paid(340, 30), 17);
+        assert_eq!(plan.paid(350, 4), 4, "never more than there are");
+        assert_eq!(plan.paid(0, 4), 0);
     }
 }

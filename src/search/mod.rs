@@ -127,8 +127,9 @@ pub struct Params {
     pub max_samples: Option<u32>,
     /// The part of `budget` set aside for shrinking failure modes to cores after the search and
     /// confirming them on fresh scenes (0: neither). The paper's algorithms search with
-    /// `budget − shrink`; `interact`, which shrinks as it searches, keeps confirmation's share
-    /// per core instead ([`budget::Plan`]).
+    /// `budget − shrink`; `interact`, which shrinks as it searches, keeps `shrink` for
+    /// confirming the minimal failure modes no core of its explains, and confirmation's share
+    /// per core besides ([`budget::Plan`]).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shrink: u64,
     /// The indifference zone δ around τ of the anytime-valid test ([`cs`]): a reported core is

@@ -285,7 +285,14 @@ pub async fn run_capped<E: Evaluate>(
         .filter(|(s, _)| !found.cores.iter().any(|c| c.stats.set.is_subset_of(*s)))
         .map(|(s, by)| (now(s), now(by)))
         .collect();
-    found.cores.sort_by(|a, b| {
+    sort_cores(&mut found.cores);
+    Ok(found)
+}
+
+/// Cores in the order a run reports them: highest FR first, then higher interval lower bound,
+/// more answered observations, canonical order.
+pub fn sort_cores(cores: &mut [Core]) {
+    cores.sort_by(|a, b| {
         let (x, y) = (&a.stats, &b.stats);
         y.value()
             .total_cmp(&x.value())
@@ -293,7 +300,6 @@ pub async fn run_capped<E: Evaluate>(
             .then(y.answered().cmp(&x.answered()))
             .then(x.set.cmp(&y.set))
     });
-    Ok(found)
 }
 
 /// For each failure mode, the first core (in `cores` order) it contains; and for each core, how

@@ -145,7 +145,7 @@ fn params_are_validated() {
         e(Params { shrink: 998, ..ok.clone() }),
         "invalid `--shrink`: 998 of a budget of 1000 model calls leaves the search too few for one set of 5 samples"
     );
-    // Interact shrinks as it searches: its whole budget is the search's.
+    // Interact searches with what `--shrink` leaves (at least nothing): a tiny budget still runs.
     assert!(Params { algo: Algo::Interact, shrink: 1000, beam_budget: 0, ..ok.clone() }.validate().is_ok());
     assert_eq!(e(Params { budget: 3, ..ok }), "invalid `--budget`: 3 inferences cannot evaluate one set of 5 samples");
 }
