@@ -442,6 +442,8 @@ pub struct PatternSearcher<'s> {
     marked: usize,
     /// A sampled space: hot patterns and unions already added to the pool.
     expanded: std::collections::HashSet<ConceptSet>,
+    /// The failing set being explained: fills prefer sets sharing at most one of its concepts.
+    focus: Option<ConceptSet>,
 }
 
 impl<'s> PatternSearcher<'s> {
@@ -458,6 +460,7 @@ impl<'s> PatternSearcher<'s> {
             rng: ChaCha8Rng::seed_from_u64(params.seed ^ STREAM),
             marked: 0,
             expanded: Default::default(),
+            focus: None,
         };
         if space.is_sampled() {
             // The first pool: every valid single concept, then uniform draws (their own stream, so
@@ -649,10 +652,21 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// Up to `room` new sets to screen beside a call's `asks` (a narrow step of the search):
-    /// [`PatternSearcher::propose`]'s picks, the asked sets left out.
+    /// [`PatternSearcher::propose`]'s picks, the asked sets left out, and while a failing set is
+    /// being explained, sets that share at most one of its concepts first (the others would answer
+    /// wrong through the very failure mode being explained, and be escalated before its core
+    /// covers them); the rest only to fill the call to its width.
     pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<ConceptSet> {
         asks.iter().for_each(|a| self.board.explore(a.set));
-        self.pick(history, room)
+        match self.focus {
+            Some(f) => {
+                // Off the family first; the call is still filled to the width from the rest.
+                let (off, on): (Vec<ConceptSet>, Vec<ConceptSet>) =
+                    self.pick(history, 2 * room).into_iter().partition(|p| p.intersection(f).len() < 2);
+                off.into_iter().chain(on).take(room).collect()
+            }
+            None => self.pick(history, room),
+        }
     }
 
     pub fn explored(&mut self, set: ConceptSet) {
@@ -807,7 +821,12 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 /// Rounds of `batch` picks (the width: by default the concurrency at the run's start, recorded in
 /// the run). The steps after a screen ask about a few sets at a time, so every call is filled to
 /// the width with more screens ([`Driver::fill_to`]); the sets they add are decided on in the
-/// next round, before any new picks. Every fill is a pure function of the seed and the answers.
+/// next round, before any new picks. What keeps the wide search as good as one pick at a time:
+/// a shrink tests width ÷ m one-smaller subsets together ([`Driver::lookahead`]), the sets that
+/// answered wrong are escalated a call's worth at a time and explained before the next group
+/// (so a set a new core covers is never escalated), and the fills made while a set is explained
+/// keep off its family ([`PatternSearcher::fill`]). Every fill is a pure function of the seed
+/// and the answers.
 async fn run_patterns<'d, E: Evaluate>(
     params: &Params,
     space: &'d Space,
@@ -862,63 +881,78 @@ async fn search_patterns<'d, E: Evaluate>(
         }
         queue.extend(driver.take_filled());
         // A wrong answer in the screen: the set gets its m observations.
-        let hot: Vec<ConceptSet> = queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
-        driver.set_rule(escalate);
-        driver.purpose = Some(Purpose::Escalation);
-        driver.top_up(&hot).await?;
-        queue.extend(driver.take_filled());
-        for set in hot {
-            let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
-            if !failing || searcher.borrow().is_covered(set) {
-                continue;
-            }
-            driver.set_rule(triage);
-            if !driver.can_start() {
-                break;
-            }
-            driver.purpose = Some(Purpose::Explaining);
-            let candidates = {
-                let s = searcher.borrow();
-                let fit = s.fit(&driver.history);
-                s.candidates(&fit, set)
-            };
-            let mut core = None;
-            // Passing subsets near τ that a failing set did not significantly exceed.
-            let mut flat = Vec::new();
-            let mut tried = 0;
-            for p in candidates {
-                if tried == JUMPS {
-                    break;
+        let mut hot: std::collections::VecDeque<ConceptSet> =
+            queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
+        // Escalated a group at a time (a call's worth), each group's failing sets explained
+        // before the next is escalated: a set a core found meanwhile covers is not escalated.
+        let group_size = (params.batch / escalate.samples.max(1) as usize).max(1);
+        'hot: while !hot.is_empty() {
+            let mut group = Vec::new();
+            while group.len() < group_size {
+                let Some(set) = hot.pop_front() else { break };
+                if !searcher.borrow().is_covered(set) {
+                    group.push(set);
                 }
-                if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(s)) {
+            }
+            driver.set_rule(escalate);
+            driver.purpose = Some(Purpose::Escalation);
+            driver.top_up(&group).await?;
+            queue.extend(driver.take_filled());
+            for set in group {
+                let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
+                if !failing || searcher.borrow().is_covered(set) {
                     continue;
                 }
-                tried += 1;
-                let shrunk = shrink::shrink(driver, space, p).await?;
-                core = sort_out(&shrunk, tau, &mut flat);
-                if core.is_some() || shrunk == Shrunk::Unaffordable {
-                    break;
+                driver.set_rule(triage);
+                if !driver.can_start() {
+                    break 'hot;
                 }
-            }
-            if core.is_none() && driver.can_start() {
-                core = sort_out(&shrink::shrink(driver, space, set).await?, tau, &mut flat);
-            }
-            // The triage found a core: confirm it, and its parts' passing, under the full rule
-            // (shrinking on if a part fails after all).
-            if let Some(c) = core {
-                driver.set_rule(confirm);
-                driver.purpose = Some(Purpose::Confirmation);
-                core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
-            }
-            queue.extend(driver.take_filled());
-            let mut s = searcher.borrow_mut();
-            s.catch_up(&driver.history);
-            flat.into_iter().for_each(|by| s.explain(by));
-            if let Some(c) = core {
-                s.confirm(c);
-                // Keep fresh confirmation's share for this core and the next ([`Params::plan`]).
-                cores += 1;
-                driver.set_budget(plan.search_cap(cores));
+                driver.purpose = Some(Purpose::Explaining);
+                searcher.borrow_mut().focus = Some(set);
+                let candidates = {
+                    let s = searcher.borrow();
+                    let fit = s.fit(&driver.history);
+                    s.candidates(&fit, set)
+                };
+                let mut core = None;
+                // Passing subsets near τ that a failing set did not significantly exceed.
+                let mut flat = Vec::new();
+                let mut tried = 0;
+                for p in candidates {
+                    if tried == JUMPS {
+                        break;
+                    }
+                    if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(s)) {
+                        continue;
+                    }
+                    tried += 1;
+                    let shrunk = shrink::shrink(driver, space, p).await?;
+                    core = sort_out(&shrunk, tau, &mut flat);
+                    if core.is_some() || shrunk == Shrunk::Unaffordable {
+                        break;
+                    }
+                }
+                if core.is_none() && driver.can_start() {
+                    core = sort_out(&shrink::shrink(driver, space, set).await?, tau, &mut flat);
+                }
+                // The triage found a core: confirm it, and its parts' passing, under the full rule
+                // (shrinking on if a part fails after all).
+                if let Some(c) = core {
+                    driver.set_rule(confirm);
+                    driver.purpose = Some(Purpose::Confirmation);
+                    core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
+                }
+                queue.extend(driver.take_filled());
+                let mut s = searcher.borrow_mut();
+                s.focus = None;
+                s.catch_up(&driver.history);
+                flat.into_iter().for_each(|by| s.explain(by));
+                if let Some(c) = core {
+                    s.confirm(c);
+                    // Keep fresh confirmation's share for this core and the next ([`Params::plan`]).
+                    cores += 1;
+                    driver.set_budget(plan.search_cap(cores));
+                }
             }
         }
     }

@@ -507,6 +507,15 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         self.fill = Some((width.max(1), obs.max(1), std::mem::ManuallyDrop::new(fill)));
     }
 
+    /// How many sets a step that tests sets one after another (a shrink's one-smaller subsets)
+    /// tests together: the width over m when calls are filled ([`Driver::fill_to`]), else one.
+    pub fn lookahead(&self) -> usize {
+        match &self.fill {
+            Some((width, ..)) => (*width / self.rule.samples.max(1) as usize).max(1),
+            None => 1,
+        }
+    }
+
     /// Stop filling calls, and drop the filler.
     pub fn clear_fill(&mut self) {
         if let Some((.., fill)) = self.fill.take() {

@@ -89,7 +89,9 @@ pub fn lifts(set: &SetStats, sub: &SetStats) -> bool {
 }
 
 /// Shrink the failing set `root` to a 1-minimal failing subset, testing through `driver` (its
-/// rule decides "still fails"; its budget bounds the cost).
+/// rule decides "still fails"; its budget bounds the cost). The one-smaller subsets are tested
+/// in drop order, [`Driver::lookahead`] of them together (one at a time unless the driver fills
+/// its calls to a width); the first in drop order that fails replaces the set, as one at a time.
 pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root: ConceptSet) -> Searched<Shrunk, E> {
     // "Fails" as the driver's rule says: FR ≥ τ, or established above τ − δ with a zone.
     let rule = driver.rule();
@@ -101,21 +103,25 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
     let mut minimal = true;
     loop {
         'shrink: loop {
-            for c in drop_order(&driver.history, current) {
-                let sub = current.without(c);
-                if sub.is_empty() || !space.contains(sub) {
-                    continue;
-                }
-                match driver.test(sub).await? {
-                    None => {
-                        minimal = false;
-                        break 'shrink;
+            let subs: Vec<ConceptSet> = drop_order(&driver.history, current)
+                .into_iter()
+                .map(|c| current.without(c))
+                .filter(|sub| !sub.is_empty() && space.contains(*sub))
+                .collect();
+            for group in subs.chunks(driver.lookahead()) {
+                driver.evaluate(group).await?;
+                for &sub in group {
+                    match driver.stats(sub) {
+                        None => {
+                            minimal = false;
+                            break 'shrink;
+                        }
+                        Some(s) if rule.fails(s) => {
+                            current = sub;
+                            continue 'shrink;
+                        }
+                        Some(_) => {}
                     }
-                    Some(s) if rule.fails(&s) => {
-                        current = sub;
-                        continue 'shrink;
-                    }
-                    Some(_) => {}
                 }
             }
             break;
