@@ -137,7 +137,7 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "five rendered scenes per singleton and pair take minutes",
     ),
     (
-        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1 --renderer none",
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam --renderer none",
         "4 algorithms × 3 seeds × 1250 inferences",
     ),
@@ -313,7 +313,7 @@ const STABLE: &[(&str, &[&str])] = &[
         ],
     ),
     (
-        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1",
+        "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1 --renderer none",
         &["algo PFM % MFR % …", "random # [#–#] # [#–#] …", "beam # [#–#] # [#–#] …"],
     ),
     (
