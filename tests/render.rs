@@ -285,7 +285,9 @@ fn check_render_flags_a_concept_drawn_under_the_ground() {
 /// Issue 18: every shipped domain passes the visibility lint — no concept, and no pair of
 /// concepts each seen alone, hidden in any of 3 scenes of every valid singleton and pair (the
 /// lint's 10 % threshold is one scene in three). A domain's `allow R0107` counts, as in
-/// `revelio check --render`. The test walks `domains/`, so a new domain is judged too.
+/// `revelio check --render`. The test walks `domains/`, so a new domain is judged too. The
+/// domains are surveyed side by side: draws take turns on the one device, and what a survey does
+/// around them (sampling, meshes, the visibility figures) runs meanwhile.
 #[test]
 fn shipped_domains_pass_the_visibility_lint() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("domains");
@@ -297,8 +299,7 @@ fn shipped_domains_pass_the_visibility_lint() {
     files.sort();
     assert!(files.len() >= 2, "{files:?}");
     let r = renderer();
-    let mut problems = Vec::new();
-    for f in &files {
+    let survey = |f: &Path| {
         let compiled = revelio::cli::common::compile_path(f, false);
         let d = compiled.domain.unwrap_or_else(|| panic!("`{}` does not compile", f.display()));
         let plan = revelio::run::visible::Plan { scenes: 3, sample: None, larger: None };
@@ -308,12 +309,13 @@ fn shipped_domains_pass_the_visibility_lint() {
         let name = f.strip_prefix(env!("CARGO_MANIFEST_DIR")).unwrap_or(f).display();
         eprintln!("{name}: {} sets, {scenes} scenes rendered", tallies.len());
         let allowed = d.allow.iter().any(|a| a.code == revelio::run::visible::CODE);
-        for w in revelio::run::visible::lint(&d, &tallies) {
-            if !allowed {
-                problems.push(format!("{}: {}", f.display(), w.message));
-            }
-        }
-    }
+        let warnings = revelio::run::visible::lint(&d, &tallies);
+        warnings.into_iter().filter(|_| !allowed).map(|w| format!("{}: {}", f.display(), w.message)).collect::<Vec<_>>()
+    };
+    let problems: Vec<String> = std::thread::scope(|s| {
+        let surveys: Vec<_> = files.iter().map(|f| s.spawn(|| survey(f))).collect();
+        surveys.into_iter().flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+    });
     assert!(problems.is_empty(), "{} R0107 warnings:\n{}", problems.len(), problems.join("\n"));
 }
 

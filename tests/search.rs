@@ -51,10 +51,24 @@ fn every_shipped_profile_loads_against_its_domain() {
     assert!(n >= 4);
 }
 
+/// The valid sets of up to five concepts of a domain, enumerated once per test binary and
+/// domain name: every search of a shipped domain below searches the same space.
+fn lattice(d: &Domain) -> &'static [revelio::ir::ConceptSet] {
+    type Sets = &'static [revelio::ir::ConceptSet];
+    static LATTICES: std::sync::Mutex<Vec<(String, Sets)>> = std::sync::Mutex::new(Vec::new());
+    let mut all = LATTICES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, sets)) = all.iter().find(|(n, _)| *n == d.name) {
+        return sets;
+    }
+    let sets: Sets = Lattice::enumerate(d, 5).sets.leak();
+    all.push((d.name.clone(), sets));
+    sets
+}
+
 fn run(d: &Domain, file: &str, algo: Algo, budget: u64, out: &Path) -> runner::RunReport {
     let model: Arc<dyn Model> = Arc::new(SimModel { profile: profile(file, d) });
     let world: Arc<dyn World> = Arc::new(DomainWorld::new(d));
-    let (space, _) = runner::search_space(Lattice::enumerate(d, 5).sets, d.concepts.len(), world.as_ref());
+    let (space, _) = runner::search_space(lattice(d).to_vec(), d.concepts.len(), world.as_ref());
     let params = Params { algo, budget, beam_budget: budget / 2, ..Params::default() };
     let spec = format!("sim:{file}");
     let config =
@@ -67,13 +81,24 @@ fn run(d: &Domain, file: &str, algo: Algo, budget: u64, out: &Path) -> runner::R
     r
 }
 
+/// [`run`] for each algorithm, side by side (each in `out/ALGO`), reports in `algos` order. The
+/// searches share nothing but the domain and its lattice, and each is seeded, so running them at
+/// once changes no result; it lets them use a core the other test thread leaves idle while it
+/// waits on a subprocess or a sim latency.
+fn run_each(d: &Domain, file: &str, algos: &[Algo], budget: u64, out: &Path) -> Vec<runner::RunReport> {
+    std::thread::scope(|s| {
+        let runs: Vec<_> =
+            algos.iter().map(|&algo| s.spawn(move || run(d, file, algo, budget, &out.join(algo.name())))).collect();
+        runs.into_iter().map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+    })
+}
+
 #[test]
 fn all_algorithms_search_the_driving_domain() {
     let d = domain("driving");
     let dir = tempfile::tempdir().unwrap();
     let mut pfm = Vec::new();
-    for algo in [Algo::Random, Algo::Beam, Algo::Gpts] {
-        let r = run(&d, "driving_paper.toml", algo, 1000, &dir.path().join(algo.name()));
+    for r in run_each(&d, "driving_paper.toml", &[Algo::Random, Algo::Beam, Algo::Gpts], 1000, dir.path()) {
         assert_eq!(r.summary.metrics.inferences, 1000);
         assert_eq!(r.summary.metrics.sets, 200);
         pfm.push(r.summary.metrics.pfm);
@@ -90,12 +115,11 @@ fn all_algorithms_search_the_driving_domain() {
 fn guided_search_finds_three_times_random_on_the_gemini_minimal_landscape() {
     let d = domain("driving");
     let dir = tempfile::tempdir().unwrap();
-    let pfm: Vec<f64> = [Algo::Random, Algo::Beam, Algo::Gpts]
-        .into_iter()
-        .map(|algo| {
-            run(&d, "driving_gemini_minimal.toml", algo, 1000, &dir.path().join(algo.name())).summary.metrics.pfm
-        })
-        .collect();
+    let pfm: Vec<f64> =
+        run_each(&d, "driving_gemini_minimal.toml", &[Algo::Random, Algo::Beam, Algo::Gpts], 1000, dir.path())
+            .iter()
+            .map(|r| r.summary.metrics.pfm)
+            .collect();
     let (random, beam, gpts) = (pfm[0], pfm[1], pfm[2]);
     assert!(random < 6.0, "random PFM {random} should stay near the paper's 3.5 %");
     assert!(beam >= 10.0 && beam >= 3.0 * random, "random {random} beam {beam}");
