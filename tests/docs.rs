@@ -338,8 +338,8 @@ const NOT_RUN: &[(&str, &str)] = &[
         "a synopsis of one flag; the benches it describes are shown in full and run",
     ),
     (
-        "revelio bench search --profile examples/sim/PROFILE.toml --domain domains/DOMAIN.rev --seeds 3 --budget 1000 --shrink 250 --algos interact",
-        "a template over the graded and clean profiles; each profile's bench is shown and run reduced on its own",
+        "revelio bench search --profile examples/sim/PROFILE.toml --domain domains/DOMAIN.rev --seeds 10 --budget 1000 --shrink B --algos interact --renderer none --json",
+        "a template: PROFILE, DOMAIN and B are placeholders the table below it fills; bench search itself runs reduced in the page's other commands",
     ),
     (
         "revelio search domains/driving.rev --model openai:gpt-4.1-mini --algo random --batch-api",
