@@ -386,7 +386,7 @@ fn run_error(e: SearchError<RunError>) -> RunError {
 /// What fresh confirmation gave.
 struct Confirmed {
     /// The candidates sent, strongest search evidence first: the shrink phase's cores, then the
-    /// minimal failure modes no core explains ([`unexplained`]).
+    /// minimal failure modes no core explains ([`unexplained_failures`]).
     candidates: Vec<Core>,
     /// How many of `candidates` are such unexplained minimal failure modes.
     unexplained: usize,
@@ -438,7 +438,7 @@ struct Searched2 {
 /// one-smaller subset was evaluated and passes, holding no core. `interact` confirms only some
 /// of its cores during the search (the rest ran out of its confirmation rule's budget or
 /// triage); on a graded landscape these hold most of the planted modes it reached.
-fn unexplained(history: &[SetStats], space: &Space, threshold: f64, cores: &[Core]) -> Vec<Core> {
+fn unexplained_failures(history: &[SetStats], space: &Space, threshold: f64, cores: &[Core]) -> Vec<Core> {
     let minimal = shrink::minimal_failures(history, space, threshold);
     shrink::roots(history, threshold)
         .into_iter()
@@ -478,7 +478,7 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
     // The family: the shrink's cores, then the unexplained minimal failure modes, as many as
     // the budget pays (decided before any fresh observation).
-    let loose = unexplained(&everything, space, params.threshold, &found.cores);
+    let loose = unexplained_failures(&everything, space, params.threshold, &found.cores);
     let mut candidates = found.cores.clone();
     candidates.extend(loose.iter().cloned());
     let paid = plan.paid(budget, candidates.len());

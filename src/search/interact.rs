@@ -907,48 +907,10 @@ async fn search_patterns<'d, E: Evaluate>(
                 if !driver.can_start() {
                     break 'hot;
                 }
-                driver.purpose = Some(Purpose::Explaining);
-                searcher.borrow_mut().focus = Some(set);
-                let candidates = {
-                    let s = searcher.borrow();
-                    let fit = s.fit(&driver.history);
-                    s.candidates(&fit, set)
-                };
-                let mut core = None;
-                // Passing subsets near τ that a failing set did not significantly exceed.
-                let mut flat = Vec::new();
-                let mut tried = 0;
-                for p in candidates {
-                    if tried == JUMPS {
-                        break;
-                    }
-                    if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(s)) {
-                        continue;
-                    }
-                    tried += 1;
-                    let shrunk = shrink::shrink(driver, space, p).await?;
-                    core = sort_out(&shrunk, tau, &mut flat);
-                    if core.is_some() || shrunk == Shrunk::Unaffordable {
-                        break;
-                    }
-                }
-                if core.is_none() && driver.can_start() {
-                    core = sort_out(&shrink::shrink(driver, space, set).await?, tau, &mut flat);
-                }
-                // The triage found a core: confirm it, and its parts' passing, under the full rule
-                // (shrinking on if a part fails after all).
-                if let Some(c) = core {
-                    driver.set_rule(confirm);
-                    driver.purpose = Some(Purpose::Confirmation);
-                    core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
-                }
+                let core = explain(driver, space, &searcher, set, (tau, triage, confirm)).await?;
                 queue.extend(driver.take_filled());
-                let mut s = searcher.borrow_mut();
-                s.focus = None;
-                s.catch_up(&driver.history);
-                flat.into_iter().for_each(|by| s.explain(by));
                 if let Some(c) = core {
-                    s.confirm(c);
+                    searcher.borrow_mut().confirm(c);
                     // Keep fresh confirmation's share for this core and the next ([`Params::plan`]).
                     cores += 1;
                     driver.set_budget(plan.search_cap(cores));
@@ -957,4 +919,58 @@ async fn search_patterns<'d, E: Evaluate>(
         }
     }
     Ok(())
+}
+
+/// Explain the failing set `set`: its likeliest sub-patterns first (at most [`JUMPS`]), shrunk
+/// under the triage rule, else the set itself; a core the triage finds is confirmed (and its
+/// parts' passing) under the full rule, shrinking on if a part fails after all. Fills made
+/// meanwhile keep off its family ([`PatternSearcher::fill`]); the passing near-τ families met
+/// are set aside in the searcher. The core found, if any (the caller confirms it there).
+async fn explain<'d, E: Evaluate>(
+    driver: &mut Driver<'d, E>,
+    space: &'d Space,
+    searcher: &RefCell<PatternSearcher<'d>>,
+    set: ConceptSet,
+    (tau, triage, confirm): (f64, Rule, Rule),
+) -> Searched<Option<ConceptSet>, E> {
+    driver.purpose = Some(Purpose::Explaining);
+    searcher.borrow_mut().focus = Some(set);
+    let candidates = {
+        let s = searcher.borrow();
+        let fit = s.fit(&driver.history);
+        s.candidates(&fit, set)
+    };
+    let mut core = None;
+    // Passing subsets near τ that a failing set did not significantly exceed.
+    let mut flat = Vec::new();
+    let mut tried = 0;
+    for p in candidates {
+        if tried == JUMPS {
+            break;
+        }
+        if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(s)) {
+            continue;
+        }
+        tried += 1;
+        let shrunk = shrink::shrink(driver, space, p).await?;
+        core = sort_out(&shrunk, tau, &mut flat);
+        if core.is_some() || shrunk == Shrunk::Unaffordable {
+            break;
+        }
+    }
+    if core.is_none() && driver.can_start() {
+        core = sort_out(&shrink::shrink(driver, space, set).await?, tau, &mut flat);
+    }
+    // The triage found a core: confirm it, and its parts' passing, under the full rule
+    // (shrinking on if a part fails after all).
+    if let Some(c) = core {
+        driver.set_rule(confirm);
+        driver.purpose = Some(Purpose::Confirmation);
+        core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
+    }
+    let mut s = searcher.borrow_mut();
+    s.focus = None;
+    s.catch_up(&driver.history);
+    flat.into_iter().for_each(|by| s.explain(by));
+    Ok(core)
 }
