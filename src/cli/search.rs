@@ -130,17 +130,8 @@ fn listed_space(
         let mut work = super::progress::Work::new();
         let lattice = Lattice::build(domain, max_size, max_sets, &mut |w, d, t| work.report(w, d, t))
             .map_err(|too_large| too_large.plain())?;
-        // Judged on every core (the rule of `runner::search_space`), in the lattice's order.
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let chunk = lattice.sets.len().div_ceil(cores).max(1);
-        let kept: Vec<ConceptSet> = std::thread::scope(|scope| {
-            let parts: Vec<_> = (lattice.sets.chunks(chunk))
-                .map(|c| scope.spawn(move || c.iter().copied().filter(|s| world.task(*s).is_ok()).collect::<Vec<_>>()))
-                .collect();
-            parts.into_iter().flat_map(|p| p.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
-        });
-        let dropped = lattice.sets.len() - kept.len();
-        Ok((Arc::new(crate::search::Space::new(kept, domain.concepts.len())), dropped))
+        let (space, dropped) = runner::search_space(lattice.sets, domain.concepts.len(), world);
+        Ok((Arc::new(space), dropped))
     });
     listed.clone().map_err(|message| {
         eprintln!("{message}");

@@ -279,12 +279,20 @@ pub struct RunReport {
     pub concurrency: usize,
 }
 
-/// The valid sets that have a ground truth. Sets whose expected answer is undetermined (lint
-/// R0102) cannot be scored, so they are left out of the search rather than ending it midway.
+/// The valid sets that have a ground truth, in their order, and how many were left out. Sets
+/// whose expected answer is undetermined (lint R0102) cannot be scored, so they are left out of
+/// the search rather than ending it midway. Judging every set is most of a search's preparation,
+/// so the sets are judged on every core.
 pub fn search_space(sets: Vec<ConceptSet>, dim: usize, world: &dyn World) -> (Space, usize) {
-    let before = sets.len();
-    let kept: Vec<ConceptSet> = sets.into_iter().filter(|s| world.task(*s).is_ok()).collect();
-    let dropped = before - kept.len();
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let chunk = sets.len().div_ceil(cores).max(1);
+    let kept: Vec<ConceptSet> = std::thread::scope(|scope| {
+        let parts: Vec<_> = (sets.chunks(chunk))
+            .map(|c| scope.spawn(move || c.iter().copied().filter(|s| world.task(*s).is_ok()).collect::<Vec<_>>()))
+            .collect();
+        parts.into_iter().flat_map(|p| p.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
+    });
+    let dropped = sets.len() - kept.len();
     (Space::new(kept, dim), dropped)
 }
 
