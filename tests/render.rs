@@ -308,9 +308,11 @@ fn shipped_domains_pass_the_visibility_lint() {
         let scenes: u32 = tallies.iter().map(|t| t.scenes).sum();
         let name = f.strip_prefix(env!("CARGO_MANIFEST_DIR")).unwrap_or(f).display();
         eprintln!("{name}: {} sets, {scenes} scenes rendered", tallies.len());
-        let allowed = d.allow.iter().any(|a| a.code == revelio::run::visible::CODE);
+        if d.allow.iter().any(|a| a.code == revelio::run::visible::CODE) {
+            return Vec::new();
+        }
         let warnings = revelio::run::visible::lint(&d, &tallies);
-        warnings.into_iter().filter(|_| !allowed).map(|w| format!("{}: {}", f.display(), w.message)).collect::<Vec<_>>()
+        warnings.into_iter().map(|w| format!("{}: {}", f.display(), w.message)).collect::<Vec<_>>()
     };
     let problems: Vec<String> = std::thread::scope(|s| {
         let surveys: Vec<_> = files.iter().map(|f| s.spawn(|| survey(f))).collect();
