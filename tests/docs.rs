@@ -24,6 +24,21 @@ use wiremock::{Mock, MockServer, ResponseTemplate};
 const REDUCED: &[(&str, &str, &str)] = &[
     // README.md
     (
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 1000 --shrink 250 --algos interact,random --concurrency 16 --latency-ms 500 --renderer none",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 40 --shrink 10 --algos interact,random --concurrency 16 --latency-ms 0 --renderer none",
+        "2 000 calls at 500 ms each",
+    ),
+    (
+        "revelio campaign examples/campaign_200ms.toml --no-cache --concurrency 16",
+        "revelio campaign examples/campaign_200ms.toml --no-cache --concurrency 16 --dry-run",
+        "1 518 calls at 200 ms each",
+    ),
+    (
+        "revelio bench scale --concepts 250 --search-seeds 10",
+        "revelio bench scale --concepts 250 --search-seeds 0",
+        "ten 1 000-call searches",
+    ),
+    (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo --budget 30 --renderer none",
         "1000 rendered inferences, an interact step each",
