@@ -123,11 +123,14 @@ impl Checker<'_> {
     /// nothing placed ever wears: no concept adds its kind nor any kind below it, and it is no
     /// scenery (`Extra`, which the sampler places). Only a domain is linted: a module checked
     /// alone is a part whose concepts or looks may live elsewhere. Looks in the stdlib are
-    /// vocabulary a domain may leave unused.
+    /// vocabulary a domain may leave unused. A domain that accepts undrawn entities with
+    /// `allow R0108` (the render lint's code, `run::observe::UNDRAWN`, named here as the check
+    /// sits below it) is not warned about placing one: runs after the `allow` items.
     pub(crate) fn lint_looks(&mut self, has_look: &[bool], std_files: &[u32]) {
         if self.d.name.is_empty() {
             return;
         }
+        let undrawn_allowed = self.d.allow.iter().any(|a| a.code == "R0108");
         let n = self.d.kinds.len();
         // `placed`: some concept adds the kind; `bare`: one that draws it no other way (no
         // `shape { … }` of its own, no `drawn_by STAGE`) adds it.
@@ -161,6 +164,7 @@ impl Checker<'_> {
             let name = self.d.kinds[k].name.clone();
             if let Some(add) = bare[k]
                 && !has_look[k]
+                && !undrawn_allowed
             {
                 let d = Diagnostic::warning(
                     codes::DRAWS_NOTHING,
@@ -170,7 +174,7 @@ impl Checker<'_> {
                 .with_label("no `shape { … }`, no `look`, and no ancestor kind with one")
                 .with_related(add, "placed here")
                 .with_help(format!(
-                    "give it a look with `look {name} {{ … }}`, or on a kind it descends from; if a `stage` draws it, say so with `drawn_by STAGE` in the concept"
+                    "give it a look with `look {name} {{ … }}`, or on a kind it descends from; if a `stage` draws it, say so with `drawn_by STAGE` in the concept; or accept it undrawn with `allow R0108` and a `///` reason"
                 ));
                 self.error(d);
             }

@@ -19,7 +19,10 @@ impl Builder<'_> {
             self.junk(p);
             return None;
         }
-        let span = self.span(&p);
+        // A statement ends at its last token, not at the blank lines or comment after it (the
+        // lookahead for the next statement consumed those).
+        let mut span = self.span(&p);
+        span.end = p.clone().into_inner().last().map_or(span.end, |t| t.as_span().end() as u32);
         let mut c = Children::of(p);
         let first = c.first_token();
         Some(match first {
@@ -70,12 +73,7 @@ impl Builder<'_> {
                     _ => ConceptStmt::Target { world: None, filter: self.idents(Children::of(c.next())), span },
                 }
             }
-            Some(Rule::kw_drawn_by) => {
-                // The statement ends at its stage name, not at the comment or blank after it.
-                let stage = self.ident(c.next());
-                let span = crate::ir::Span { end: stage.span.end.max(span.start), ..span };
-                ConceptStmt::DrawnBy { stage, span }
-            }
+            Some(Rule::kw_drawn_by) => ConceptStmt::DrawnBy { stage: self.ident(c.next()), span },
             _ => ConceptStmt::Move { region: self.ident(c.next()), span },
         })
     }
