@@ -367,6 +367,7 @@ fn a_new_domain_checks_renders_and_searches() {
     let (code, text) =
         revelio(&["ask", "yard.rev", "crate", "fog", "--model", "sim:yard/sim.toml", "--save", "shown.png"]);
     assert_eq!(code, Some(0), "{text}");
+    assert!(text.ends_with("wrote shown.png (480x300)\n"), "`--save` says what it wrote, as `render` does:\n{text}");
     let shown = std::fs::read(dir.path().join("shown.png")).unwrap();
     assert_eq!(shown, std::fs::read(dir.path().join("one.png")).unwrap(), "ask shows what render draws");
     let (code, text) = revelio(&[
@@ -445,6 +446,47 @@ fn the_render_lint_and_the_guard_name_an_entity_that_draws_nothing() {
     let scene = revelio::sample::Sampler::new(&d).sample(revelio::ir::ConceptSet::single(stairs), 0).unwrap();
     let (_, seen) = r.render_seen(&scene).unwrap();
     assert_eq!(revelio::run::observe::unseen(&d, &scene, &seen), None);
+}
+
+/// Issue 31: `render --figures` and `ask` say that an entity draws nothing instead of giving it
+/// "0 px at contrast 0.000"; `ask` fails at once (no seed can draw it, so none is tried) and
+/// still says where it saved the image; with `allow R0108` the figures say it is accepted.
+#[test]
+fn render_and_ask_say_an_entity_draws_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/render/undrawn.rev")).unwrap();
+    std::fs::write(dir.path().join("undrawn.rev"), &text).unwrap();
+    let allowed = text.replacen("visible {", "/// The `steps` stage draws the stairs.\nallow R0108\nvisible {", 1);
+    std::fs::write(dir.path().join("allowed.rev"), allowed).unwrap();
+    std::fs::write(dir.path().join("sim.toml"), "name = \"t\"\nbase_error = 0.1\n").unwrap();
+    let revelio = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let undrawn = "`stairs` (Staircase, concept `stairs`): draws nothing, so it cannot be measured";
+    let (code, out, err) = revelio(&["render", "undrawn.rev", "stairs", "--figures", "-o", "one.png"]);
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(out.contains(&format!("{undrawn}: NOT visible (R0108)")) && !out.contains("0 px"), "{out}");
+
+    let (code, out, err) = revelio(&["ask", "undrawn.rev", "stairs", "--model", "sim:sim.toml", "--save", "a.png"]);
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert_eq!(out, "wrote a.png (640x360)\n", "{err}");
+    assert!(err.contains("`stairs` (Staircase) draws nothing, so it cannot be measured"), "{err}");
+    assert!(err.contains("none was tried") && !err.contains("resamples"), "{err}");
+
+    let (code, out, err) = revelio(&["ask", "allowed.rev", "stairs", "--model", "sim:sim.toml", "--save", "b.png"]);
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(out.contains(&format!("figures    {undrawn}: accepted by `allow R0108`")), "{out}");
+    assert!(out.ends_with("wrote b.png (640x360)\n"), "{out}");
 }
 
 /// Issue 31: `drawn_by STAGE` names what draws an entity with no part of its own. The render

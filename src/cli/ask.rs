@@ -95,22 +95,34 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let task = observer.task(set).map_err(|e| (1, e.to_string()))?;
     let key = ObsKey { phase: Phase::Search, set, index: 0 };
     // The image is written before the model is asked, so a failed call still leaves it.
-    let saved = std::sync::atomic::AtomicBool::new(false);
+    let saved = std::sync::OnceLock::new();
     let save = |png: &[u8]| {
-        saved.store(true, std::sync::atomic::Ordering::Relaxed);
-        save(args.save.as_deref().unwrap_or(std::path::Path::new("")), png)
+        let path = args.save.as_deref().unwrap_or(std::path::Path::new(""));
+        save(path, png)?;
+        let (w, h) = crate::vlm::cost::png_size(png).unwrap_or_default();
+        // As `render` says it: on stdout, also when the scene is then not shown.
+        let _ = saved.set(format!("wrote {} ({w}x{h})\n", path.display()));
+        Ok(())
     };
     let hook: Option<crate::run::observe::OnImage<'_>> = args.save.as_ref().map(|_| &save as _);
-    let o = observer
-        .observe_task(model.as_ref(), key, args.seed, &task, None, hook)
-        .await
-        .map_err(|e| (1, e.to_string()))?;
-    if args.save.is_some() && !saved.load(std::sync::atomic::Ordering::Relaxed) {
+    // The stimulus kept, for the figures of the scene the model was shown.
+    let stimulus = observer.stimulus(set, args.seed).await.map_err(|e| (1, e.to_string()))?;
+    let o = observer.show(model.as_ref(), key, &stimulus, &task, None, hook).await.map_err(|e| (1, e.to_string()))?;
+    let Some(wrote) = saved.get().cloned().or_else(|| args.save.is_none().then(String::new)) else {
         return Err((1, "no image was rendered, so there is nothing to `--save`".to_string()));
-    }
+    };
     let rule = domain.rules.get(verdict.rule.index()).map_or("?", |r| r.name.as_str());
     let prompt_text = prompt::build(&task.question, &task.options);
-    match o.reply {
+    let result = match o.reply {
+        // No resample: an entity that can never be drawn (the guard does not try another seed).
+        None if o.outcome == Outcome::Invisible && o.record.resamples == 0 => Err((
+            1,
+            format!(
+                "this scene was not shown to `{}`: an entity is {} (no other seed can draw it, so none was tried)",
+                model.id(),
+                o.record.raw
+            ),
+        )),
         None if o.outcome == Outcome::Invisible => Err((
             1,
             format!(
@@ -136,10 +148,18 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
         Some(reply) => {
             let mut out = report(&model.id(), &prompt_text, &task.options, &reply, task.expected, rule);
             // What the model was shown: each placed entity's figures (none without a renderer).
-            for line in o.record.visibility.iter().filter_map(|v| crate::run::observe::figure_line(domain, v)) {
+            let seen = &o.record.visibility;
+            for line in crate::run::observe::figure_lines(domain, &stimulus.scene, seen) {
                 out.push_str(&format!("figures    {line}\n"));
             }
             Ok(out)
+        }
+    };
+    match result {
+        Ok(out) => Ok(out + &wrote),
+        Err(e) => {
+            print!("{wrote}");
+            Err(e)
         }
     }
 }

@@ -178,11 +178,8 @@ pub fn draw(
         let scene = if job.set.is_empty() { sampler.backdrop(job.seed) } else { sampler.sample(job.set, job.seed) }
             .map_err(|e| format!("cannot sample `{}` with seed {}: {e}", job.caption, job.seed))?;
         let (mut img, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
-        let lines: Vec<String> = seen
-            .iter()
-            .filter_map(|v| crate::run::observe::figure_line(domain, v))
-            .map(|l| format!("  {l}\n"))
-            .collect();
+        let lines: Vec<String> =
+            crate::run::observe::figure_lines(domain, &scene, &seen).into_iter().map(|l| format!("  {l}\n")).collect();
         let entities = if lines.is_empty() { "  no entity placed\n".to_string() } else { lines.concat() };
         figures.push_str(&format!("{} (seed {}):\n{entities}", job.caption, job.seed));
         if as_sheet {

@@ -30,6 +30,8 @@ pub mod summary;
 mod testkit;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod undrawn_tests;
 #[cfg(feature = "render")]
 pub mod visible;
 

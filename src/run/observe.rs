@@ -35,11 +35,11 @@
 use std::sync::Arc;
 
 use crate::hash::sha256_hex as sha256;
-use crate::ir::{ConceptSet, Domain, Effect};
+use crate::ir::{ConceptSet, Domain};
 use crate::journal::{Journal, JournalError, Phase, Record};
 use crate::outcome::{Answer, Outcome};
 use crate::render::{EntityVisibility, Renderer};
-use crate::scene::Scene;
+use crate::scene::{Scene, SceneEntity};
 use crate::vlm::cost::Purse;
 use crate::vlm::{Model, Query, Reply, Truth};
 
@@ -257,7 +257,8 @@ impl Observer {
             let mut stimulus = self.draw(set, seed.wrapping_add(u64::from(resamples + repeats))).await?;
             (stimulus.resamples, stimulus.repeats) = (resamples, repeats);
             if stimulus.invisible.is_some() {
-                if resamples == RESAMPLES {
+                // No seed draws an entity with no part at all: say so at once.
+                if resamples == RESAMPLES || never_drawn(&self.domain, &stimulus.scene) {
                     return Ok(stimulus);
                 }
                 resamples += 1;
@@ -490,24 +491,48 @@ pub fn unseen(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Opti
     (!hidden.is_empty()).then(|| hidden.join("; "))
 }
 
-/// The kind of the entity `entity` that concept `concept` adds.
-fn kind_of<'d>(domain: &'d Domain, concept: &str, entity: &str) -> Option<&'d str> {
-    let c = domain.concepts.iter().find(|c| c.name == concept)?;
-    c.effects.iter().find_map(|e| match e {
-        Effect::Add { name, kind, .. } if name == entity => Some(domain.kinds[kind.index()].name.as_str()),
-        _ => None,
+/// Whether a placed entity of `scene` that draws nothing, and that the domain does not accept
+/// undrawn, would draw nothing in every scene: no part to draw (its concept's `shape { … }` or
+/// its kind's look, conditions aside) and no `drawn_by`, so resampling cannot help. An entity
+/// whose parts all have a `when` that failed here may be drawn with another seed.
+pub fn never_drawn(domain: &Domain, scene: &Scene) -> bool {
+    if domain.allow.iter().any(|a| a.code == UNDRAWN) {
+        return false;
+    }
+    scene.entities.iter().filter(|e| e.draws_nothing()).any(|e| {
+        let Some(c) = e.concept.as_ref().and_then(|c| domain.concepts.iter().find(|k| &k.name == c)) else {
+            return false;
+        };
+        let kind = domain.kinds.iter().find(|k| k.name == e.kind);
+        let parts = c.render.shape.as_deref().or(kind.map(|k| k.shape.as_slice())).unwrap_or_default();
+        parts.is_empty() && c.render.drawn_by.is_none()
     })
 }
 
 /// One line of figures for an entity a concept placed: its pixels and contrast against the
 /// threshold the domain sets for it, and whether the guard would show it (`None` for scenery).
-pub fn figure_line(domain: &Domain, v: &EntityVisibility) -> Option<String> {
-    let concept = v.concept.as_deref()?;
-    let kind = kind_of(domain, concept, &v.entity).unwrap_or("?");
-    let t = domain.visibility.threshold(kind, Some(concept));
+/// `e` is the scene's entity that `v` measures. An entity that draws nothing has no figures:
+/// the line says so, as the guard and R0108 do, and whether `allow R0108` accepts it.
+pub fn figure_line(domain: &Domain, e: &SceneEntity, v: &EntityVisibility) -> Option<String> {
+    let concept = e.concept.as_deref()?;
+    let head = format!("`{}` ({}, concept `{concept}`)", e.name, e.kind);
+    if e.draws_nothing() {
+        let verdict = if domain.allow.iter().any(|a| a.code == UNDRAWN) {
+            format!("accepted by `allow {UNDRAWN}`")
+        } else {
+            format!("NOT visible ({UNDRAWN})")
+        };
+        return Some(format!("{head}: draws nothing, so it cannot be measured: {verdict}"));
+    }
+    let t = domain.visibility.threshold(&e.kind, Some(concept));
     let verdict = if t.holds(v.pixels, v.contrast) { "visible" } else { "NOT visible" };
     Some(format!(
-        "`{}` ({kind}, concept `{concept}`): {} px at contrast {:.3}, needs {} px at {:.3}: {verdict}",
-        v.entity, v.pixels, v.contrast, t.pixels, t.contrast
+        "{head}: {} px at contrast {:.3}, needs {} px at {:.3}: {verdict}",
+        v.pixels, v.contrast, t.pixels, t.contrast
     ))
+}
+
+/// The figure lines of a scene's placed entities, in scene order ([`figure_line`]).
+pub fn figure_lines(domain: &Domain, scene: &Scene, seen: &[EntityVisibility]) -> Vec<String> {
+    scene.entities.iter().zip(seen).filter_map(|(e, v)| figure_line(domain, e, v)).collect()
 }
