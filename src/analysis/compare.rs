@@ -19,7 +19,8 @@ pub struct RunFacts {
     pub model: String,
     pub algo: String,
     pub seed: u64,
-    /// `--budget` (the search's model calls; the shrink budget is `shrink`).
+    /// `--budget`: the run's model calls, every phase included; `shrink` is the share set aside
+    /// for shrinking.
     pub budget: u64,
     pub shrink: u64,
     pub sets: usize,

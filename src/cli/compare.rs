@@ -82,9 +82,10 @@ pub fn run(args: CompareArgs) -> ExitCode {
     }
 }
 
-/// `1000+250`: the search budget and the shrink budget.
+/// The run's total budget, its shrink share included (as `--budget` counts it since run format
+/// 3; a format 2 folder reads as its budget plus its shrink). The CSV and JSON keep `shrink`.
 fn budget_text(r: &Row) -> String {
-    if r.shrink > 0 { format!("{}+{}", r.budget, r.shrink) } else { r.budget.to_string() }
+    r.budget.to_string()
 }
 
 fn rate(r: &Rate) -> String {
@@ -250,7 +251,7 @@ pub fn html_in(rows: &[Row], dir: &Path, title: &str) -> String {
     for (m, calls, cost) in &per_model {
         s.push_str(&format!("<tr><td class=\"t m\">{}</td><td>{calls}</td><td>${cost:.4}</td></tr>\n", esc(m)));
     }
-    s.push_str("</tbody>\n</table>\n<p>PFM: share of evaluated sets that are failure modes; MFR: share of inferences answered wrongly; Div: mean pairwise Jaccard distance of the failure modes. Brackets: 95&nbsp;% intervals (Wilson for PFM and MFR, jackknife for Div). Budget: the search's model calls + the shrink phase's. Cores: for a run that shrank its failure modes, the distinct minimal failure modes the shrink phase confirmed (a smallest set that still fails); for one that did not, its failure modes with no smaller failure mode inside them. Calls and spend: every phase of the run.</p>\n</body>\n</html>\n");
+    s.push_str("</tbody>\n</table>\n<p>PFM: share of evaluated sets that are failure modes; MFR: share of inferences answered wrongly; Div: mean pairwise Jaccard distance of the failure modes. Brackets: 95&nbsp;% intervals (Wilson for PFM and MFR, jackknife for Div). Budget: the run's model calls, every phase included (the shrink phase's share is the CSV's <code>shrink</code>). Cores: for a run that shrank its failure modes, the distinct minimal failure modes the shrink phase confirmed (a smallest set that still fails); for one that did not, its failure modes with no smaller failure mode inside them. Calls and spend: every phase of the run.</p>\n</body>\n</html>\n");
     s
 }
 
@@ -287,7 +288,7 @@ mod tests {
         let h = html(&sample());
         assert!(h.contains("sim:&lt;x&gt;") && !h.contains("sim:<x>"));
         assert!(h.contains("<td>3</td><td>2</td>"), "3 failure modes, 2 cores");
-        assert!(h.contains("<td>3</td><td class=\"n\">1000+250</td>"), "seed and budget");
+        assert!(h.contains("<td>3</td><td class=\"n\">1000</td>"), "seed and the total budget, shrink included");
         assert!(h.contains("href=\"runs/a,b/report/index.html\""), "a link to the run's report");
         assert!(h.contains("td.m{overflow-wrap:anywhere"), "long model ids wrap");
         let mut t = Vec::new();

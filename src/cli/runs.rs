@@ -32,8 +32,13 @@ pub struct RunLine {
     pub domain: String,
     pub model: String,
     pub algo: String,
+    /// The run's total budget of observations, its shrink share included (run format 3's
+    /// `--budget`; a format 2 run's reads as its `--budget` plus its `--shrink`).
     pub budget: u64,
+    /// The share of `budget` set aside for shrinking.
     pub shrink: u64,
+    /// The run folder's format ([`summary::RUN_FORMAT`] for runs written now).
+    pub format: u64,
     pub seed: u64,
     pub calls: u64,
     pub cost_usd: f64,
@@ -80,6 +85,7 @@ pub fn line(dir: &Path) -> RunLine {
                 algo: String::new(),
                 budget: 0,
                 shrink: 0,
+                format: 0,
                 seed: 0,
                 calls: 0,
                 cost_usd: 0.0,
@@ -114,6 +120,7 @@ pub fn line(dir: &Path) -> RunLine {
         algo: config.params.algo.name().to_string(),
         budget: config.params.budget,
         shrink: config.params.shrink,
+        format: config.format,
         seed: config.params.seed,
         calls,
         cost_usd,
@@ -155,11 +162,20 @@ pub fn print(w: &mut impl Write, lines: &[RunLine]) -> std::io::Result<()> {
         "state", "domain", "algo", "budget", "seed", "calls", "spend", "cores"
     )?;
     for l in lines {
-        let (state, why) = match l.state.split_once(": ") {
+        let (state, mut why) = match l.state.split_once(": ") {
             Some((s, why)) => (s.to_string(), format!("  ({why})")),
             None => (l.state.clone(), String::new()),
         };
-        let budget = if l.shrink > 0 { format!("{}+{}", l.budget, l.shrink) } else { l.budget.to_string() };
+        // The budget is the total cap, shrink included; a format 2 run was started with the
+        // search's share alone and the shrink on top, which the note keeps.
+        if l.format == 2 && l.shrink > 0 {
+            why.push_str(&format!(
+                "  (format 2: --budget {} --shrink {})",
+                l.budget.saturating_sub(l.shrink),
+                l.shrink
+            ));
+        }
+        let budget = l.budget.to_string();
         writeln!(
             w,
             "{:<10}  {:<8}  {:<8}  {:>11}  {:>4}  {:>7}  {:>9}  {:>5}  {}  {}{}",
@@ -177,4 +193,46 @@ pub fn print(w: &mut impl Write, lines: &[RunLine]) -> std::io::Result<()> {
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run folder's `config.json` with `--budget 300 --shrink 75` as written by format `format`.
+    fn config(format: u64, budget: u64) -> String {
+        serde_json::json!({
+            "format": format, "domain_file": "aisle.rev", "domain": "aisle", "domain_hash": "0",
+            "model_spec": "sim:aisle/sim.toml", "model": "sim:aisle@0", "renderer": "none",
+            "params": {
+                "algo": "interact", "budget": budget, "samples": 5, "threshold": 0.6, "beam_width": 5,
+                "max_depth": 5, "lambda": 0.5, "beam_budget": 102, "batch": 16, "seed": 0, "max_size": 5,
+                "surrogate": "patterns", "supersets": "fallback", "shrink": 75
+            }
+        })
+        .to_string()
+    }
+
+    /// Issue 31: `--budget 300` is the total now (shrink included), so the list says 300, not
+    /// the old rule's `300+75`; a format 2 folder (shrink on top) lists its sum and notes both.
+    #[test]
+    fn the_budget_listed_is_the_total_and_format_2_is_noted() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, format, budget) in [("new", 3, 300), ("old", 2, 225)] {
+            std::fs::create_dir(dir.path().join(name)).unwrap();
+            std::fs::write(dir.path().join(name).join("config.json"), config(format, budget)).unwrap();
+        }
+        let (new, old) = (line(&dir.path().join("new")), line(&dir.path().join("old")));
+        assert_eq!((new.budget, new.shrink, new.format), (300, 75, 3));
+        assert_eq!((old.budget, old.shrink, old.format), (300, 75, 2));
+        let mut out = Vec::new();
+        print(&mut out, &[new, old]).unwrap();
+        let out = String::from_utf8(out).unwrap();
+        let rows: Vec<&str> = out.lines().skip(1).collect();
+        assert_eq!(rows.len(), 2, "{out}");
+        assert!(rows.iter().all(|r| r.split_whitespace().nth(3) == Some("300")), "{out}");
+        assert!(!out.contains('+'), "{out}");
+        assert!(!rows[0].contains("format 2"), "{out}");
+        assert!(rows[1].ends_with("(format 2: --budget 225 --shrink 75)"), "{out}");
+    }
 }
