@@ -639,7 +639,7 @@ mod tests {
             confirmed: Some(row(&["pedestrian", "weather_foggy"], 15, 17)),
             part: Some(row(&["pedestrian"], 9, 18)),
         };
-        let checked = |c: &[&str], w, n, status| CheckedRow { set: row(c, w, n), e_value: 1.0, status };
+        let checked = |c: &[&str], w, n, status| CheckedRow { set: row(c, w, n), e_value: 1.0, status, triage: None };
         let rows = vec![
             checked(&["pedestrian", "weather_foggy"], 15, 17, Status::Confirmed),
             checked(&["cyclist", "light_red"], 22, 40, Status::Borderline),

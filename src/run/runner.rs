@@ -27,10 +27,10 @@ use super::setup::DEFAULT_CONCURRENCY;
 use super::stop::Stop;
 use super::summary::{
     CONSISTENT_FR, CheckedRow, ConfirmSummary, CoreRow, NotDistinctRow, RUN_FORMAT, RunConfig, SetRow, ShrinkSummary,
-    Spend, Summary, ValidatedSet, Validation, spaced, upgrade, validation_file,
+    Spend, Summary, Triage, ValidatedSet, Validation, spaced, upgrade, validation_file,
 };
 use super::{MAX_API_ERRORS, ResumeError, RunError};
-use crate::search::confirm::{self, Checked, Status};
+use crate::search::confirm::{self, Candidate, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
 use crate::search::shrink::{self, Core, Found};
@@ -327,8 +327,16 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     );
     if let Some(c) = &confirmation {
         let row = |s: &SetStats| SetRow::new(&setup.domain, s);
-        let rows: Vec<CheckedRow> =
-            c.checked.iter().map(|k| CheckedRow { set: row(&k.stats), e_value: k.e, status: k.status }).collect();
+        let rows: Vec<CheckedRow> = c
+            .checked
+            .iter()
+            .map(|k| CheckedRow {
+                set: row(&k.stats),
+                e_value: k.e,
+                status: k.status,
+                triage: Some(Triage { wrong: k.triage.wrong, answered: k.triage.answered(), weight: k.weight }),
+            })
+            .collect();
         for (core, found) in summary.cores.iter_mut().zip(&found.cores) {
             if let Some(i) = c.candidates.iter().position(|k| k.stats.set == found.stats.set) {
                 core.confirmed = Some(rows[i].set.clone());
@@ -493,9 +501,16 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let unpaid = candidates.len() - paid;
     candidates.truncate(paid);
     let unexplained = candidates.len().saturating_sub(found.cores.len());
-    let asked: Vec<(ConceptSet, u32)> =
-        candidates.iter().map(|c| (c.stats.set, of(c.stats.set).map_or(0, SetStats::observations))).collect();
-    let (checked, confirm_spent) = confirm::confirm(eval, &asked, params.confirm_plan(budget)).await?;
+    let confirm_plan = params.confirm_plan(budget);
+    let asked: Vec<Candidate> = candidates
+        .iter()
+        .map(|c| Candidate {
+            set: c.stats.set,
+            first: of(c.stats.set).map_or(0, SetStats::observations),
+            weight: confirm::search_weight(of(c.stats.set).unwrap_or(&c.stats), &confirm_plan),
+        })
+        .collect();
+    let (checked, confirm_spent) = confirm::confirm(eval, &asked, confirm_plan).await?;
     let near = params.threshold - 2.0 * params.delta;
     let parts = candidates
         .iter()

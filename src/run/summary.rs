@@ -284,14 +284,29 @@ pub struct ConfirmSummary {
     pub checked: Vec<CheckedRow>,
 }
 
-/// One candidate after confirmation: its fresh observations only.
+/// One candidate after confirmation: its confirmation's observations (its triage's beside them).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CheckedRow {
     #[serde(flatten)]
     pub set: SetRow,
-    /// The e-value against "its rate is ≤ τ − δ" from the fresh observations.
+    /// The e-value against "its rate is ≤ τ − δ" from the confirmation's observations (after
+    /// its triage's).
     pub e_value: f64,
     pub status: crate::search::confirm::Status,
+    /// Its triage: the first m fresh observations, which set its e-BH weight (absent in runs
+    /// written before the triage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub triage: Option<Triage>,
+}
+
+/// A candidate's triage in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Triage {
+    pub wrong: u32,
+    pub answered: u32,
+    /// Its e-BH weight before scaling: the search's likelihood ratio (at most 20) times the
+    /// triage's, each of a mode at (τ + δ + 1) / 2 against a set at τ − δ.
+    pub weight: f64,
 }
 
 /// The shrink phase in `summary.json`.

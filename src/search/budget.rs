@@ -22,9 +22,9 @@
 //!   the same way (nothing, when the search spent its cap).
 //! - Confirmation gets everything the phases before it left. Its candidates are the shrink
 //!   phase's cores, then the minimal failure modes no core explains, strongest search evidence
-//!   first; the family e-BH controls is the first [`Plan::paid`] of them — as many as the budget
-//!   pays at `confirm_each` each, decided before any fresh observation — and the rest are not
-//!   sent.
+//!   first; the family e-BH controls is the first [`Plan::paid`] of them — as many as half the
+//!   budget triages at m each (the other half confirms the ones the triage weights highest),
+//!   decided before any fresh observation — and the rest are not sent.
 //!
 //! Without a shrink phase (`--shrink 0`, the paper's setting) there is no confirmation either:
 //! the search gets the whole budget less nothing but `--shrink` itself.
@@ -45,6 +45,9 @@ pub struct Plan {
     pub per_core: bool,
     /// Fresh observations kept per candidate core for confirmation.
     pub confirm_each: u64,
+    /// Fresh observations of a candidate's triage (m, at most the cap): the first round of
+    /// confirmation.
+    pub triage_each: u64,
     /// Inferences `interact` keeps besides its cores' share for confirming the minimal failure
     /// modes its search leaves unexplained (`--shrink`; `confirm_each` each); 0 for the paper's
     /// algorithms, whose shrink phase shrinks those failure modes instead.
@@ -62,7 +65,8 @@ impl Plan {
             true => total.saturating_sub(unexplained).saturating_sub(confirm_each),
             false => total.saturating_sub(shrink),
         };
-        Plan { total, search, phases, per_core, confirm_each, unexplained }
+        let triage_each = if phases { u64::from(m.clamp(1, cap.max(1))) } else { 0 };
+        Plan { total, search, phases, per_core, confirm_each, triage_each, unexplained }
     }
 
     /// Inferences kept for confirming `candidates` cores.
@@ -100,12 +104,16 @@ impl Plan {
     }
 
     /// How many of `candidates` candidates (strongest first) a confirmation budget of `budget`
-    /// pays: `confirm_each` each, the last one possibly in part. Decided from the budget and the
-    /// search's ordering alone, before any fresh observation, so the family e-BH controls does
-    /// not depend on what confirmation sees.
+    /// sends: as many as half of it triages at `triage_each` each (at least one), so the other
+    /// half is left for confirming the ones the triage weights highest. Decided from the budget
+    /// and the search's ordering alone, before any fresh observation, so the family e-BH
+    /// controls does not depend on what confirmation sees.
     pub fn paid(&self, budget: u64, candidates: usize) -> usize {
-        let each = self.confirm_each.max(1);
-        usize::try_from(budget.div_ceil(each)).unwrap_or(usize::MAX).min(candidates)
+        let each = self.triage_each.max(1);
+        if budget == 0 {
+            return 0;
+        }
+        usize::try_from((budget / 2 / each).max(1)).unwrap_or(usize::MAX).min(candidates)
     }
 }
 
@@ -151,9 +159,10 @@ mod tests {
     #[test]
     fn confirmation_sends_the_candidates_its_budget_pays_strongest_first() {
         let plan = Plan::new(1000, 250, true, 0.6, 0.1, 5, 40);
-        assert_eq!(plan.paid(350, 30), 18, "20 each, the last in part");
-        assert_eq!(plan.paid(340, 30), 17);
+        assert_eq!(plan.paid(350, 80), 35, "half the budget triages, 5 each");
+        assert_eq!(plan.paid(340, 30), 30);
         assert_eq!(plan.paid(350, 4), 4, "never more than there are");
+        assert_eq!(plan.paid(4, 4), 1, "at least one");
         assert_eq!(plan.paid(0, 4), 0);
     }
 }

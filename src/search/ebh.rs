@@ -12,6 +12,24 @@
 /// Which of `e` e-BH rejects at level `q`: a flag per hypothesis, in the input order. Ties at
 /// the cut are rejected together (they share a rank's threshold).
 pub fn ebh(e: &[f64], q: f64) -> Vec<bool> {
+    ebh_weighted(e, &vec![1.0; e.len()], q)
+}
+
+/// Weighted e-BH (Wang & Ramdas, 2022, section 5): e-BH on `w_i · e_i`, the weights scaled to
+/// sum to K. Weights fixed before the e-values are observed (here: from the search's data, the
+/// e-values from fresh observations) keep the false discovery rate at most q under any
+/// dependence: a null i is rejected only when w_i·e_i ≥ K / (q·R), so the expected false share
+/// is at most q·Σ_null w_i·E[e_i] / K ≤ q. A hypothesis with a larger weight needs a smaller
+/// e-value; one with weight 0 is never rejected. All weights zero (or none given): plain e-BH.
+pub fn ebh_weighted(e: &[f64], w: &[f64], q: f64) -> Vec<bool> {
+    debug_assert_eq!(e.len(), w.len());
+    let total: f64 = w.iter().map(|x| x.max(0.0)).sum();
+    let e: Vec<f64> = if total > 0.0 {
+        let scale = e.len() as f64 / total;
+        e.iter().zip(w).map(|(e, w)| e * w.max(0.0) * scale).collect()
+    } else {
+        e.to_vec()
+    };
     let k = e.len();
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_by(|&a, &b| e[b].total_cmp(&e[a]).then(a.cmp(&b)));
@@ -45,5 +63,23 @@ mod tests {
         // Sorted 200, 41, 30 against 60, 30, 20: k* = 3.
         assert_eq!(ebh(&[41.0, 200.0, 30.0], 0.05), vec![true; 3]);
         assert!(ebh(&[], 0.05).is_empty());
+    }
+
+    /// Weights move the bars: K = 4, q = 0.05, weights 2.5, 0.5, 0.5, 0.5 (sum 4). Plain e-BH
+    /// asks 80 of a lone rejection; weighted, the first needs 80 / 2.5 = 32, the others 160.
+    #[test]
+    fn weights_move_the_bars() {
+        let w = [2.5, 0.5, 0.5, 0.5];
+        assert_eq!(ebh(&[40.0, 1.0, 1.0, 1.0], 0.05), vec![false; 4]);
+        assert_eq!(ebh_weighted(&[40.0, 1.0, 1.0, 1.0], &w, 0.05), vec![true, false, false, false]);
+        assert_eq!(ebh_weighted(&[1.0, 100.0, 1.0, 1.0], &w, 0.05), vec![false; 4]);
+        // Weights are scaled to sum to K: 5, 1, 1, 1 is the same as 2.5, 0.5, 0.5, 0.5.
+        assert_eq!(ebh_weighted(&[40.0, 1.0, 1.0, 1.0], &[5.0, 1.0, 1.0, 1.0], 0.05), vec![true, false, false, false]);
+        // Equal weights are plain e-BH; all zero falls back to it.
+        let e = [100.0, 50.0, 10.0, 45.0];
+        assert_eq!(ebh_weighted(&e, &[3.0; 4], 0.05), ebh(&e, 0.05));
+        assert_eq!(ebh_weighted(&e, &[0.0; 4], 0.05), ebh(&e, 0.05));
+        // A weight of 0 is never rejected, whatever its e-value.
+        assert_eq!(ebh_weighted(&[1e9, 1e9], &[0.0, 1.0], 0.05), vec![false, true]);
     }
 }
