@@ -357,6 +357,10 @@ const NOT_RUN: &[(&str, &str)] = &[
         "a template: PROFILE, DOMAIN and B are placeholders the table below it fills; bench search itself runs reduced in the page's other commands",
     ),
     (
+        "revelio bench search --profile examples/sim/PROFILE.toml --domain domains/DOMAIN.rev --seeds 10 --budget 1000 --shrink S --batch 16 --concurrency 16 --algos interact --renderer none --json",
+        "a template: PROFILE, DOMAIN and S are placeholders the table below it fills; bench search itself runs reduced in the page's other commands",
+    ),
+    (
         "revelio search domains/driving.rev --model openai:gpt-4.1-mini --algo random --batch-api",
         "a provider's batch endpoint: tests/batch.rs runs --batch-api against mocks of all three batch APIs",
     ),
