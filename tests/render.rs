@@ -147,6 +147,16 @@ fn every_delivery_concept_is_visible() {
     every_concept_is_visible("domains/delivery.rev");
 }
 
+/// `revelio ARGS` run in `dir`: its exit code, stdout and stderr.
+fn revelio_in(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio")).current_dir(dir).args(args).output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 fn sample(d: &Domain, names: &[&str], seed: u64) -> Scene {
     revelio::sample::sample(d, d.parse_set(names).unwrap(), seed).unwrap()
 }
@@ -328,13 +338,8 @@ fn shipped_domains_pass_the_visibility_lint() {
 fn a_new_domain_checks_renders_and_searches() {
     let dir = tempfile::tempdir().unwrap();
     let revelio = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
-            .current_dir(dir.path())
-            .args(args)
-            .output()
-            .unwrap();
-        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-        (out.status.code(), text)
+        let (code, out, err) = revelio_in(dir.path(), args);
+        (code, format!("{out}{err}"))
     };
     let (code, text) = revelio(&["new", "yard"]);
     assert_eq!(code, Some(0), "{text}");
@@ -460,18 +465,7 @@ fn render_and_ask_say_an_entity_draws_nothing() {
     let allowed = text.replacen("visible {", "/// The `steps` stage draws the stairs.\nallow R0108\nvisible {", 1);
     std::fs::write(dir.path().join("allowed.rev"), allowed).unwrap();
     std::fs::write(dir.path().join("sim.toml"), "name = \"t\"\nbase_error = 0.1\n").unwrap();
-    let revelio = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_revelio"))
-            .current_dir(dir.path())
-            .args(args)
-            .output()
-            .unwrap();
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).into_owned(),
-            String::from_utf8_lossy(&out.stderr).into_owned(),
-        )
-    };
+    let revelio = |args: &[&str]| revelio_in(dir.path(), args);
     let undrawn = "`stairs` (Staircase, concept `stairs`): draws nothing, so it cannot be measured";
     let (code, out, err) = revelio(&["render", "undrawn.rev", "stairs", "--figures", "-o", "one.png"]);
     assert_eq!(code, Some(0), "{out}{err}");
