@@ -145,9 +145,12 @@ pub async fn confirm<E: Evaluate>(
     // one parallel round.
     let mut triage: Vec<SetStats> = candidates.iter().map(|c| SetStats::new(c.set)).collect();
     let mut asks = Vec::new();
+    // A candidate the budget could not triage is unfinished, not borderline.
+    let mut stopped_by_budget = false;
     for (i, c) in candidates.iter().enumerate() {
         let k = u64::from(plan.batch.min(plan.cap)).min(plan.budget - spent);
         if k == 0 {
+            stopped_by_budget = true;
             break;
         }
         asks.push((i, Ask { set: c.set, obs: c.first..c.first + k as u32 }));
@@ -175,7 +178,6 @@ pub async fn confirm<E: Evaluate>(
         all
     };
     let e_of = |s: &SetStats| cs::e_above(s.wrong, s.answered(), p0);
-    let mut stopped_by_budget = false;
     loop {
         let e: Vec<f64> = stats.iter().map(e_of).collect();
         let rejected = super::ebh::ebh_weighted(&e, &weights, plan.q);
@@ -341,6 +343,16 @@ mod tests {
         let fdr = fdp / f64::from(runs);
         assert!(fdr <= 0.05 + 0.02, "false discovery rate {fdr}");
         assert!(found as f64 / f64::from(runs * 4) >= 0.5, "power {found}");
+    }
+
+    #[test]
+    fn candidates_the_budget_could_not_triage_are_unfinished() {
+        let sets: Vec<ConceptSet> = (0..3).map(|i| ConceptSet::from_bits(1 << i)).collect();
+        let mut eval = Rates { rates: sets.iter().map(|s| (*s, 0.55)).collect(), asked: Vec::new() };
+        let (checked, spent) = block_on(confirm(&mut eval, &plain(&sets, 0), plan(7))).unwrap();
+        assert_eq!(spent, 7);
+        assert_eq!(checked[2].triage.observations(), 0);
+        assert_eq!(checked[2].status, Status::Unfinished, "{checked:?}");
     }
 
     #[test]
