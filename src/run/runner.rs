@@ -504,10 +504,13 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let confirm_plan = params.confirm_plan(budget);
     let asked: Vec<Candidate> = candidates
         .iter()
-        .map(|c| Candidate {
-            set: c.stats.set,
-            first: of(c.stats.set).map_or(0, SetStats::observations),
-            weight: confirm::search_weight(of(c.stats.set).unwrap_or(&c.stats), &confirm_plan),
+        .map(|c| {
+            let searched = of(c.stats.set);
+            Candidate {
+                set: c.stats.set,
+                first: searched.map_or(0, SetStats::observations),
+                weight: confirm::search_weight(searched.unwrap_or(&c.stats), &confirm_plan),
+            }
         })
         .collect();
     let (checked, confirm_spent) = confirm::confirm(eval, &asked, confirm_plan).await?;
