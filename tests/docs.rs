@@ -39,11 +39,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "ten 1 000-call searches",
     ),
     (
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --out runs/demo --budget 30 --renderer none",
-        "1000 rendered inferences, an interact step each",
-    ),
-    (
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --out runs/demo --budget 40 --renderer none",
         "1000 rendered inferences take minutes",
@@ -62,13 +57,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam",
         "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam --budget 100 --renderer none",
         "1000 rendered inferences",
-    ),
-    ("revelio validate runs/demo --top 10 --samples 20", "revelio validate runs/demo --top 3 --samples 4", "200 rendered inferences"),
-    ("revelio probe runs/demo --top 20 --samples 5", "revelio probe runs/demo --top 3 --samples 2", "100 rendered inferences"),
-    (
-        "revelio transfer runs/demo --model sim:examples/sim/driving_gemini.toml --top 10",
-        "revelio transfer runs/demo --model sim:examples/sim/driving_gemini.toml --top 2 --samples 2",
-        "rendered inferences",
     ),
     (
         "revelio compare runs/a runs/b --csv table.csv --html table.html",
