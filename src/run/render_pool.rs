@@ -5,8 +5,8 @@
 //! renderer on its own named threads (`revelio-render-N`) behind a bounded queue: an observation
 //! waits for a queue slot asynchronously, never blocking a worker.
 use std::future::Future;
-use std::sync::Arc;
 use std::sync::mpsc::{Sender, channel};
+use std::sync::{Arc, OnceLock};
 use std::task::{Context, Poll, Wake, Waker};
 
 use tokio::sync::Semaphore;
@@ -20,7 +20,7 @@ type Job = Box<dyn FnOnce() + Send>;
 /// A blocking renderer on dedicated threads, itself a non-blocking [`Renderer`].
 pub struct RenderPool {
     inner: Arc<dyn Renderer>,
-    jobs: Sender<Job>,
+    jobs: &'static Sender<Job>,
     /// Queue slots: renders in progress or waiting for a thread. Several threads let one
     /// frame's tessellation and encoding overlap another's rasterisation (`benches/render.rs`).
     slots: Semaphore,
@@ -31,18 +31,18 @@ pub fn render_threads() -> usize {
     std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(1, 4)
 }
 
-impl RenderPool {
-    /// `inner` on [`render_threads`] threads.
-    pub fn wrap(inner: Arc<dyn Renderer>) -> Arc<dyn Renderer> {
-        Arc::new(RenderPool::new(inner, render_threads()))
-    }
-
-    /// `inner` on `threads` threads with a queue of twice as many renders.
-    pub fn new(inner: Arc<dyn Renderer>, threads: usize) -> RenderPool {
-        let threads = threads.max(1);
+/// The queue of the render threads, started on first use and shared by every pool: they live
+/// as long as the process and never exit. A thread that draws through EGL holds per-thread
+/// driver state whose destructor (libglvnd's, run when the thread exits) can race the
+/// library's own teardown at process exit and abort it with "double free or corruption": pool
+/// threads that ended when their pool was dropped, just before `main` returned, did so once at
+/// the end of a `revelio ask`. A thread still waiting for a job at exit runs no destructor.
+fn shared_jobs() -> &'static Sender<Job> {
+    static JOBS: OnceLock<Sender<Job>> = OnceLock::new();
+    JOBS.get_or_init(|| {
         let (jobs, rx) = channel::<Job>();
         let rx = Arc::new(std::sync::Mutex::new(rx));
-        for i in 0..threads {
+        for i in 0..render_threads() {
             let rx = rx.clone();
             let spawned = std::thread::Builder::new().name(format!("revelio-render-{i}")).spawn(move || {
                 loop {
@@ -57,7 +57,19 @@ impl RenderPool {
             // Without any thread every render fails with a clear error below instead.
             drop(spawned);
         }
-        RenderPool { inner, jobs, slots: Semaphore::new(2 * threads) }
+        jobs
+    })
+}
+
+impl RenderPool {
+    /// `inner` on the shared render threads ([`render_threads`] of them).
+    pub fn wrap(inner: Arc<dyn Renderer>) -> Arc<dyn Renderer> {
+        Arc::new(RenderPool::new(inner))
+    }
+
+    /// `inner` on the shared render threads, with a queue of twice as many renders as threads.
+    pub fn new(inner: Arc<dyn Renderer>) -> RenderPool {
+        RenderPool { inner, jobs: shared_jobs(), slots: Semaphore::new(2 * render_threads()) }
     }
 }
 
