@@ -2,8 +2,9 @@
 //! milliseconds of tessellation, rasterisation on a CPU driver, readback, PNG encoding); called
 //! from an async task it would hold a tokio worker the whole time, and at high concurrency on a
 //! small machine the model calls' HTTP would stall behind it. [`RenderPool`] runs such a
-//! renderer on its own named threads (`revelio-render-N`) behind a bounded queue: an observation
-//! waits for a queue slot asynchronously, never blocking a worker.
+//! renderer on named threads (`revelio-render-N`, shared by every pool of the process and kept
+//! until it exits) behind a bounded queue of its own: an observation waits for a queue slot
+//! asynchronously, never blocking a worker.
 use std::future::Future;
 use std::sync::mpsc::{Sender, channel};
 use std::sync::{Arc, OnceLock};
