@@ -65,7 +65,7 @@ impl Plan {
             true => total.saturating_sub(unexplained).saturating_sub(confirm_each),
             false => total.saturating_sub(shrink),
         };
-        let triage_each = if phases { u64::from(m.clamp(1, cap.max(1))) } else { 0 };
+        let triage_each = if phases { u64::from(triage_each(m, cap)) } else { 0 };
         Plan { total, search, phases, per_core, confirm_each, triage_each, unexplained }
     }
 
@@ -115,6 +115,13 @@ impl Plan {
         }
         usize::try_from((budget / 2 / each).max(1)).unwrap_or(usize::MAX).min(candidates)
     }
+}
+
+/// Fresh observations of a candidate's triage, the first round of confirmation: the round size
+/// m, at least one and at most the per-candidate cap. The plan pays for it and
+/// [`super::confirm::confirm`] asks it.
+pub fn triage_each(m: u32, cap: u32) -> u32 {
+    m.clamp(1, cap.max(1))
 }
 
 /// Fresh observations a candidate needs: the first n at which a mode at (τ + δ + 1) / 2, with

@@ -148,7 +148,7 @@ pub async fn confirm<E: Evaluate>(
     // A candidate the budget could not triage is unfinished, not borderline.
     let mut stopped_by_budget = false;
     for (i, c) in candidates.iter().enumerate() {
-        let k = u64::from(plan.batch.min(plan.cap)).min(plan.budget - spent);
+        let k = u64::from(super::budget::triage_each(plan.batch, plan.cap)).min(plan.budget - spent);
         if k == 0 {
             stopped_by_budget = true;
             break;
