@@ -34,7 +34,7 @@ use crate::search::confirm::{self, Candidate, Checked, Status};
 use crate::search::interval::mean_sd;
 use crate::search::metrics::{metrics, ranked};
 use crate::search::shrink::{self, Core, Found};
-use crate::search::{CallsBy, Driver, Params, Rule, SearchError, Searched, SetStats, Space};
+use crate::search::{CallsBy, Drive, Driver, Params, Rule, SearchError, Searched, SetStats, Space};
 
 /// Fields of `config.json` a resume may change: where things are, not what the run is (and the
 /// format, which [`upgrade`] reads in today's terms).

@@ -7,7 +7,7 @@
 //! level; ties go to the earlier candidate.
 use crate::ir::ConceptSet;
 
-use super::{Driver, Evaluate, Params, Searched, SetStats, Space};
+use super::{Drive, Driver, Evaluate, Params, Searched, SetStats, Space};
 
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let mut frontier = vec![ConceptSet::EMPTY];

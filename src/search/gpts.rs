@@ -17,7 +17,7 @@ use crate::ir::ConceptSet;
 
 use super::gp::{Gp, GpError, Kernel};
 use super::gp_rbf::RbfGp;
-use super::{Driver, Evaluate, Params, SearchError, Searched, Space};
+use super::{Drive, Driver, Evaluate, Params, SearchError, Searched, Space};
 
 /// A fitted surrogate of the chosen kernel.
 enum Fitted {

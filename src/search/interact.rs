@@ -34,6 +34,7 @@
 //! found and one more. Every decision is a pure function of the seed and the observed
 //! answers, so a resumed run replays exactly.
 use std::cell::RefCell;
+use std::collections::VecDeque;
 use std::rc::Rc;
 
 use rand::{RngExt, SeedableRng};
@@ -41,10 +42,11 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::ir::ConceptSet;
 
+use super::lanes;
 use super::patterns::{Fit, Patterns};
 use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
-use super::{Driver, Evaluate, Params, Purpose, Rule, Searched, SetStats, Space};
+use super::{Drive, Driver, Evaluate, Params, Purpose, Rule, Searched, SetStats, Space};
 
 /// Salt for the interact random stream.
 const STREAM: u64 = 0x696e_7465_7261_6374;
@@ -397,6 +399,11 @@ pub const ESCALATE: u32 = 3;
 /// is shrunk one concept at a time.
 pub const JUMPS: usize = 3;
 
+/// Fills escalate hot sets ahead of the workers up to their number plus one in this many of the
+/// sets waiting: a long queue (every set of four answering wrong on its screen) is worked through
+/// instead of screened past, a short one is not escalated before a core may cover it.
+pub const AHEAD_SHARE: usize = 4;
+
 /// A sampled space's first pool: this many uniform draws per inference of the budget (at most
 /// [`POOL_MOST`]), besides every valid single concept. A screen tests one set of the pool, so
 /// the draws hold many times the sets the budget can screen.
@@ -442,8 +449,13 @@ pub struct PatternSearcher<'s> {
     marked: usize,
     /// A sampled space: hot patterns and unions already added to the pool.
     expanded: std::collections::HashSet<ConceptSet>,
-    /// The failing set being explained: fills prefer sets sharing at most one of its concepts.
-    focus: Option<ConceptSet>,
+    /// The sets being decided on (escalated, explained): fills prefer sets sharing at most one
+    /// concept with each.
+    focus: Vec<ConceptSet>,
+    /// Screened sets that answered wrong, not decided on yet, in the order they were screened.
+    hot: VecDeque<ConceptSet>,
+    /// Workers deciding on hot sets side by side ([`work_hot`]).
+    workers: usize,
 }
 
 impl<'s> PatternSearcher<'s> {
@@ -460,7 +472,9 @@ impl<'s> PatternSearcher<'s> {
             rng: ChaCha8Rng::seed_from_u64(params.seed ^ STREAM),
             marked: 0,
             expanded: Default::default(),
-            focus: None,
+            focus: Vec::new(),
+            hot: VecDeque::new(),
+            workers: 1,
         };
         if space.is_sampled() {
             // The first pool: every valid single concept, then uniform draws (their own stream, so
@@ -651,22 +665,57 @@ impl<'s> PatternSearcher<'s> {
         new.into_iter().for_each(|s| self.join(s));
     }
 
-    /// Up to `room` new sets to screen beside a call's `asks` (a narrow step of the search):
-    /// [`PatternSearcher::propose`]'s picks, the asked sets left out, and while a failing set is
-    /// being explained, sets that share at most one of its concepts first (the others would answer
-    /// wrong through the very failure mode being explained, and be escalated before its core
-    /// covers them); the rest only to fill the call to its width.
-    pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<ConceptSet> {
+    /// Asks of at most `room` observations to fill a call beside its `asks` (a narrow step of the
+    /// search): first the escalation of the hot sets waiting to be decided on, in the order they
+    /// were screened, each off the families of the sets being decided on and of those escalated
+    /// before it in the fill (sharing at most one concept with each), and no more escalated ahead
+    /// than there are workers (the sets they take next; a set escalated further ahead may be
+    /// covered by a core before its turn) plus one in [`AHEAD_SHARE`] of the waiting sets; then
+    /// screens of [`PatternSearcher::propose`]'s picks, the asked sets left out, those off the
+    /// same families first (the others would answer wrong through the very failure mode being
+    /// explained, and be escalated before its core covers them); the rest only to fill the call
+    /// to its width.
+    pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<super::Ask> {
         asks.iter().for_each(|a| self.board.explore(a.set));
-        match self.focus {
-            Some(f) => {
-                // Off the family first; the call is still filled to the width from the rest.
-                let (off, on): (Vec<ConceptSet>, Vec<ConceptSet>) =
-                    self.pick(history, 2 * room).into_iter().partition(|p| p.intersection(f).len() < 2);
-                off.into_iter().chain(on).take(room).collect()
+        let apart = |focus: &[ConceptSet], set: ConceptSet| focus.iter().all(|f| f.intersection(set).len() < 2);
+        let mut out = Vec::new();
+        let mut left = room;
+        let mut focus = self.focus.clone();
+        let escalated = ESCALATE.min(self.params.samples);
+        let observed = |set: ConceptSet| history.iter().find(|s| s.set == set).map(SetStats::observations);
+        // At most as many escalated ahead as the workers take next, and a quarter of a long
+        // queue (a flood of hot sets is worked through rather than screened past).
+        let limit = self.workers + self.hot.len() / AHEAD_SHARE;
+        let mut ahead = self.hot.iter().filter(|&&h| observed(h).is_some_and(|n| n >= escalated)).count();
+        for &h in &self.hot {
+            if left == 0 || ahead >= limit {
+                break;
             }
-            None => self.pick(history, room),
+            if asks.iter().any(|a| a.set == h) || self.board.is_covered(h) || !apart(&focus, h) {
+                continue;
+            }
+            let Some(n) = observed(h) else { continue };
+            let want = escalated.saturating_sub(n) as usize;
+            if want > 0 && want <= left {
+                out.push(super::Ask { set: h, obs: n..n + want as u32 });
+                left -= want;
+                focus.push(h);
+                ahead += 1;
+            }
         }
+        if left == 0 {
+            return out;
+        }
+        let screen = |set| super::Ask { set, obs: 0..SCREEN };
+        if focus.is_empty() {
+            out.extend(self.pick(history, left).into_iter().map(screen));
+            return out;
+        }
+        // Off the families first; the call is still filled to the width from the rest.
+        let (off, on): (Vec<ConceptSet>, Vec<ConceptSet>) =
+            self.pick(history, 2 * left).into_iter().partition(|&p| apart(&focus, p));
+        out.extend(off.into_iter().chain(on).take(left).map(screen));
+        out
     }
 
     pub fn explored(&mut self, set: ConceptSet) {
@@ -678,13 +727,14 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// A confirmed core: it and its supersets are no longer open patterns, and (unless supersets
-    /// are kept) its supersets leave the sets to pick.
-    pub fn confirm(&mut self, core: ConceptSet) {
+    /// are kept) its supersets leave the sets to pick. False when it was confirmed before.
+    pub fn confirm(&mut self, core: ConceptSet) -> bool {
         if self.cores.contains(&core) {
-            return;
+            return false;
         }
         self.cores.push(core);
         self.set_aside(core);
+        true
     }
 
     /// A passing set near τ that its failing supersets do not significantly exceed
@@ -819,14 +869,15 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 /// The group-testing search: screen, escalate, jump to the likeliest core, shrink.
 ///
 /// Rounds of `batch` picks (the width: by default the concurrency at the run's start, recorded in
-/// the run). The steps after a screen ask about a few sets at a time, so every call is filled to
-/// the width with more screens ([`Driver::fill_to`]); the sets they add are decided on in the
-/// next round, before any new picks. What keeps the wide search as good as one pick at a time:
-/// a shrink tests width ÷ m one-smaller subsets together ([`Driver::lookahead`]), the sets that
-/// answered wrong are escalated a call's worth at a time and explained before the next group
-/// (so a set a new core covers is never escalated), and the fills made while a set is explained
-/// keep off its family ([`PatternSearcher::fill`]). Every fill is a pure function of the seed
-/// and the answers.
+/// the run). The sets that answered wrong are decided on by `width ÷ m` workers side by side
+/// ([`lanes`], [`work_hot`]): each takes the next hot set that shares at most one concept with
+/// the sets the others hold, escalates it and explains it when it fails, so a call holds several
+/// explaining steps, and a set a core found meanwhile covers is dropped unescalated. What a call
+/// still has room for is filled ([`Driver::fill_to`], [`PatternSearcher::fill`]): first with the
+/// escalation of hot sets waiting their turn, then with screens off the families being decided
+/// on; a screen that answers wrong joins the hot sets. A shrink's lookahead is its lane's share
+/// of the width ([`lanes::Lane`]). At width 1 this is the one-pick-at-a-time search, unchanged.
+/// Every decision is a pure function of the seed and the answers.
 async fn run_patterns<'d, E: Evaluate>(
     params: &Params,
     space: &'d Space,
@@ -862,13 +913,18 @@ async fn search_patterns<'d, E: Evaluate>(
             Box::new(move |history, asks, room| filler.borrow_mut().fill(history, asks, room)),
         );
     }
-    // Screened sets not decided on yet (picks, and the sets calls were filled with).
-    let mut queue: Vec<ConceptSet> = Vec::new();
-    let (plan, mut cores) = (params.plan(), 0);
+    let plan = params.plan();
+    let cores = std::cell::Cell::new(0);
+    let wrong = |stats: Option<&SetStats>| stats.is_some_and(|s| s.wrong > 0);
+    // Workers side by side: as many as a call of the width holds explaining steps of m.
+    let workers = (params.batch / triage.samples.max(1) as usize).max(1);
+    searcher.borrow_mut().workers = workers;
     loop {
         driver.set_rule(screen);
-        driver.purpose = Some(Purpose::Screening);
-        if queue.is_empty() {
+        driver.set_purpose(Some(Purpose::Screening));
+        let filled = driver.take_filled();
+        searcher.borrow_mut().hot.extend(filled.into_iter().filter(|&s| wrong(driver.stats(s))));
+        if searcher.borrow().hot.is_empty() {
             if !driver.can_start() {
                 break;
             }
@@ -877,46 +933,106 @@ async fn search_patterns<'d, E: Evaluate>(
                 break;
             }
             driver.evaluate(&picks).await?;
-            queue.extend(picks);
+            let filled = driver.take_filled();
+            let screened = picks.into_iter().chain(filled);
+            searcher.borrow_mut().hot.extend(screened.filter(|&s| wrong(driver.stats(s))));
+            continue;
         }
-        queue.extend(driver.take_filled());
-        // A wrong answer in the screen: the set gets its m observations.
-        let mut hot: std::collections::VecDeque<ConceptSet> =
-            queue.drain(..).filter(|&s| driver.stats(s).is_some_and(|s| s.wrong > 0)).collect();
-        // Escalated a group at a time (a call's worth), each group's failing sets explained
-        // before the next is escalated: a set a core found meanwhile covers is not escalated.
-        let group_size = (params.batch / escalate.samples.max(1) as usize).max(1);
-        'hot: while !hot.is_empty() {
-            let mut group = Vec::new();
-            while group.len() < group_size {
-                let Some(set) = hot.pop_front() else { break };
-                if !searcher.borrow().is_covered(set) {
-                    group.push(set);
-                }
+        let rules = Rules { tau, escalate, triage, confirm };
+        let hub = lanes::Hub::new(driver, workers);
+        let work: Vec<lanes::LaneWork<'_, (), E>> = (0..workers)
+            .map(|_| {
+                let (hub, searcher, plan, cores) = (&hub, &searcher, &plan, &cores);
+                Box::pin(async move {
+                    let mut lane = hub.lane(escalate);
+                    work_hot(&mut lane, space, searcher, rules, (plan, cores)).await
+                }) as lanes::LaneWork<'_, (), E>
+            })
+            .collect();
+        hub.run(work).await?;
+    }
+    Ok(())
+}
+
+/// The rules a hot set is decided by: escalated under `escalate`, explained under `triage`, its
+/// core confirmed under `confirm`, failing at `tau`.
+#[derive(Clone, Copy)]
+struct Rules {
+    tau: f64,
+    escalate: Rule,
+    triage: Rule,
+    confirm: Rule,
+}
+
+/// One worker: takes the first hot set that no set another worker is deciding on shares two
+/// concepts with (a set of the same family waits, and is dropped once a core covers it),
+/// escalates it, explains it when it fails, and takes the next, until none is left to take.
+/// Sets the calls were filled with meanwhile join the hot ones when they answered wrong.
+async fn work_hot<'d, E: Evaluate>(
+    lane: &mut lanes::Lane<'_, '_, '_, E>,
+    space: &'d Space,
+    searcher: &RefCell<PatternSearcher<'d>>,
+    r: Rules,
+    found: (&super::budget::Plan, &std::cell::Cell<usize>),
+) -> Searched<(), E> {
+    loop {
+        let filled = lane.take_filled();
+        let next = {
+            let mut s = searcher.borrow_mut();
+            s.hot.extend(filled.into_iter().filter(|&set| lane.get(set).is_some_and(|st| st.wrong > 0)));
+            let PatternSearcher { hot, focus, board, .. } = &mut *s;
+            hot.retain(|&set| !board.is_covered(set));
+            let free = hot.iter().position(|&set| focus.iter().all(|f| f.intersection(set).len() < 2));
+            let next = free.and_then(|i| hot.remove(i));
+            focus.extend(next);
+            next
+        };
+        let Some(set) = next else {
+            // Nothing free now: wait for what the others' calls bring.
+            if searcher.borrow().focus.is_empty() || !lane.idle().await {
+                return Ok(());
             }
-            driver.set_rule(escalate);
-            driver.purpose = Some(Purpose::Escalation);
-            driver.top_up(&group).await?;
-            queue.extend(driver.take_filled());
-            for set in group {
-                let failing = driver.stats(set).is_some_and(|s| s.is_failure_mode(tau));
-                if !failing || searcher.borrow().is_covered(set) {
-                    continue;
-                }
-                driver.set_rule(triage);
-                if !driver.can_start() {
-                    break 'hot;
-                }
-                let core = explain(driver, space, &searcher, set, (tau, triage, confirm)).await?;
-                queue.extend(driver.take_filled());
-                if let Some(c) = core {
-                    searcher.borrow_mut().confirm(c);
-                    // Keep fresh confirmation's share for this core and the next ([`Params::plan`]).
-                    cores += 1;
-                    driver.set_budget(plan.search_cap(cores));
-                }
+            continue;
+        };
+        lane.set_rule(r.escalate);
+        lane.set_purpose(Some(Purpose::Escalation));
+        lane.top_up(&[set]).await?;
+        let failing = lane.get(set).is_some_and(|s| s.is_failure_mode(r.tau));
+        let mut go_on = true;
+        if failing && !searcher.borrow().is_covered(set) {
+            lane.set_rule(r.triage);
+            go_on = lane.can_start();
+            if go_on {
+                explain_one(lane, space, searcher, set, (r.tau, r.triage, r.confirm), found).await?;
             }
         }
+        let mut s = searcher.borrow_mut();
+        s.focus.retain(|&f| f != set);
+        if !go_on {
+            // The budget cannot start explaining: what is hot is left, and the search screens on
+            // with what remains.
+            s.hot.clear();
+            return Ok(());
+        }
+    }
+}
+
+/// [`explain`] `set`, and take the core it finds, if new: the searcher sets its family aside,
+/// and the search's cap keeps fresh confirmation's share for it ([`Params::plan`]); `cores`
+/// counts the cores found so far.
+async fn explain_one<'d, D: Drive>(
+    driver: &mut D,
+    space: &'d Space,
+    searcher: &RefCell<PatternSearcher<'d>>,
+    set: ConceptSet,
+    rules: (f64, Rule, Rule),
+    (plan, cores): (&super::budget::Plan, &std::cell::Cell<usize>),
+) -> Searched<(), D::Eval> {
+    if let Some(c) = explain(driver, space, searcher, set, rules).await?
+        && searcher.borrow_mut().confirm(c)
+    {
+        cores.set(cores.get() + 1);
+        driver.set_budget(plan.search_cap(cores.get()));
     }
     Ok(())
 }
@@ -926,18 +1042,17 @@ async fn search_patterns<'d, E: Evaluate>(
 /// parts' passing) under the full rule, shrinking on if a part fails after all. Fills made
 /// meanwhile keep off its family ([`PatternSearcher::fill`]); the passing near-τ families met
 /// are set aside in the searcher. The core found, if any (the caller confirms it there).
-async fn explain<'d, E: Evaluate>(
-    driver: &mut Driver<'d, E>,
+async fn explain<'d, D: Drive>(
+    driver: &mut D,
     space: &'d Space,
     searcher: &RefCell<PatternSearcher<'d>>,
     set: ConceptSet,
     (tau, triage, confirm): (f64, Rule, Rule),
-) -> Searched<Option<ConceptSet>, E> {
-    driver.purpose = Some(Purpose::Explaining);
-    searcher.borrow_mut().focus = Some(set);
+) -> Searched<Option<ConceptSet>, D::Eval> {
+    driver.set_purpose(Some(Purpose::Explaining));
     let candidates = {
         let s = searcher.borrow();
-        let fit = s.fit(&driver.history);
+        let fit = driver.with_history(|history| s.fit(history));
         s.candidates(&fit, set)
     };
     let mut core = None;
@@ -948,7 +1063,7 @@ async fn explain<'d, E: Evaluate>(
         if tried == JUMPS {
             break;
         }
-        if driver.stats(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(s)) {
+        if driver.get(p).is_some_and(|s| !s.is_failure_mode(tau) && triage.settled(&s)) {
             continue;
         }
         tried += 1;
@@ -965,12 +1080,11 @@ async fn explain<'d, E: Evaluate>(
     // (shrinking on if a part fails after all).
     if let Some(c) = core {
         driver.set_rule(confirm);
-        driver.purpose = Some(Purpose::Confirmation);
+        driver.set_purpose(Some(Purpose::Confirmation));
         core = sort_out(&shrink::shrink(driver, space, c).await?, tau, &mut flat);
     }
     let mut s = searcher.borrow_mut();
-    s.focus = None;
-    s.catch_up(&driver.history);
+    driver.with_history(|history| s.catch_up(history));
     flat.into_iter().for_each(|by| s.explain(by));
     Ok(core)
 }

@@ -17,9 +17,10 @@
 //! evaluated twice: more observations of a set continue its observation indices.
 //!
 //! Building blocks for other algorithms: a [`Driver`] holds the budget and the history;
-//! [`Driver::evaluate`] evaluates new sets under the rule, [`Driver::top_up`] gives settled or
-//! unsettled sets the observations the rule asks for, [`Driver::test`] does either for one set,
-//! and [`shrink::shrink`] reduces one failing set to a minimal failing subset through a driver.
+//! through the [`Drive`] trait, [`Drive::evaluate`] evaluates new sets under the rule,
+//! [`Drive::top_up`] gives settled or unsettled sets the observations the rule asks for,
+//! [`Drive::test`] does either for one set, and [`shrink::shrink`] reduces one failing set to a
+//! minimal failing subset through a driver, or through a [`lanes::Lane`] of one, beside others.
 
 pub mod beam;
 pub mod budget;
@@ -31,6 +32,7 @@ pub mod gp_rbf;
 pub mod gpts;
 pub mod interact;
 pub mod interval;
+pub mod lanes;
 pub mod metrics;
 pub mod patterns;
 pub mod random;
@@ -449,7 +451,176 @@ impl CallsBy {
 
 /// Fills a call narrower than the width with new sets to screen: given the history, the call's
 /// asks and how many sets fit, the sets to add ([`Driver::fill_to`]).
-pub type Fill<'e> = Box<dyn FnMut(&[SetStats], &[Ask], usize) -> Vec<ConceptSet> + 'e>;
+pub type Fill<'e> = Box<dyn FnMut(&[SetStats], &[Ask], usize) -> Vec<Ask> + 'e>;
+
+/// What a search step tests through: the [`Driver`] itself, or a lane of it that explains one
+/// failing set beside others ([`lanes`]). Steps written against it (a shrink, interact's
+/// explaining) run either way; the driver's evaluate, top-up and test are defined here once.
+#[allow(async_fn_in_trait, reason = "the search futures run on one thread; no Send bound is needed")]
+pub trait Drive {
+    type Eval: Evaluate;
+
+    /// The sequential rule the next observations are asked under.
+    fn rule(&self) -> Rule;
+
+    fn set_rule(&mut self, rule: Rule);
+
+    /// What the calls made now are for, when the algorithm says (interact).
+    fn set_purpose(&mut self, purpose: Option<Purpose>);
+
+    /// Inferences this driver may still spend.
+    fn remaining(&self) -> u64;
+
+    /// Change the budget (GPTS caps it for its beam phase, then restores it; interact keeps fresh
+    /// confirmation's share for each core it finds).
+    fn set_budget(&mut self, budget: u64);
+
+    /// Everything observed of `set` so far.
+    fn get(&self, set: ConceptSet) -> Option<SetStats>;
+
+    /// `f` of every evaluated set, in the order each was first evaluated.
+    fn with_history<R>(&self, f: impl FnOnce(&[SetStats]) -> R) -> R;
+
+    /// How many sets a step that tests sets one after another (a shrink's one-smaller subsets)
+    /// tests together.
+    fn lookahead(&self) -> usize;
+
+    /// Make the asked observations and record them.
+    async fn call(&mut self, asks: Vec<Ask>) -> Searched<(), Self::Eval>;
+
+    /// Whether the budget still pays the first m observations of a new set.
+    fn can_start(&self) -> bool {
+        self.remaining() >= u64::from(self.rule().samples)
+    }
+
+    /// Evaluate the sets not evaluated yet, in order, as far as the budget goes, and top up the
+    /// requested sets evaluated before; returns the stats of every requested set that has been
+    /// evaluated (now or before), in request order.
+    ///
+    /// New sets go in chunks that the budget pays even if every set takes M observations
+    /// (`remaining / M`, at least one): each chunk gets its m observations concurrently, then
+    /// top-up rounds until all its sets are settled, then the next chunk. So top-ups are never
+    /// starved by sets evaluated later, and with M = m the whole request is one chunk cut at
+    /// `remaining / m` sets — the paper's estimator, unchanged.
+    async fn evaluate(&mut self, sets: &[ConceptSet]) -> Searched<Vec<SetStats>, Self::Eval> {
+        let mut fresh = Vec::new();
+        let mut batch = HashSet::new();
+        let mut earlier = Vec::new();
+        for &s in sets {
+            if !batch.insert(s) {
+                continue;
+            }
+            if self.get(s).is_some() { earlier.push(s) } else { fresh.push(s) }
+        }
+        let rule = self.rule();
+        let (m, max) = (u64::from(rule.samples), u64::from(rule.max_samples.max(rule.samples)));
+        let mut next = 0;
+        while next < fresh.len() {
+            let affordable = (self.remaining() / m) as usize;
+            if affordable == 0 {
+                break;
+            }
+            let chunk = ((self.remaining() / max) as usize).max(1).min(affordable).min(fresh.len() - next);
+            let sets = &fresh[next..next + chunk];
+            let asks: Vec<Ask> = sets.iter().map(|&set| Ask { set, obs: 0..rule.samples }).collect();
+            self.call(asks).await?;
+            self.top_up(sets).await?;
+            next += chunk;
+        }
+        self.top_up(&earlier).await?;
+        Ok(sets.iter().filter_map(|s| self.get(*s)).collect())
+    }
+
+    /// Give evaluated sets the observations the rule asks for ([`Rule::next`]), round after
+    /// round, until every one is settled or the budget is spent (the last batch may be cut
+    /// short). Sets not evaluated yet are ignored.
+    async fn top_up(&mut self, sets: &[ConceptSet]) -> Searched<(), Self::Eval> {
+        let rule = self.rule();
+        loop {
+            let mut left = self.remaining();
+            let mut asks: Vec<Ask> = Vec::new();
+            for &set in sets {
+                let Some(s) = self.get(set) else { continue };
+                if left == 0 || asks.iter().any(|a| a.set == set) {
+                    continue;
+                }
+                let k = u64::from(rule.next(&s)).min(left);
+                if k > 0 {
+                    let n = s.observations();
+                    asks.push(Ask { set, obs: n..n + k as u32 });
+                    left -= k;
+                }
+            }
+            if asks.is_empty() {
+                return Ok(());
+            }
+            self.call(asks).await?;
+        }
+    }
+
+    /// `k` more observations of the evaluated `set` whatever the rule says (at most what the
+    /// budget has left); false when it was not evaluated or nothing could be paid.
+    async fn observe_more(&mut self, set: ConceptSet, k: u32) -> Searched<bool, Self::Eval> {
+        let Some(s) = self.get(set) else { return Ok(false) };
+        let k = u64::from(k).min(self.remaining()) as u32;
+        if k == 0 {
+            return Ok(false);
+        }
+        let n = s.observations();
+        self.call(vec![Ask { set, obs: n..n + k }]).await?;
+        Ok(true)
+    }
+
+    /// Evaluate `set` or top it up under the rule; `None` when it is new and the budget cannot
+    /// pay its first m observations.
+    async fn test(&mut self, set: ConceptSet) -> Searched<Option<SetStats>, Self::Eval> {
+        Ok(self.evaluate(&[set]).await?.into_iter().next())
+    }
+}
+
+impl<E: Evaluate> Drive for Driver<'_, E> {
+    type Eval = E;
+
+    fn rule(&self) -> Rule {
+        self.rule
+    }
+
+    fn set_rule(&mut self, rule: Rule) {
+        self.rule = rule;
+    }
+
+    fn set_purpose(&mut self, purpose: Option<Purpose>) {
+        self.purpose = purpose;
+    }
+
+    fn remaining(&self) -> u64 {
+        self.budget.saturating_sub(self.spent)
+    }
+
+    fn set_budget(&mut self, budget: u64) {
+        self.budget = budget;
+    }
+
+    fn get(&self, set: ConceptSet) -> Option<SetStats> {
+        self.stats(set).cloned()
+    }
+
+    fn with_history<R>(&self, f: impl FnOnce(&[SetStats]) -> R) -> R {
+        f(&self.history)
+    }
+
+    /// The width over m when calls are filled ([`Driver::fill_to`]), else one.
+    fn lookahead(&self) -> usize {
+        match &self.fill {
+            Some((width, ..)) => (*width / self.rule.samples.max(1) as usize).max(1),
+            None => 1,
+        }
+    }
+
+    async fn call(&mut self, asks: Vec<Ask>) -> Searched<(), E> {
+        self.call_parts(vec![(self.purpose, asks)]).await
+    }
+}
 
 /// Budget, history and the sequential rule, shared by the algorithms and the shrink phase.
 pub struct Driver<'e, E> {
@@ -507,15 +678,6 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         self.fill = Some((width.max(1), obs.max(1), std::mem::ManuallyDrop::new(fill)));
     }
 
-    /// How many sets a step that tests sets one after another (a shrink's one-smaller subsets)
-    /// tests together: the width over m when calls are filled ([`Driver::fill_to`]), else one.
-    pub fn lookahead(&self) -> usize {
-        match &self.fill {
-            Some((width, ..)) => (*width / self.rule.samples.max(1) as usize).max(1),
-            None => 1,
-        }
-    }
-
     /// Stop filling calls, and drop the filler.
     pub fn clear_fill(&mut self) {
         if let Some((.., fill)) = self.fill.take() {
@@ -528,66 +690,61 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         std::mem::take(&mut self.filled)
     }
 
-    /// Make the asked observations (filled, see [`Driver::fill_to`]) and record them.
-    async fn call(&mut self, asks: Vec<Ask>) -> Searched<(), E> {
-        let mut all = asks;
+    /// Make the asked observations of one call, each part's asks counted to its purpose (filled,
+    /// see [`Driver::fill_to`]), and record them. An ask for a set that an earlier part of the
+    /// call also asks about extends that ask (the parts counted their ranges from the same
+    /// observations), so one call never shows a scene twice.
+    pub(crate) async fn call_parts(&mut self, parts: Vec<(Option<Purpose>, Vec<Ask>)>) -> Searched<(), E> {
+        let mut all: Vec<Ask> = Vec::new();
+        let mut purposes: Vec<Option<Purpose>> = Vec::new();
+        for (purpose, asks) in parts {
+            for ask in asks {
+                match all.iter_mut().find(|a| a.set == ask.set) {
+                    Some(a) => a.obs.end += ask.len(),
+                    None => {
+                        all.push(ask);
+                        purposes.push(purpose);
+                    }
+                }
+            }
+        }
         let own = all.len();
         if let Some((width, obs, fill)) = &mut self.fill {
             let asked: u64 = all.iter().map(|a| u64::from(a.len())).sum();
             let width = *width as u64;
-            let affordable = self.budget.saturating_sub(self.spent + asked) / u64::from(*obs);
-            let room = ((width - asked % width) % width / u64::from(*obs)).min(affordable) as usize;
+            let affordable = self.budget.saturating_sub(self.spent + asked);
+            let mut room = ((width - asked % width) % width).min(affordable);
             if room > 0 {
-                for set in fill(&self.history, &all, room) {
-                    if all.len() - own < room && !self.seen.contains_key(&set) && !all.iter().any(|a| a.set == set) {
-                        all.push(Ask { set, obs: 0..*obs });
+                for ask in fill(&self.history, &all, room as usize) {
+                    let n = self.seen.get(&ask.set).map_or(0, |&i| self.history[i].observations());
+                    // A new set gets its screen; an evaluated one continues its observations.
+                    let fits = if n == 0 { ask.obs == (0..*obs) } else { ask.obs.start == n && !ask.is_empty() };
+                    if fits && u64::from(ask.len()) <= room && !all.iter().any(|a| a.set == ask.set) {
+                        room -= u64::from(ask.len());
+                        purposes.push(Some(if n == 0 { Purpose::Screening } else { Purpose::Escalation }));
+                        all.push(ask);
                     }
                 }
             }
         }
         let stats = self.eval.evaluate(&all).await.map_err(SearchError::Eval)?;
-        let purpose = self.purpose;
-        let (mine, extra) = (all[..own].to_vec(), all[own..].to_vec());
-        let mut stats = stats.into_iter();
-        self.record(&mine, stats.by_ref().take(own).collect());
-        if !extra.is_empty() {
-            self.purpose = Some(Purpose::Screening);
-            self.record(&extra, stats.collect());
-            self.purpose = purpose;
-            self.filled.extend(extra.iter().map(|a| a.set));
-        }
+        self.filled.extend(all[own..].iter().filter(|a| a.obs.start == 0).map(|a| a.set));
+        self.record(&all, &purposes, stats);
         Ok(())
     }
 
-    pub fn rule(&self) -> Rule {
-        self.rule
-    }
-
-    pub fn set_rule(&mut self, rule: Rule) {
-        self.rule = rule;
+    /// The calls in flight every call is filled to ([`Driver::fill_to`]), if it is.
+    pub fn width(&self) -> Option<usize> {
+        self.fill.as_ref().map(|(width, ..)| *width)
     }
 
     pub fn budget(&self) -> u64 {
         self.budget
     }
 
-    /// Change the budget (GPTS caps it for its beam phase, then restores it).
-    pub fn set_budget(&mut self, budget: u64) {
-        self.budget = budget;
-    }
-
     /// Inferences spent through this driver.
     pub fn spent(&self) -> u64 {
         self.spent
-    }
-
-    pub fn remaining(&self) -> u64 {
-        self.budget.saturating_sub(self.spent)
-    }
-
-    /// Whether the budget still pays the first m observations of a new set.
-    pub fn can_start(&self) -> bool {
-        self.remaining() >= u64::from(self.rule.samples)
     }
 
     pub fn seen(&self, set: ConceptSet) -> bool {
@@ -599,94 +756,12 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         self.seen.get(&set).map(|&i| &self.history[i])
     }
 
-    /// Evaluate the sets not evaluated yet, in order, as far as the budget goes, and top up the
-    /// requested sets evaluated before; returns the stats of every requested set that has been
-    /// evaluated (now or before), in request order.
-    ///
-    /// New sets go in chunks that the budget pays even if every set takes M observations
-    /// (`remaining / M`, at least one): each chunk gets its m observations concurrently, then
-    /// top-up rounds until all its sets are settled, then the next chunk. So top-ups are never
-    /// starved by sets evaluated later, and with M = m the whole request is one chunk cut at
-    /// `remaining / m` sets — the paper's estimator, unchanged.
-    pub async fn evaluate(&mut self, sets: &[ConceptSet]) -> Searched<Vec<SetStats>, E> {
-        let mut fresh = Vec::new();
-        let mut batch = HashSet::new();
-        let mut earlier = Vec::new();
-        for &s in sets {
-            if !batch.insert(s) {
-                continue;
-            }
-            if self.seen.contains_key(&s) { earlier.push(s) } else { fresh.push(s) }
-        }
-        let (m, max) = (u64::from(self.rule.samples), u64::from(self.rule.max_samples.max(self.rule.samples)));
-        let mut next = 0;
-        while next < fresh.len() {
-            let affordable = (self.remaining() / m) as usize;
-            if affordable == 0 {
-                break;
-            }
-            let chunk = ((self.remaining() / max) as usize).max(1).min(affordable).min(fresh.len() - next);
-            let sets = &fresh[next..next + chunk];
-            let asks: Vec<Ask> = sets.iter().map(|&set| Ask { set, obs: 0..self.rule.samples }).collect();
-            self.call(asks).await?;
-            self.top_up(sets).await?;
-            next += chunk;
-        }
-        self.top_up(&earlier).await?;
-        Ok(sets.iter().filter_map(|s| self.stats(*s).cloned()).collect())
-    }
-
-    /// Give evaluated sets the observations the rule asks for ([`Rule::next`]), round after
-    /// round, until every one is settled or the budget is spent (the last batch may be cut
-    /// short). Sets not evaluated yet are ignored.
-    pub async fn top_up(&mut self, sets: &[ConceptSet]) -> Searched<(), E> {
-        loop {
-            let mut left = self.remaining();
-            let mut asks: Vec<Ask> = Vec::new();
-            for &set in sets {
-                let Some(s) = self.stats(set) else { continue };
-                if left == 0 || asks.iter().any(|a| a.set == set) {
-                    continue;
-                }
-                let k = u64::from(self.rule.next(s)).min(left);
-                if k > 0 {
-                    let n = s.observations();
-                    asks.push(Ask { set, obs: n..n + k as u32 });
-                    left -= k;
-                }
-            }
-            if asks.is_empty() {
-                return Ok(());
-            }
-            self.call(asks).await?;
-        }
-    }
-
-    /// `k` more observations of the evaluated `set` whatever the rule says (at most what the
-    /// budget has left); false when it was not evaluated or nothing could be paid.
-    pub async fn observe_more(&mut self, set: ConceptSet, k: u32) -> Searched<bool, E> {
-        let Some(s) = self.stats(set) else { return Ok(false) };
-        let k = u64::from(k).min(self.remaining()) as u32;
-        if k == 0 {
-            return Ok(false);
-        }
-        let n = s.observations();
-        self.call(vec![Ask { set, obs: n..n + k }]).await?;
-        Ok(true)
-    }
-
-    /// Evaluate `set` or top it up under the rule; `None` when it is new and the budget cannot
-    /// pay its first m observations.
-    pub async fn test(&mut self, set: ConceptSet) -> Searched<Option<SetStats>, E> {
-        Ok(self.evaluate(&[set]).await?.into_iter().next())
-    }
-
-    fn record(&mut self, asks: &[Ask], stats: Vec<SetStats>) {
+    fn record(&mut self, asks: &[Ask], purposes: &[Option<Purpose>], stats: Vec<SetStats>) {
         debug_assert_eq!(asks.len(), stats.len());
-        for (ask, s) in asks.iter().zip(stats) {
+        for ((ask, purpose), s) in asks.iter().zip(purposes).zip(stats) {
             debug_assert_eq!(s.observations(), ask.len(), "the evaluator answers what was asked");
             self.spent += u64::from(ask.len());
-            if let Some(p) = self.purpose {
+            if let Some(p) = *purpose {
                 self.calls_by.add(p, u64::from(ask.len()));
             }
             match self.seen.get(&ask.set) {

@@ -10,7 +10,7 @@ use std::collections::{HashMap, HashSet};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Driver, Evaluate, Params, Searched, Space};
+use super::{Drive, Driver, Evaluate, Params, Searched, Space};
 
 pub async fn run<E: Evaluate>(params: &Params, space: &Space, driver: &mut Driver<'_, E>) -> Searched<(), E> {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);

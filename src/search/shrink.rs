@@ -31,7 +31,7 @@
 
 use crate::ir::{ConceptId, ConceptSet};
 
-use super::{Driver, Evaluate, Searched, SetStats, Space};
+use super::{Drive, Driver, Evaluate, Searched, SetStats, Space};
 
 /// A failing set none of whose one-smaller valid subsets fails.
 #[derive(Debug, Clone, PartialEq)]
@@ -90,9 +90,9 @@ pub fn lifts(set: &SetStats, sub: &SetStats) -> bool {
 
 /// Shrink the failing set `root` to a 1-minimal failing subset, testing through `driver` (its
 /// rule decides "still fails"; its budget bounds the cost). The one-smaller subsets are tested
-/// in drop order, [`Driver::lookahead`] of them together (one at a time unless the driver fills
+/// in drop order, [`Drive::lookahead`] of them together (one at a time unless the driver fills
 /// its calls to a width); the first in drop order that fails replaces the set, as one at a time.
-pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root: ConceptSet) -> Searched<Shrunk, E> {
+pub async fn shrink<D: Drive>(driver: &mut D, space: &Space, root: ConceptSet) -> Searched<Shrunk, D::Eval> {
     // "Fails" as the driver's rule says: FR ≥ τ, or established above τ − δ with a zone.
     let rule = driver.rule();
     let Some(stats) = driver.test(root).await? else { return Ok(Shrunk::Unaffordable) };
@@ -103,7 +103,8 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
     let mut minimal = true;
     loop {
         'shrink: loop {
-            let subs: Vec<ConceptSet> = drop_order(&driver.history, current)
+            let subs: Vec<ConceptSet> = driver
+                .with_history(|history| drop_order(history, current))
                 .into_iter()
                 .map(|c| current.without(c))
                 .filter(|sub| !sub.is_empty() && space.contains(*sub))
@@ -111,12 +112,12 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
             for group in subs.chunks(driver.lookahead()) {
                 driver.evaluate(group).await?;
                 for &sub in group {
-                    match driver.stats(sub) {
+                    match driver.get(sub) {
                         None => {
                             minimal = false;
                             break 'shrink;
                         }
-                        Some(s) if rule.fails(s) => {
+                        Some(s) if rule.fails(&s) => {
                             current = sub;
                             continue 'shrink;
                         }
@@ -132,7 +133,7 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
         // The part whose lift test asked for the latest observations.
         let mut asked_by = None;
         loop {
-            let stats = driver.stats(current).cloned().expect("a kept subset was evaluated");
+            let stats = driver.get(current).expect("a kept subset was evaluated");
             if !rule.fails(&stats) {
                 // Observations the lift test asked for took it below τ: it fails no more than
                 // that part.
@@ -141,7 +142,7 @@ pub async fn shrink<E: Evaluate>(driver: &mut Driver<'_, E>, space: &Space, root
                     None => Shrunk::Refuted(stats),
                 });
             }
-            let flat = current.one_smaller().find_map(|sub| driver.stats(sub).filter(|t| !lifts(&stats, t)).cloned());
+            let flat = current.one_smaller().find_map(|sub| driver.get(sub).filter(|t| !lifts(&stats, t)));
             let Some(t) = flat else { return Ok(Shrunk::Core(Core { stats, minimal, root })) };
             if rule.fails(&t) {
                 // More observations took the subset above τ: shrink on from it.

@@ -621,3 +621,65 @@ fn interact_on_a_sampled_space_is_sound_seeded_and_within_budget() {
         assert!(s.is_some_and(|s| s.observations() >= interact::ESCALATE), "{mode:?} not tested as itself: {s:?}");
     }
 }
+
+/// Lanes side by side: a call goes out when every lane has submitted (or waits for work), with
+/// every lane's asks in lane order; two lanes asking about one set in the same round extend one
+/// ask (no scene twice); a lane sees the budget left after the asks submitted before it; lanes
+/// waiting for work end once every lane left waits.
+#[test]
+fn lanes_join_their_asks_into_one_call_in_lane_order() {
+    struct Calls {
+        inner: FnEval<fn(ConceptSet) -> u32>,
+        asks: Vec<Vec<Ask>>,
+    }
+    impl Evaluate for Calls {
+        type Error = std::convert::Infallible;
+        async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, Self::Error> {
+            self.asks.push(asks.to_vec());
+            self.inner.evaluate(asks).await
+        }
+    }
+    let (a, b, c) = (bits(&[1]), bits(&[2]), bits(&[3]));
+    let mut e = Calls { inner: FnEval { f: |_| 0, asked: vec![] }, asks: vec![] };
+    let rule = Rule::fixed(5, 0.6);
+    let mut driver = Driver::new(&mut e, rule, 22);
+    let woke = std::cell::Cell::new(Vec::new());
+    {
+        let hub = lanes::Hub::new(&mut driver, 3);
+        let (hub, woke) = (&hub, &woke);
+        let work: Vec<lanes::LaneWork<'_, u64, Calls>> = vec![
+            Box::pin(async move {
+                let mut lane = hub.lane(rule);
+                lane.evaluate(&[a]).await?;
+                lane.observe_more(c, 2).await?;
+                Ok(lane.remaining())
+            }),
+            Box::pin(async move {
+                let mut lane = hub.lane(rule);
+                // Sees the 5 observations the first lane submitted this round.
+                assert_eq!(lane.remaining(), 17);
+                lane.evaluate(&[b, c]).await?;
+                // In the same round as the first lane's 2 more of c: one ask of 3.
+                lane.observe_more(c, 1).await?;
+                Ok(lane.remaining())
+            }),
+            Box::pin(async move {
+                let lane = hub.lane(rule);
+                let mut seen = Vec::new();
+                while lane.idle().await {
+                    seen.push(lane.get(c).map_or(0, |s| s.observations()));
+                }
+                woke.set(seen);
+                Ok(lane.remaining())
+            }),
+        ];
+        let left = block_on(hub.run(work)).unwrap();
+        assert_eq!(left, vec![4, 4, 4]);
+    }
+    assert_eq!(driver.spent(), 18);
+    // Round 1: a, then b and c (the second lane's 17 pay both). Round 2: c's 2 + 1 more.
+    let asks: Vec<Vec<(ConceptSet, std::ops::Range<u32>)>> =
+        e.asks.iter().map(|call| call.iter().map(|x| (x.set, x.obs.clone())).collect()).collect();
+    assert_eq!(asks, vec![vec![(a, 0..5), (b, 0..5), (c, 0..5)], vec![(c, 5..8)]]);
+    assert_eq!(woke.take(), vec![5, 8], "the idle lane woke after each call, then ended");
+}
