@@ -449,8 +449,9 @@ impl CallsBy {
     }
 }
 
-/// Fills a call narrower than the width with new sets to screen: given the history, the call's
-/// asks and how many sets fit, the sets to add ([`Driver::fill_to`]).
+/// Fills a call narrower than the width: given the history, the call's asks and how many
+/// observations fit, the asks to add: new sets' screens, or more observations of evaluated sets
+/// continuing their indices ([`Driver::fill_to`]).
 pub type Fill<'e> = Box<dyn FnMut(&[SetStats], &[Ask], usize) -> Vec<Ask> + 'e>;
 
 /// What a search step tests through: the [`Driver`] itself, or a lane of it that explains one
@@ -669,10 +670,10 @@ impl<'e, E: Evaluate> Driver<'e, E> {
         }
     }
 
-    /// Fill every call to a multiple of `width` observations (the calls in flight) with new sets
-    /// that `fill` picks, `obs` observations each, as far as the budget goes: so a search whose
-    /// steps ask about a few sets at a time (a shrink, a confirmation) still keeps the model
-    /// busy. The sets added are the search's to decide on: [`Driver::take_filled`].
+    /// Fill every call to a multiple of `width` observations (the calls in flight) with the asks
+    /// `fill` makes (a new set gets `obs` observations), as far as the budget goes: so a search
+    /// whose steps ask about a few sets at a time (a shrink, a confirmation) still keeps the
+    /// model busy. The new sets added are the search's to decide on: [`Driver::take_filled`].
     pub fn fill_to(&mut self, width: usize, obs: u32, fill: Fill<'e>) {
         self.clear_fill();
         self.fill = Some((width.max(1), obs.max(1), std::mem::ManuallyDrop::new(fill)));
