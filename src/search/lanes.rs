@@ -33,13 +33,12 @@ pub struct Hub<'a, 'e, E> {
     pending_obs: Cell<u64>,
     /// Calls made so far; a lane's asks are answered once this passes its round.
     round: Cell<u64>,
-    /// Lanes side by side (a lane's lookahead is its share of the width).
-    lanes: usize,
     /// Lanes waiting this round for work that other lanes' calls may bring ([`Lane::idle`]).
     idle: Cell<usize>,
     /// Every lane left was idle: no call will bring work any more.
     drained: Cell<bool>,
-    /// Lanes that asked in the last call (a lane's lookahead is its share of the width).
+    /// Lanes that asked in the last call, at first every lane (a lane's lookahead is its share
+    /// of the width).
     asking: Cell<usize>,
 }
 
@@ -51,7 +50,6 @@ impl<'a, 'e, E: Evaluate> Hub<'a, 'e, E> {
             pending: RefCell::new(Vec::new()),
             pending_obs: Cell::new(0),
             round: Cell::new(0),
-            lanes: lanes.max(1),
             idle: Cell::new(0),
             drained: Cell::new(false),
             asking: Cell::new(lanes.max(1)),
@@ -145,20 +143,6 @@ impl Future for Woken<'_> {
     }
 }
 
-/// Ready once the hub has made the call of round `round`.
-struct Answered<'h> {
-    calls: &'h Cell<u64>,
-    round: u64,
-}
-
-impl Future for Answered<'_> {
-    type Output = ();
-
-    fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
-        if self.calls.get() > self.round { Poll::Ready(()) } else { Poll::Pending }
-    }
-}
-
 impl<E: Evaluate> Drive for Lane<'_, '_, '_, E> {
     type Eval = E;
 
@@ -194,9 +178,7 @@ impl<E: Evaluate> Drive for Lane<'_, '_, '_, E> {
     /// The lane's share of the width, over m.
     fn lookahead(&self) -> usize {
         match self.hub.driver.borrow().width() {
-            Some(width) => {
-                (width / (self.rule.samples.max(1) as usize * self.hub.asking.get().min(self.hub.lanes))).max(1)
-            }
+            Some(width) => (width / (self.rule.samples.max(1) as usize * self.hub.asking.get())).max(1),
             None => 1,
         }
     }
@@ -205,7 +187,8 @@ impl<E: Evaluate> Drive for Lane<'_, '_, '_, E> {
         let obs: u64 = asks.iter().map(|a| u64::from(a.len())).sum();
         self.hub.pending_obs.set(self.hub.pending_obs.get() + obs);
         self.hub.pending.borrow_mut().push((self.purpose, asks));
-        Answered { calls: &self.hub.round, round: self.hub.round.get() }.await;
+        // Never drained while this lane's asks wait: the hub calls whenever any lane asked.
+        Woken { calls: &self.hub.round, drained: &self.hub.drained, round: self.hub.round.get() }.await;
         Ok(())
     }
 }
