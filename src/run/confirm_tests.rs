@@ -21,6 +21,22 @@ const GRADED: &str = "name = \"graded\"\nbase_error = 0.06\ndilution = 0.15\n\
 [[mode]]\nconcepts = [\"c5\", \"c6\"]\nerror = 0.9\n\
 [[mode]]\nconcepts = [\"c0\", \"c7\"]\nerror = 0.85\n";
 
+/// A reported core (or a set holding one) is never also listed as a failing set that does not
+/// lift over its part: the search's own evidence may have judged it so, but fresh confirmation
+/// established it, and the two lists must not contradict each other.
+fn assert_no_core_listed_not_distinct(summary: &super::summary::Summary, at: &str) {
+    let flat = summary.shrink.iter().flat_map(|sh| &sh.not_distinct);
+    for row in flat {
+        let held = summary.cores.iter().find(|c| c.set.concepts.iter().all(|n| row.set.concepts.contains(n)));
+        assert!(
+            held.is_none(),
+            "{at}: {:?} is listed not distinct though it holds the core {:?}",
+            row.set.concepts,
+            held.map(|c| &c.set.concepts)
+        );
+    }
+}
+
 #[test]
 fn a_graded_landscape_reports_no_false_core() {
     let d = numbered(8);
@@ -55,6 +71,7 @@ fn a_graded_landscape_reports_no_false_core() {
                 let fresh = core.confirmed.as_ref().expect("a confirmed core carries its fresh evidence");
                 assert!(fresh.answered > 0 && fresh.ci95[0] > 0.5, "{fresh:?}");
             }
+            assert_no_core_listed_not_distinct(&r.summary, &format!("{algo:?} seed {seed}"));
             for b in &r.summary.borderline {
                 assert!(b.set.observations >= c.cap, "borderline only at the cap: {b:?}");
             }
@@ -94,6 +111,7 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
         cfg.params.seed = seed;
         let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
         let c = r.summary.confirmation.as_ref().unwrap();
+        assert_no_core_listed_not_distinct(&r.summary, &format!("seed {seed}"));
         let checked = r.confirmation.as_ref().unwrap();
         assert_eq!(checked.len(), c.candidates);
         // The shrink phase's cores come first, the unexplained minimal failure modes after them.

@@ -316,6 +316,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
     // Only the confirmed candidates are reported as cores.
     if let Some(c) = &confirmation {
         found.cores = c.confirmed_cores();
+        found.drop_held_not_distinct();
     }
     let mut summary = summarize(
         &setup.domain,

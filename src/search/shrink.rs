@@ -231,6 +231,16 @@ pub struct Found {
     pub not_distinct: Vec<(SetStats, SetStats)>,
 }
 
+impl Found {
+    /// Drop the not-distinct sets that hold a reported core: such a set is that core's superset,
+    /// not a loose end — also when the core was established later, on fresh observations, against
+    /// the search's own evidence that it did not lift over its part.
+    pub fn drop_held_not_distinct(&mut self) {
+        let cores = &self.cores;
+        self.not_distinct.retain(|(s, _)| !cores.iter().any(|c| c.stats.set.is_subset_of(s.set)));
+    }
+}
+
 /// The shrink phase: shrink `roots` (strongest first, see [`roots`]) in turn, skipping every root
 /// that already contains a core (its family is explained). Once the budget cannot start another
 /// test, the remaining roots are still shrunk on the evidence already gathered: a core is kept
@@ -284,14 +294,10 @@ pub async fn run_capped<E: Evaluate>(
             c.stats = s.clone();
         }
     }
-    // With every observation gathered; a set found not distinct and later held by a core is that
-    // core's superset, not a loose end.
+    // With every observation gathered.
     let now = |s: ConceptSet| driver.stats(s).cloned().unwrap_or_else(|| SetStats::new(s));
-    found.not_distinct = flat
-        .into_iter()
-        .filter(|(s, _)| !found.cores.iter().any(|c| c.stats.set.is_subset_of(*s)))
-        .map(|(s, by)| (now(s), now(by)))
-        .collect();
+    found.not_distinct = flat.into_iter().map(|(s, by)| (now(s), now(by))).collect();
+    found.drop_held_not_distinct();
     sort_cores(&mut found.cores);
     Ok(found)
 }
