@@ -456,11 +456,11 @@ struct Searched2 {
 /// of its cores during the search (the rest ran out of its confirmation rule's budget or
 /// triage); on a graded landscape these hold most of the planted modes it reached.
 fn unexplained_failures(history: &[SetStats], space: &Space, threshold: f64, cores: &[Core]) -> Vec<Core> {
-    let minimal = shrink::minimal_failures(history, space, threshold);
+    let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
+    let loose = shrink::unexplained_failures(history, space, threshold, &cores);
     shrink::roots(history, threshold)
         .into_iter()
-        .filter(|s| minimal.contains(s))
-        .filter(|s| !cores.iter().any(|c| c.stats.set.is_subset_of(*s)))
+        .filter(|s| loose.contains(s))
         .filter_map(|set| history.iter().find(|h| h.set == set))
         .map(|s| Core { stats: s.clone(), minimal: true, root: s.set })
         .collect()

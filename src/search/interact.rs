@@ -31,8 +31,8 @@
 //!
 //! Confirmation and shrinking spend the search's budget: the run as a whole stays within
 //! [`super::budget::Plan::search_cap`], which keeps fresh confirmation's share for every core
-//! found and one more. Every decision is a pure function of the seed and the observed
-//! answers, so a resumed run replays exactly.
+//! found and one more, and for the minimal failure modes no core explains. Every decision is a
+//! pure function of the seed and the observed answers, so a resumed run replays exactly.
 use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::rc::Rc;
@@ -349,7 +349,7 @@ async fn run_regression<E: Evaluate>(
 ) -> Searched<(), E> {
     let mut searcher = Searcher::new(params, space, parts);
     let mut marked = 0;
-    let (plan, mut cores) = (params.plan(), 0);
+    let (plan, mut cores) = (params.plan(), Vec::new());
     while driver.can_start() {
         let picks = searcher.propose(&driver.history);
         if picks.is_empty() {
@@ -371,9 +371,9 @@ async fn run_regression<E: Evaluate>(
             searcher.board.explore_since(&driver.history, &mut marked);
             if let Shrunk::Core(core) = shrunk? {
                 searcher.confirm(core.stats.set);
-                cores += 1;
-                driver.set_budget(plan.search_cap(cores));
+                cores.push(core.stats.set);
             }
+            driver.set_budget(search_cap(&plan, &driver.history, space, params.threshold, &cores));
         }
     }
     Ok(())
@@ -914,12 +914,13 @@ async fn search_patterns<'d, E: Evaluate>(
         );
     }
     let plan = params.plan();
-    let cores = std::cell::Cell::new(0);
     let wrong = |stats: Option<&SetStats>| stats.is_some_and(|s| s.wrong > 0);
     // Workers side by side: as many as a call of the width holds explaining steps of m.
     let workers = (params.batch / triage.samples.max(1) as usize).max(1);
     searcher.borrow_mut().workers = workers;
     loop {
+        let cap = search_cap(&plan, &driver.history, space, tau, &searcher.borrow().cores);
+        driver.set_budget(cap);
         driver.set_rule(screen);
         driver.set_purpose(Some(Purpose::Screening));
         let filled = driver.take_filled();
@@ -942,10 +943,10 @@ async fn search_patterns<'d, E: Evaluate>(
         let hub = lanes::Hub::new(driver, workers);
         let work: Vec<lanes::LaneWork<'_, (), E>> = (0..workers)
             .map(|_| {
-                let (hub, searcher, plan, cores) = (&hub, &searcher, &plan, &cores);
+                let (hub, searcher, plan) = (&hub, &searcher, &plan);
                 Box::pin(async move {
                     let mut lane = hub.lane(escalate);
-                    work_hot(&mut lane, space, searcher, rules, (plan, cores)).await
+                    work_hot(&mut lane, space, searcher, rules, plan).await
                 }) as lanes::LaneWork<'_, (), E>
             })
             .collect();
@@ -973,7 +974,7 @@ async fn work_hot<'d, E: Evaluate>(
     space: &'d Space,
     searcher: &RefCell<PatternSearcher<'d>>,
     r: Rules,
-    found: (&super::budget::Plan, &std::cell::Cell<usize>),
+    plan: &super::budget::Plan,
 ) -> Searched<(), E> {
     loop {
         let filled = lane.take_filled();
@@ -1003,7 +1004,7 @@ async fn work_hot<'d, E: Evaluate>(
             lane.set_rule(r.triage);
             go_on = lane.can_start();
             if go_on {
-                explain_one(lane, space, searcher, set, (r.tau, r.triage, r.confirm), found).await?;
+                explain_one(lane, space, searcher, set, (r.tau, r.triage, r.confirm), plan).await?;
             }
         }
         let mut s = searcher.borrow_mut();
@@ -1017,23 +1018,29 @@ async fn work_hot<'d, E: Evaluate>(
     }
 }
 
-/// [`explain`] `set`, and take the core it finds, if new: the searcher sets its family aside,
-/// and the search's cap keeps fresh confirmation's share for it ([`Params::plan`]); `cores`
-/// counts the cores found so far.
+/// The search's cap now ([`super::budget::Plan::search_cap`]): confirmation's share for the
+/// confirmed `cores` and one more, and for the minimal failure modes of `history` none of them
+/// explains.
+fn search_cap(plan: &super::budget::Plan, history: &[SetStats], space: &Space, tau: f64, cores: &[ConceptSet]) -> u64 {
+    plan.search_cap(cores.len(), shrink::unexplained_failures(history, space, tau, cores).len())
+}
+
+/// [`explain`] `set`, and take the core it finds, if new: the searcher sets its family aside.
+/// The search's cap then keeps fresh confirmation's share for the cores and the loose minimal
+/// failure modes found so far ([`search_cap`]).
 async fn explain_one<'d, D: Drive>(
     driver: &mut D,
     space: &'d Space,
     searcher: &RefCell<PatternSearcher<'d>>,
     set: ConceptSet,
     rules: (f64, Rule, Rule),
-    (plan, cores): (&super::budget::Plan, &std::cell::Cell<usize>),
+    plan: &super::budget::Plan,
 ) -> Searched<(), D::Eval> {
-    if let Some(c) = explain(driver, space, searcher, set, rules).await?
-        && searcher.borrow_mut().confirm(c)
-    {
-        cores.set(cores.get() + 1);
-        driver.set_budget(plan.search_cap(cores.get()));
+    if let Some(c) = explain(driver, space, searcher, set, rules).await? {
+        searcher.borrow_mut().confirm(c);
     }
+    let s = searcher.borrow();
+    driver.set_budget(driver.with_history(|history| search_cap(plan, history, space, rules.0, &s.cores)));
     Ok(())
 }
 

@@ -787,7 +787,7 @@ pub async fn run_counted<E: Evaluate>(
     space: &Space,
     eval: &mut E,
 ) -> Searched<(Vec<SetStats>, Option<CallsBy>), E> {
-    let mut driver = Driver::new(eval, params.rule(), params.plan().search_cap(0));
+    let mut driver = Driver::new(eval, params.rule(), params.plan().search);
     match params.algo {
         Algo::Random => random::run(params, space, &mut driver).await?,
         Algo::Beam => beam::run(params, space, &mut driver).await?,

@@ -191,6 +191,20 @@ pub fn minimal_failures(history: &[SetStats], space: &Space, threshold: f64) -> 
         .collect()
 }
 
+/// The minimal failure modes of `history` ([`minimal_failures`]) that hold none of `cores`:
+/// what fresh confirmation takes as candidates beside the cores, and what `interact` keeps a
+/// share of its budget for ([`super::budget::Plan::search_cap`]).
+pub fn unexplained_failures(
+    history: &[SetStats],
+    space: &Space,
+    threshold: f64,
+    cores: &[ConceptSet],
+) -> Vec<ConceptSet> {
+    let mut loose = minimal_failures(history, space, threshold);
+    loose.retain(|&m| !cores.iter().any(|c| c.is_subset_of(m)));
+    loose
+}
+
 /// The concepts of `set` in the order the shrink tries to drop them: lowest mean failure rate
 /// among the evaluated sets holding the concept first, then concept index.
 pub fn drop_order(history: &[SetStats], set: ConceptSet) -> Vec<ConceptId> {
