@@ -727,14 +727,13 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// A confirmed core: it and its supersets are no longer open patterns, and (unless supersets
-    /// are kept) its supersets leave the sets to pick. False when it was confirmed before.
-    pub fn confirm(&mut self, core: ConceptSet) -> bool {
+    /// are kept) its supersets leave the sets to pick. A core confirmed before changes nothing.
+    pub fn confirm(&mut self, core: ConceptSet) {
         if self.cores.contains(&core) {
-            return false;
+            return;
         }
         self.cores.push(core);
         self.set_aside(core);
-        true
     }
 
     /// A passing set near τ that its failing supersets do not significantly exceed
