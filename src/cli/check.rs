@@ -146,8 +146,10 @@ pub fn run(args: CheckArgs) -> ExitCode {
 
 #[cfg(feature = "render")]
 type Plan = crate::run::visible::Plan;
+/// Without the renderer there is nothing to plan (`--render` is refused by [`render_lint`]).
 #[cfg(not(feature = "render"))]
-type Plan = ();
+#[derive(Clone, Copy)]
+struct Plan;
 
 #[cfg(feature = "render")]
 fn render_plan(scenes: u32, args: &CheckArgs) -> Plan {
@@ -164,7 +166,9 @@ fn render_plan(scenes: u32, args: &CheckArgs) -> Plan {
 }
 
 #[cfg(not(feature = "render"))]
-fn render_plan(_: u32, _: &CheckArgs) -> Plan {}
+fn render_plan(_: u32, _: &CheckArgs) -> Plan {
+    Plan
+}
 
 /// R0107 and R0108 for a domain file that compiled without errors (used modules have no
 /// lattice), and the figures of every set rendered, a line each.
