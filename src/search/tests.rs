@@ -569,7 +569,7 @@ fn interact_confirms_what_its_triage_finds_at_the_full_rule() {
 
 /// A sampled space (never listed) of `n` independent concepts of which 0 and 1 exclude each
 /// other, sets of up to 4.
-fn sampled(n: usize) -> Space {
+pub(super) fn sampled(n: usize) -> Space {
     use crate::lattice::testkit::{Dom, num};
     let mut b = Dom::new(crate::ir::Selection::Priority);
     b.world("on", num(0.0));
