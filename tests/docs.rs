@@ -110,17 +110,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "revelio search domains/driving.rev --model openai:gpt-4.1-mini --max-cost 5 --budget 20 --renderer none",
         "against the mock server; 1000 rendered inferences",
     ),
-    (
-        "revelio campaign examples/campaign.toml --shard 0/4",
-        "revelio campaign campaign-small.toml --shard 0/2",
-        "two cells of 200 interact and GPTS inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
-    ),
-    // docs/campaigns.md
-    (
-        "revelio campaign examples/campaign.toml --max-cost 20 --concurrency 32",
-        "revelio campaign campaign-small.toml --max-cost 20 --concurrency 32",
-        "eight cells of 200 inferences; `campaign-small.toml` (tests/doc_files) is the grid cut down",
-    ),
     // docs/lattice.md
     (
         "revelio bench scale",
@@ -144,27 +133,7 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam --renderer none",
         "4 algorithms × 3 seeds × 1250 inferences",
     ),
-    (
-        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery",
-        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery --budget 100 --renderer none",
-        "1250 rendered inferences",
-    ),
     // docs/report.md
-    (
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --algo beam --budget 600 --out runs/demo-probe",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --algo beam --budget 100 --out runs/demo-probe",
-        "600 inferences",
-    ),
-    (
-        "revelio probe runs/demo-probe --top 40 --samples 10 --min-n 5",
-        "revelio probe runs/demo-probe --top 4 --samples 2 --min-n 1",
-        "400 rendered inferences",
-    ),
-    (
-        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 5 --samples 10",
-        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 2 --samples 2",
-        "300 rendered inferences",
-    ),
     (
         "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
         "revelio search domains/driving.rev --model sim:examples/sim/driving_recognition.toml --renderer none --budget 50 --algo beam --out runs/beam
@@ -269,25 +238,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
 const STABLE: &[(&str, &[&str])] = &[
     ("revelio check domains/delivery.rev --render 5", &["checked # file: # errors, # warnings"]),
     (
-        "revelio probe runs/demo-probe --top 40 --samples 10 --min-n 5",
-        &[
-            "# sets × # probe observations on sim:driving-recognition@d#fa#e; mechanism: reasoning R ≥ #%, recognition R ≤ #%",
-            "concept R F n mechanism",
-        ],
-    ),
-    (
-        "revelio transfer runs/demo-probe --model sim:examples/sim/driving_gemini.toml --model sim:examples/sim/driving_paper.toml --top 5 --samples 10",
-        &[
-            "models (M# is the run's own):",
-            "M# sim:driving-recognition@d#fa#e",
-            "M# sim:driving-gemini@f#f#e#",
-            "M# sim:driving-paper@#daf#a#cd#",
-            "# search M# M# M# concepts",
-            "# transferred and # random sets × # observations; transfers: FR ≥ #%",
-            "model transferred random ratio transfers",
-        ],
-    ),
-    (
         "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
         &[
             "domain model algo seed budget PFM [#% CI] MFR [#% CI] Div [#% CI] modes cores calls spend run",
@@ -302,17 +252,6 @@ const STABLE: &[(&str, &[&str])] = &[
             "planted modes: share of seeds recovered / exact; reach: the most any search recovers of a mode whose parts carry no signal (# inferences)",
             "mode error reach random beam…",
             "town_town# + cone + far + weather_wet # #% #% / #% #% / #%…",
-        ],
-    ),
-    (
-        "revelio search domains/delivery.rev --model sim:examples/sim/delivery.toml --out runs/delivery",
-        &[
-            "… on `delivery` with sim:delivery@…: # sets (# inferences) of # valid, in <time>",
-            "PFM #% MFR #% Div # (# failure modes at FR ≥ #)",
-            "shrink: # candidate cores, shrunk and tested during the search (# calls explaining failures, # calls in core tests; up to # observations per set, # to test a core's lift); the shrink phase after it: # calls of #",
-            "spend: # calls, # input / # output tokens (# thinking), $#",
-            "run folder: runs/delivery (journal.jsonl, summary.json; `revelio validate runs/delivery` re-checks the top sets)",
-            "report: runs/delivery/report/index.html",
         ],
     ),
     (
