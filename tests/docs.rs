@@ -144,21 +144,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     // docs/search.md
     (
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --algo gpts --budget 40 --renderer none",
-        "1250 rendered inferences",
-    ),
-    (
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20",
-        "revelio search domains/driving.rev --model sim:examples/sim/driving_paper.toml --max-samples 20 --budget 60 --renderer none --out runs/sequential",
-        "1250 rendered inferences (and the first search's run folder)",
-    ),
-    (
-        "revelio validate runs/driving-sim-driving_paper-gpts-s0 --top 10 --samples 20",
-        "revelio validate runs/driving-sim-driving_paper-gpts-s0 --top 3 --samples 4",
-        "200 rendered inferences",
-    ),
-    (
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 5 --budget 1000 --max-samples 20",
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --max-samples 20 --shrink 20 --algos random,beam",
         "8 searches × 5 seeds × 1000 inferences",
