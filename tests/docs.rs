@@ -124,11 +124,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
     ),
     // docs/porting.md
     (
-        "revelio check domains/delivery.rev --render 5",
-        "revelio check domains/delivery.rev --render 1 --render-sample 2",
-        "five rendered scenes per singleton and pair take minutes",
-    ),
-    (
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 3 --budget 1250 --shrink 250 --batch 1 --renderer none",
         "revelio bench search --profile examples/sim/delivery.toml --domain domains/delivery.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam --renderer none",
         "4 algorithms × 3 seeds × 1250 inferences",
@@ -221,7 +216,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
 /// numbers redacted (`#`) and runs of spaces made one (`…` stands for any text). The shown output's other lines are the
 /// full command's figures. A reduced command whose page shows its output needs an entry.
 const STABLE: &[(&str, &[&str])] = &[
-    ("revelio check domains/delivery.rev --render 5", &["checked # file: # errors, # warnings"]),
     (
         "revelio compare runs/beam runs/random runs/gpts --csv table.csv --html table.html",
         &[
