@@ -43,7 +43,7 @@ use rand_chacha::ChaCha8Rng;
 use crate::ir::ConceptSet;
 
 use super::lanes;
-use super::patterns::{Fit, Patterns};
+use super::patterns::{Fit, Patterns, for_each_subset_of_size};
 use super::shrink::{self, Shrunk};
 use super::surrogate::{Basis, Data, Draw, Gibbs, Order, Prior};
 use super::{Drive, Driver, Evaluate, Params, Purpose, Rule, Searched, SetStats, Space};
@@ -434,6 +434,13 @@ pub const HOT_EFFECT: f64 = 2.0;
 /// 0.05, as strong as two answers.
 pub const EFFECT_PRIOR: (f64, f64) = (0.1, 1.9);
 
+/// A concept's effect posterior, Beta(a, b), from the wrong answers it is expected to have caused
+/// and the answers of the sets that hold it ([`PatternSearcher::concept_effects`]).
+fn effect_posterior((fired, answers): (f64, f64)) -> (f64, f64) {
+    let (a0, b0) = EFFECT_PRIOR;
+    (a0 + fired, b0 + (answers - fired).max(0.0))
+}
+
 /// The weight, in answers, of the pattern surrogate's base error as the prior of the noisy-OR
 /// fit's own ([`PatternSearcher::concept_effects`]).
 pub const BASE_PRIOR_WEIGHT: f64 = 20.0;
@@ -599,7 +606,6 @@ impl<'s> PatternSearcher<'s> {
     /// Concepts are taken in turn while they keep the set valid and free of every `blocked` set.
     fn concept_sets(&mut self, history: &[SetStats], base: f64, n: usize, blocked: &[ConceptSet]) -> Vec<ConceptSet> {
         let (effects, base) = self.concept_effects(history, base);
-        let (a0, b0) = EFFECT_PRIOR;
         let size = self.params.max_size;
         let hot = Self::hot_concepts(&effects, base);
         let mut picks = self.combinations(history, &hot, n.div_ceil(2), blocked);
@@ -619,8 +625,8 @@ impl<'s> PatternSearcher<'s> {
                 .iter()
                 .enumerate()
                 .filter(|&(c, _)| !left_out.contains(crate::ir::ConceptId(c as u32)))
-                .map(|(c, &(fired, answers))| {
-                    let (a, b) = (a0 + fired, b0 + (answers - fired).max(0.0));
+                .map(|(c, &effect)| {
+                    let (a, b) = effect_posterior(effect);
                     let x = super::surrogate::gamma(&mut self.rng, a);
                     let y = super::surrogate::gamma(&mut self.rng, b);
                     (x / (x + y).max(1e-300), c as u32)
@@ -648,12 +654,11 @@ impl<'s> PatternSearcher<'s> {
     /// effects, highest first; at most [`HOT`] of them (their triples are what
     /// [`PatternSearcher::combinations`] covers).
     fn hot_concepts(effects: &[(f64, f64)], base: f64) -> Vec<(crate::ir::ConceptId, f64)> {
-        let (a0, b0) = EFFECT_PRIOR;
         let mut hot: Vec<(crate::ir::ConceptId, f64)> = effects
             .iter()
             .enumerate()
-            .filter_map(|(c, &(fired, answers))| {
-                let (a, b) = (a0 + fired, b0 + (answers - fired).max(0.0));
+            .filter_map(|(c, &effect)| {
+                let (a, b) = effect_posterior(effect);
                 let mean = a / (a + b);
                 let sd = (a * b / ((a + b).powi(2) * (a + b + 1.0))).sqrt();
                 (mean - sd >= HOT_EFFECT * base).then_some((crate::ir::ConceptId(c as u32), mean))
@@ -683,21 +688,19 @@ impl<'s> PatternSearcher<'s> {
         let hot_set: ConceptSet = hot.iter().fold(ConceptSet::EMPTY, |s, &(c, _)| s.with(c));
         let mut met: std::collections::HashSet<ConceptSet> = Default::default();
         let meet = |met: &mut std::collections::HashSet<ConceptSet>, set: ConceptSet| {
-            let ids: Vec<_> = set.intersection(hot_set).iter().collect();
-            for g in groups(&ids, k) {
+            for_each_subset_of_size(set.intersection(hot_set), k, |g| {
                 met.insert(g);
-            }
+            });
         };
         for s in history {
             meet(&mut met, s.set);
         }
         let ids: Vec<crate::ir::ConceptId> = hot.iter().map(|&(c, _)| c).collect();
         let fits = |set: ConceptSet| !blocked.iter().any(|b| b.is_subset_of(set)) && self.space.contains(set);
-        // Groups in order of their concepts' mean effects (the hot list is sorted).
-        let mut targets: Vec<(f64, ConceptSet)> = groups(&ids, k)
-            .into_iter()
-            .map(|g| (g.iter().map(|c| hot.iter().find(|h| h.0 == c).map_or(0.0, |h| h.1)).sum::<f64>(), g))
-            .collect();
+        // Groups in order of their concepts' summed mean effects (ties: concept order).
+        let mean = |c: crate::ir::ConceptId| hot.iter().find(|h| h.0 == c).map_or(0.0, |h| h.1);
+        let mut targets: Vec<(f64, ConceptSet)> = Vec::new();
+        for_each_subset_of_size(hot_set, k, |g| targets.push((g.iter().map(mean).sum::<f64>(), g)));
         targets.sort_by(|a, b| b.0.total_cmp(&a.0));
         for (_, g) in targets {
             if picks.len() == n {
@@ -715,7 +718,8 @@ impl<'s> PatternSearcher<'s> {
                 if next == set || !fits(next) {
                     continue;
                 }
-                let fresh = groups(&next.iter().collect::<Vec<_>>(), k).into_iter().any(|h| !met.contains(&h));
+                let mut fresh = false;
+                for_each_subset_of_size(next, k, |h| fresh |= !met.contains(&h));
                 if fresh {
                     set = next;
                 }
@@ -1206,19 +1210,6 @@ async fn explain<'d, D: Drive>(
     driver.with_history(|history| s.catch_up(history));
     flat.into_iter().for_each(|by| s.explain(by));
     Ok(core)
-}
-
-/// Every subset of exactly `k` of `ids`.
-fn groups(ids: &[crate::ir::ConceptId], k: usize) -> Vec<ConceptSet> {
-    let mut out = Vec::new();
-    let mut pick = |chosen: &[usize]| out.push(ConceptSet::from_ids(chosen.iter().map(|&i| ids[i])));
-    let n = ids.len();
-    match k {
-        2 => (0..n).for_each(|i| (i + 1..n).for_each(|j| pick(&[i, j]))),
-        3 => (0..n).for_each(|i| (i + 1..n).for_each(|j| (j + 1..n).for_each(|l| pick(&[i, j, l])))),
-        _ => {}
-    }
-    out
 }
 
 #[cfg(test)]

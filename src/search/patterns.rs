@@ -501,17 +501,27 @@ fn sub_count(n: usize, max: usize) -> usize {
 /// Calls `f` with every non-empty subset of `set` of at most `max` concepts, smaller first.
 fn for_each_subset(set: ConceptSet, max: usize, mut f: impl FnMut(ConceptSet)) {
     let bits: Vec<ConceptId> = set.iter().collect();
-    fn go(bits: &[ConceptId], from: usize, left: usize, acc: ConceptSet, f: &mut impl FnMut(ConceptSet)) {
-        if left == 0 {
-            f(acc);
-            return;
-        }
-        for i in from..bits.len() {
-            go(bits, i + 1, left - 1, acc.with(bits[i]), f);
-        }
-    }
     for k in 1..=max.min(bits.len()) {
-        go(&bits, 0, k, ConceptSet::EMPTY, &mut f);
+        subsets_of_size(&bits, 0, k, ConceptSet::EMPTY, &mut f);
+    }
+}
+
+/// Calls `f` with every subset of `set` of exactly `k` concepts, in concept order.
+pub(super) fn for_each_subset_of_size(set: ConceptSet, k: usize, mut f: impl FnMut(ConceptSet)) {
+    let bits: Vec<ConceptId> = set.iter().collect();
+    if k > 0 && k <= bits.len() {
+        subsets_of_size(&bits, 0, k, ConceptSet::EMPTY, &mut f);
+    }
+}
+
+/// `acc` with `left` more of `bits[from..]`, each way, to `f`.
+fn subsets_of_size(bits: &[ConceptId], from: usize, left: usize, acc: ConceptSet, f: &mut impl FnMut(ConceptSet)) {
+    if left == 0 {
+        f(acc);
+        return;
+    }
+    for i in from..bits.len() {
+        subsets_of_size(bits, i + 1, left - 1, acc.with(bits[i]), f);
     }
 }
 
