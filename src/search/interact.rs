@@ -471,6 +471,8 @@ pub struct PatternSearcher<'s> {
     hot: VecDeque<ConceptSet>,
     /// Workers deciding on hot sets side by side ([`work_hot`]).
     workers: usize,
+    /// A sampled space: the concepts the last picks found hot ([`PatternSearcher::hot_concepts`]).
+    hot_concepts: ConceptSet,
 }
 
 impl<'s> PatternSearcher<'s> {
@@ -490,6 +492,7 @@ impl<'s> PatternSearcher<'s> {
             focus: Vec::new(),
             hot: VecDeque::new(),
             workers: 1,
+            hot_concepts: ConceptSet::EMPTY,
         };
         if space.is_sampled() {
             // The first pool: every valid single concept, then uniform draws (their own stream, so
@@ -610,6 +613,7 @@ impl<'s> PatternSearcher<'s> {
         let hot = Self::hot_concepts(&effects, base);
         let mut picks = self.combinations(history, &hot, n.div_ceil(2), blocked);
         let hot: ConceptSet = hot.iter().fold(ConceptSet::EMPTY, |s, &(c, _)| s.with(c));
+        self.hot_concepts = hot;
         // Concepts measured on their own: their effect is known, and the pattern surrogate's
         // heredity takes up the patterns that hold them.
         let alone: ConceptSet = history
@@ -785,7 +789,7 @@ impl<'s> PatternSearcher<'s> {
     /// Asks of at most `room` observations to fill a call beside its `asks` (a narrow step of the
     /// search): first the escalation of the hot sets waiting to be decided on, in the order they
     /// were screened, each off the families of the sets being decided on and of those escalated
-    /// before it in the fill (sharing at most one concept with each), and no more escalated ahead
+    /// before it in the fill ([`apart`]), and no more escalated ahead
     /// than there are workers (the sets they take next; a set escalated further ahead may be
     /// covered by a core before its turn) plus one in [`AHEAD_SHARE`] of the waiting sets; then
     /// screens of [`PatternSearcher::propose`]'s picks, the asked sets left out, those off the
@@ -794,7 +798,8 @@ impl<'s> PatternSearcher<'s> {
     /// to its width.
     pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<super::Ask> {
         asks.iter().for_each(|a| self.board.explore(a.set));
-        let apart = |focus: &[ConceptSet], set: ConceptSet| focus.iter().all(|f| f.intersection(set).len() < 2);
+        let hot_concepts = self.hot_concepts;
+        let apart = |focus: &[ConceptSet], set: ConceptSet| apart(focus, set, hot_concepts);
         let mut out = Vec::new();
         let mut left = room;
         let mut focus = self.focus.clone();
@@ -968,6 +973,15 @@ impl<'s> PatternSearcher<'s> {
     }
 }
 
+/// Whether `set` is off the families of the sets in `focus` (being decided on): it shares at
+/// most one concept with each, or it holds, outside that set, two of the concepts found `hot` (a
+/// sampled space: [`PatternSearcher::hot_concepts`]) — a group that can fail of its own, whatever
+/// the set being decided on holds. On a sampled space the combinations put the hot concepts
+/// together, so most hot sets share two of them with the one being explained.
+fn apart(focus: &[ConceptSet], set: ConceptSet, hot: ConceptSet) -> bool {
+    focus.iter().all(|f| f.intersection(set).len() < 2 || set.difference(*f).intersection(hot).len() >= 2)
+}
+
 /// What one shrink tells the search: the core it found, if any. A not-distinct set adds to `flat`
 /// the family to set aside: its passing part's, or, when the lift test's observations took the
 /// set itself below τ, the set's own.
@@ -986,8 +1000,8 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 ///
 /// Rounds of `batch` picks (the width: by default the concurrency at the run's start, recorded in
 /// the run). The sets that answered wrong are decided on by `width ÷ m` workers side by side
-/// ([`lanes`], [`work_hot`]): each takes the next hot set that shares at most one concept with
-/// the sets the others hold, escalates it and explains it when it fails, so a call holds several
+/// ([`lanes`], [`work_hot`]): each takes the next hot set off the families of the sets the
+/// others hold ([`apart`]), escalates it and explains it when it fails, so a call holds several
 /// explaining steps, and a set a core found meanwhile covers is dropped unescalated. What a call
 /// still has room for is filled ([`Driver::fill_to`], [`PatternSearcher::fill`]): first with the
 /// escalation of hot sets waiting their turn, then with screens off the families being decided
@@ -1081,8 +1095,8 @@ struct Rules {
     confirm: Rule,
 }
 
-/// One worker: takes the first hot set that no set another worker is deciding on shares two
-/// concepts with (a set of the same family waits, and is dropped once a core covers it),
+/// One worker: takes the first hot set off the families of the sets the other workers are
+/// deciding on ([`apart`]: a set of the same family waits, and is dropped once a core covers it),
 /// escalates it, explains it when it fails, and takes the next, until none is left to take.
 /// Sets the calls were filled with meanwhile join the hot ones when they answered wrong.
 async fn work_hot<'d, E: Evaluate>(
@@ -1097,9 +1111,9 @@ async fn work_hot<'d, E: Evaluate>(
         let next = {
             let mut s = searcher.borrow_mut();
             s.hot.extend(filled.into_iter().filter(|&set| lane.get(set).is_some_and(|st| st.wrong > 0)));
-            let PatternSearcher { hot, focus, board, .. } = &mut *s;
+            let PatternSearcher { hot, focus, board, hot_concepts, .. } = &mut *s;
             hot.retain(|&set| !board.is_covered(set));
-            let free = hot.iter().position(|&set| focus.iter().all(|f| f.intersection(set).len() < 2));
+            let free = hot.iter().position(|&set| apart(focus, set, *hot_concepts));
             let next = free.and_then(|i| hot.remove(i));
             focus.extend(next);
             next
@@ -1256,6 +1270,7 @@ mod tests {
         assert_eq!(hot.iter().copied().collect::<std::collections::BTreeSet<_>>(), [10, 11, 12].into());
         let picks = searcher.concept_sets(&history, 0.05, 6, &[]);
         assert_eq!(picks.len(), 6);
+        assert_eq!(searcher.hot_concepts, bits(&[10, 11, 12]), "kept for the hot sets' turns");
         assert!(bits(&[10, 11, 12]).is_subset_of(picks[0]), "{picks:?}");
         // One triple of hot concepts, so one combination; the rest are discoveries.
         assert!(picks[1..].iter().all(|p| !p.intersects(bits(&[10, 11, 12]))), "{picks:?}");
@@ -1264,5 +1279,24 @@ mod tests {
         let mut searcher = PatternSearcher::new(&params, &space);
         let picks = searcher.concept_sets(&history, 0.05, 6, &[]);
         assert!(picks.iter().all(|p| !bits(&[10, 11, 12]).is_subset_of(*p)), "{picks:?}");
+    }
+
+    /// A hot set that shares two concepts with a set being decided on waits for it (it may fail
+    /// through the same core), unless it holds, outside that set, two concepts found hot: a group
+    /// that can fail of its own. Without hot concepts (a listed space) only the first holds.
+    #[test]
+    fn a_hot_set_waits_for_a_family_it_may_fail_through_unless_it_holds_a_hot_group_of_its_own() {
+        let focus = [bits(&[5, 9, 17, 66])];
+        let none = ConceptSet::EMPTY;
+        assert!(apart(&focus, bits(&[5, 40, 41]), none), "one concept shared");
+        assert!(!apart(&focus, bits(&[5, 17, 40, 41]), none), "two shared");
+        let hot = bits(&[5, 9, 13, 17, 21]);
+        assert!(apart(&focus, bits(&[5, 13, 17, 21]), hot), "13 + 21 outside the focus, both hot");
+        assert!(!apart(&focus, bits(&[5, 13, 17, 40]), hot), "one hot concept outside");
+        assert!(
+            !apart(&[bits(&[13, 17, 21]), focus[0]], bits(&[5, 13, 17, 21]), hot),
+            "holds 13 + 17 + 21, decided on"
+        );
+        assert!(apart(&[], bits(&[5, 9]), none), "nothing decided on");
     }
 }
