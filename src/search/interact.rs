@@ -471,8 +471,9 @@ pub struct PatternSearcher<'s> {
     hot: VecDeque<ConceptSet>,
     /// Workers deciding on hot sets side by side ([`work_hot`]).
     workers: usize,
-    /// A sampled space: the concepts the last picks found hot ([`PatternSearcher::hot_concepts`]).
-    hot_concepts: ConceptSet,
+    /// A sampled space: the concepts the last picks found hot ([`PatternSearcher::hot_concepts`]),
+    /// kept for the hot sets' turns ([`apart`]); empty on a listed space.
+    hot_now: ConceptSet,
 }
 
 impl<'s> PatternSearcher<'s> {
@@ -492,7 +493,7 @@ impl<'s> PatternSearcher<'s> {
             focus: Vec::new(),
             hot: VecDeque::new(),
             workers: 1,
-            hot_concepts: ConceptSet::EMPTY,
+            hot_now: ConceptSet::EMPTY,
         };
         if space.is_sampled() {
             // The first pool: every valid single concept, then uniform draws (their own stream, so
@@ -613,7 +614,7 @@ impl<'s> PatternSearcher<'s> {
         let hot = Self::hot_concepts(&effects, base);
         let mut picks = self.combinations(history, &hot, n.div_ceil(2), blocked);
         let hot: ConceptSet = hot.iter().fold(ConceptSet::EMPTY, |s, &(c, _)| s.with(c));
-        self.hot_concepts = hot;
+        self.hot_now = hot;
         // Concepts measured on their own: their effect is known, and the pattern surrogate's
         // heredity takes up the patterns that hold them.
         let alone: ConceptSet = history
@@ -798,8 +799,7 @@ impl<'s> PatternSearcher<'s> {
     /// to its width.
     pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<super::Ask> {
         asks.iter().for_each(|a| self.board.explore(a.set));
-        let hot_concepts = self.hot_concepts;
-        let apart = |focus: &[ConceptSet], set: ConceptSet| apart(focus, set, hot_concepts);
+        let hot_now = self.hot_now;
         let mut out = Vec::new();
         let mut left = room;
         let mut focus = self.focus.clone();
@@ -813,7 +813,7 @@ impl<'s> PatternSearcher<'s> {
             if left == 0 || ahead >= limit {
                 break;
             }
-            if asks.iter().any(|a| a.set == h) || self.board.is_covered(h) || !apart(&focus, h) {
+            if asks.iter().any(|a| a.set == h) || self.board.is_covered(h) || !apart(&focus, h, hot_now) {
                 continue;
             }
             let Some(n) = observed(h) else { continue };
@@ -835,7 +835,7 @@ impl<'s> PatternSearcher<'s> {
         }
         // Off the families first; the call is still filled to the width from the rest.
         let (off, on): (Vec<ConceptSet>, Vec<ConceptSet>) =
-            self.pick(history, 2 * left).into_iter().partition(|&p| apart(&focus, p));
+            self.pick(history, 2 * left).into_iter().partition(|&p| apart(&focus, p, hot_now));
         out.extend(off.into_iter().chain(on).take(left).map(screen));
         out
     }
@@ -1111,9 +1111,9 @@ async fn work_hot<'d, E: Evaluate>(
         let next = {
             let mut s = searcher.borrow_mut();
             s.hot.extend(filled.into_iter().filter(|&set| lane.get(set).is_some_and(|st| st.wrong > 0)));
-            let PatternSearcher { hot, focus, board, hot_concepts, .. } = &mut *s;
+            let PatternSearcher { hot, focus, board, hot_now, .. } = &mut *s;
             hot.retain(|&set| !board.is_covered(set));
-            let free = hot.iter().position(|&set| apart(focus, set, *hot_concepts));
+            let free = hot.iter().position(|&set| apart(focus, set, *hot_now));
             let next = free.and_then(|i| hot.remove(i));
             focus.extend(next);
             next
@@ -1270,7 +1270,7 @@ mod tests {
         assert_eq!(hot.iter().copied().collect::<std::collections::BTreeSet<_>>(), [10, 11, 12].into());
         let picks = searcher.concept_sets(&history, 0.05, 6, &[]);
         assert_eq!(picks.len(), 6);
-        assert_eq!(searcher.hot_concepts, bits(&[10, 11, 12]), "kept for the hot sets' turns");
+        assert_eq!(searcher.hot_now, bits(&[10, 11, 12]), "kept for the hot sets' turns");
         assert!(bits(&[10, 11, 12]).is_subset_of(picks[0]), "{picks:?}");
         // One triple of hot concepts, so one combination; the rest are discoveries.
         assert!(picks[1..].iter().all(|p| !p.intersects(bits(&[10, 11, 12]))), "{picks:?}");
