@@ -292,22 +292,41 @@ fn check_render_flags_a_concept_drawn_under_the_ground() {
     assert!(stdout.contains("warning[R0107]: concept {`buried`} is not visible in 2 of 2"), "{stdout}");
 }
 
+/// Shipped domains whose visibility lint a page runs with more scenes than the survey below:
+/// (domain file, page). The page shows `revelio check domains/FILE --render 5` in a `console`
+/// block with its clean output, which tests/docs.rs runs and compares; five scenes hold the
+/// survey's three (seeds 0…N-1), and one hidden scene in five is past the lint's threshold as one
+/// in three is.
+const LINTED_BY_DOCS: &[(&str, &str)] = &[("driving.rev", "README.md"), ("delivery.rev", "docs/porting.md")];
+
 /// Issue 18: every shipped domain passes the visibility lint — no concept, and no pair of
 /// concepts each seen alone, hidden in any of 3 scenes of every valid singleton and pair (the
 /// lint's 10 % threshold is one scene in three). A domain's `allow R0107` counts, as in
-/// `revelio check --render`. The test walks `domains/`, so a new domain is judged too. The
-/// domains are surveyed side by side: draws take turns on the one device, and what a survey does
-/// around them (sampling, meshes, the visibility figures) runs meanwhile.
+/// `revelio check --render`. The test walks `domains/`, so a new domain is judged too, except
+/// those a page lints with five scenes ([`LINTED_BY_DOCS`]; it asserts the page still shows it).
+/// The domains are surveyed side by side: draws take turns on the one device, and what a survey
+/// does around them (sampling, meshes, the visibility figures) runs meanwhile.
 #[test]
 fn shipped_domains_pass_the_visibility_lint() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("domains");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for (file, page) in LINTED_BY_DOCS {
+        let text = std::fs::read_to_string(root.join(page)).unwrap();
+        let shown =
+            format!("```console\n$ revelio check domains/{file} --render 5\nchecked 1 file: 0 errors, 0 warnings\n```");
+        assert!(
+            text.contains(&shown),
+            "{page} no longer shows the clean lint of {file} with five scenes:\n{shown}\nsurvey {file} here again (remove it from LINTED_BY_DOCS)"
+        );
+    }
+    let dir = root.join("domains");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|x| x == "rev"))
+        .filter(|p| !LINTED_BY_DOCS.iter().any(|(f, _)| p.file_name().is_some_and(|n| n == *f)))
         .collect();
     files.sort();
-    assert!(files.len() >= 2, "{files:?}");
+    assert!(!files.is_empty(), "no shipped domain left to survey");
     let r = renderer();
     let survey = |f: &Path| {
         let compiled = revelio::cli::common::compile_path(f, false);
