@@ -54,16 +54,6 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "ten 1 000-call searches",
     ),
     (
-        "revelio check domains/driving.rev --render 2 --render-sets 20 --figures",
-        "revelio check domains/driving.rev --render 1 --render-sample 2 --render-sets 2 --figures",
-        "two scenes of every singleton and pair and of 20 larger sets: about 50 s of CPU in the tests' build",
-    ),
-    (
-        "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam --out runs/indoor",
-        "revelio search domains/indoor.rev --model sim:examples/sim/indoor_paper.toml --algo beam --out runs/indoor --budget 100 --renderer none",
-        "1000 rendered inferences (about 100 s of CPU in the tests' build); the page's other rendered searches run as written",
-    ),
-    (
         "revelio bench search --profile examples/sim/driving_paper.toml --sweep beam_width=1,5,10",
         "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --sweep beam_width=1,5 --algos random,beam",
         "3 values × 4 algorithms × 5 seeds × 1000 inferences",

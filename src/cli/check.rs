@@ -45,6 +45,10 @@ pub struct CheckArgs {
     /// placed entities) of every set rendered
     #[arg(long, requires = "render")]
     pub figures: bool,
+    /// With `--render`: draw every scene, taking none from the cache of scenes drawn before (under
+    /// `$XDG_CACHE_HOME/revelio`, shared with the runs)
+    #[arg(long, requires = "render")]
+    pub no_cache: bool,
     /// Seed of `--render-sample` and `--render-sets` [default: 0]
     #[arg(long)]
     pub seed: Option<u64>,
@@ -104,7 +108,7 @@ pub fn run(args: CheckArgs) -> ExitCode {
     if let Some(scenes) = args.render {
         let plan = render_plan(scenes, &args);
         for c in &mut compiled {
-            match render_lint(c, plan) {
+            match render_lint(c, plan, crate::run::setup::cache_root(None, args.no_cache)) {
                 Ok((diags, lines)) => {
                     if args.figures {
                         figures.push_str(&lines);
@@ -173,9 +177,16 @@ fn render_plan(_: u32, _: &CheckArgs) -> Plan {
 /// R0107 and R0108 for a domain file that compiled without errors (used modules have no
 /// lattice), and the figures of every set rendered, a line each.
 #[cfg(feature = "render")]
-fn render_lint(c: &Compiled, plan: Plan) -> Result<(Vec<Diagnostic>, String), String> {
+fn render_lint(
+    c: &Compiled,
+    plan: Plan,
+    cache: Option<std::path::PathBuf>,
+) -> Result<(Vec<Diagnostic>, String), String> {
     let Some(domain) = c.domain.as_ref().filter(|d| !d.name.is_empty()) else { return Ok((Vec::new(), String::new())) };
-    let renderer = crate::render::BuiltinRenderer::new(None).map_err(|e| e.message)?;
+    // The scene cache a run's builtin renderer uses ([`crate::render::scene_cache`]).
+    let renderer = crate::render::BuiltinRenderer::new(None)
+        .map_err(|e| e.message)?
+        .with_cache(cache.map(|c| crate::run::setup::images_dir(&c)).as_deref());
     let tallies = crate::run::visible::survey(domain, &renderer, plan)
         .map_err(|e| format!("cannot render `{}` for the visibility lint: {e}", domain.name))?;
     let figures: String = tallies
@@ -186,7 +197,7 @@ fn render_lint(c: &Compiled, plan: Plan) -> Result<(Vec<Diagnostic>, String), St
 }
 
 #[cfg(not(feature = "render"))]
-fn render_lint(_: &Compiled, _: Plan) -> Result<(Vec<Diagnostic>, String), String> {
+fn render_lint(_: &Compiled, _: Plan, _: Option<std::path::PathBuf>) -> Result<(Vec<Diagnostic>, String), String> {
     Err("`--render` needs the builtin renderer, and this build of revelio has none (built without the `render` feature)".into())
 }
 
@@ -466,6 +477,7 @@ mod tests {
                 render_sample: None,
                 render_sets: None,
                 figures: false,
+                no_cache: false,
                 seed: None,
             })
         };

@@ -1,5 +1,5 @@
 //! Emitters: a sampled [`Scene`](crate::scene::Scene) as a Scenic program for the CARLA model
-//! ([`scenic`]), an image-generation prompt ([`prompt`]), or JSON (`revelio emit scene`).
+//! ([`scenic`](mod@scenic)), an image-generation prompt ([`prompt`](mod@prompt)), or JSON (`revelio emit scene`).
 
 pub mod prompt;
 pub mod scenic;

@@ -72,6 +72,61 @@ impl Store {
                 format!("cannot write cache entry `{}`: {e}", path.display())
             })
     }
+
+    /// Mark the entry under `key` as just used (its modification time), so that [`Store::prune`]
+    /// removes it last; a missing entry or a link is left alone.
+    pub fn touch(&self, key: &str) {
+        let path = self.path(key);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file())
+            && let Ok(f) = no_follow(OpenOptions::new().write(true)).open(&path)
+        {
+            let _ = f.set_modified(std::time::SystemTime::now());
+        }
+    }
+
+    /// When the entries hold more than `cap` bytes, remove the least recently used (oldest
+    /// modification time) until they hold at most three quarters of it. Only this store's own
+    /// entries are counted or removed: regular files with its extension in its two-digit
+    /// folders, never through a link. Returns the bytes removed.
+    pub fn prune(&self, cap: u64) -> u64 {
+        let mut entries: Vec<(std::time::SystemTime, u64, PathBuf)> = Vec::new();
+        let Ok(folders) = std::fs::read_dir(&self.dir) else { return 0 };
+        for folder in folders.flatten() {
+            let name = folder.file_name();
+            let is_fan = name.len() == 2 && name.to_string_lossy().chars().all(|c| c.is_ascii_hexdigit());
+            if !is_fan || !folder.file_type().is_ok_and(|t| t.is_dir()) {
+                continue;
+            }
+            let Ok(files) = std::fs::read_dir(folder.path()) else { continue };
+            for f in files.flatten() {
+                let path = f.path();
+                if path.extension().is_none_or(|e| e != self.ext) {
+                    continue;
+                }
+                if let Ok(m) = std::fs::symlink_metadata(&path)
+                    && m.is_file()
+                {
+                    entries.push((m.modified().unwrap_or(std::time::UNIX_EPOCH), m.len(), path));
+                }
+            }
+        }
+        let mut total: u64 = entries.iter().map(|e| e.1).sum();
+        if total <= cap {
+            return 0;
+        }
+        entries.sort_by(|a, b| a.0.cmp(&b.0).then_with(|| a.2.cmp(&b.2)));
+        let (keep, mut removed) = (cap / 4 * 3, 0);
+        for (_, len, path) in entries {
+            if total <= keep {
+                break;
+            }
+            if std::fs::remove_file(&path).is_ok() {
+                total -= len;
+                removed += len;
+            }
+        }
+        removed
+    }
 }
 
 /// The largest cache entry read (replies are bounded far below; images by the generators).

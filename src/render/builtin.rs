@@ -6,6 +6,7 @@ use std::sync::{Arc, OnceLock};
 use image::{ImageEncoder, RgbaImage};
 
 use super::gpu::{AdapterSummary, Gpu};
+use super::scene_cache::SceneCache;
 use super::{EntityVisibility, RenderError, Rendered, Renderer, atmosphere, mesh, visibility};
 use crate::net::BoxFuture;
 use crate::scene::Scene;
@@ -28,6 +29,8 @@ pub fn adapter_info() -> Result<AdapterSummary, RenderError> {
 pub struct BuiltinRenderer {
     gpu: Arc<Gpu>,
     size: Option<(u32, u32)>,
+    /// Scenes drawn before, by this build ([`BuiltinRenderer::with_cache`]).
+    cache: Option<Arc<SceneCache>>,
 }
 
 impl std::fmt::Debug for BuiltinRenderer {
@@ -52,7 +55,16 @@ impl BuiltinRenderer {
         if let Some((w, h)) = size {
             check_size(w, h)?;
         }
-        Ok(BuiltinRenderer { gpu: shared_gpu()?, size })
+        Ok(BuiltinRenderer { gpu: shared_gpu()?, size, cache: None })
+    }
+
+    /// Keep what is drawn in the scene cache, the folder `builtin` of the image cache `images`
+    /// (none when `images` is `None`), and take a scene drawn before from it
+    /// ([`super::scene_cache`]).
+    pub fn with_cache(mut self, images: Option<&std::path::Path>) -> BuiltinRenderer {
+        let adapter = format!("{:?}", self.gpu.summary());
+        self.cache = images.and_then(|d| SceneCache::open(d.join("builtin"), &adapter, self.size)).map(Arc::new);
+        self
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -69,8 +81,40 @@ impl BuiltinRenderer {
         Ok(self.render_seen(scene)?.0)
     }
 
-    /// Render to pixels, with each placed entity's visibility in that same frame.
+    /// Render to pixels, with each placed entity's visibility in that same frame (from the scene
+    /// cache when it holds the scene).
     pub fn render_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
+        if let Some(cache) = &self.cache {
+            let size = self.size_for(scene);
+            let decoded = cache.get(scene, size).and_then(|(png, seen)| {
+                let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).ok()?.to_rgba8();
+                (img.dimensions() == size).then_some((img, seen))
+            });
+            if let Some(hit) = decoded {
+                return Ok(hit);
+            }
+            let (img, seen) = self.draw_seen(scene)?;
+            cache.put(scene, &encode_png(&img)?, &seen);
+            return Ok((img, seen));
+        }
+        self.draw_seen(scene)
+    }
+
+    /// The scene as PNG with its visibility figures, and whether the scene cache held it.
+    fn render_encoded(&self, scene: &Scene) -> Result<(Vec<u8>, Vec<EntityVisibility>, bool), RenderError> {
+        if let Some((png, seen)) = self.cache.as_ref().and_then(|c| c.get(scene, self.size_for(scene))) {
+            return Ok((png, seen, true));
+        }
+        let (img, seen) = self.draw_seen(scene)?;
+        let png = encode_png(&img)?;
+        if let Some(cache) = &self.cache {
+            cache.put(scene, &png, &seen);
+        }
+        Ok((png, seen, false))
+    }
+
+    /// Draw the scene: pixels and each placed entity's visibility in that same frame.
+    fn draw_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
         let (w, h) = self.size_for(scene);
         check_size(w, h)?;
         let mesh = mesh::build(scene, scene.camera.at);
@@ -121,8 +165,8 @@ impl Renderer for BuiltinRenderer {
         // The future does all its work when first polled; `blocking` tells the run to poll it
         // on a render thread.
         Box::pin(async move {
-            let (img, seen) = self.render_seen(scene)?;
-            Ok(Rendered { png: encode_png(&img)?, cached: false, visibility: Some(seen) })
+            let (png, seen, cached) = self.render_encoded(scene)?;
+            Ok(Rendered { png, cached, visibility: Some(seen) })
         })
     }
 
@@ -425,5 +469,62 @@ mod tests {
             let s = scene(vec![pedestrian(8.0, 0.0), red_box(20.0), traffic_light(25.0, false)], env);
             r.render_rgba(&s).unwrap().save(std::path::Path::new(&dir).join(format!("{name}.png"))).unwrap();
         }
+    }
+
+    /// The scene cache gives back what a drawing gives (the same PNG and figures), only for the
+    /// same scene and size; an entry that does not read back is drawn again and replaced; the
+    /// least recently used entries go first when it outgrows its cap.
+    #[test]
+    fn the_scene_cache_gives_back_only_what_the_same_drawing_gives() {
+        let dir = tempfile::tempdir().unwrap();
+        let cached = renderer().with_cache(Some(dir.path()));
+        let s = scene(vec![red_box(12.0), pedestrian(8.0, 1.0)], clear());
+        let drawn = renderer().render_encoded(&s).unwrap();
+        assert!(!drawn.2);
+        let first = cached.render_encoded(&s).unwrap();
+        assert_eq!((&first.0, &first.1, first.2), (&drawn.0, &drawn.1, false));
+        let again = cached.render_encoded(&s).unwrap();
+        assert_eq!((&again.0, &again.1, again.2), (&drawn.0, &drawn.1, true));
+        let (img, seen) = cached.render_seen(&s).unwrap();
+        assert_eq!((img, seen), renderer().render_seen(&s).unwrap());
+        // Another scene, or the same at another size, is drawn.
+        let other = scene(vec![red_box(13.0)], clear());
+        assert!(!cached.render_encoded(&other).unwrap().2);
+        let small = BuiltinRenderer::new(Some((320, 180))).unwrap().with_cache(Some(dir.path()));
+        let (png, _, hit) = small.render_encoded(&s).unwrap();
+        assert!(!hit);
+        assert_eq!(image::load_from_memory(&png).unwrap().width(), 320);
+        // A damaged entry is drawn again and replaced.
+        let entries: Vec<_> = walk(&dir.path().join("builtin"));
+        assert_eq!(entries.len(), 3, "{entries:?}");
+        for e in &entries {
+            std::fs::write(e, b"[]\nnot a png").unwrap();
+        }
+        let redrawn = cached.render_encoded(&s).unwrap();
+        assert_eq!((&redrawn.0, redrawn.2), (&drawn.0, false));
+        assert!(cached.render_encoded(&s).unwrap().2);
+        assert!(!cached.render_encoded(&other).unwrap().2 && !small.render_encoded(&s).unwrap().2);
+        // Past the cap, the least recently used go.
+        let store = crate::net::cache::Store::new(dir.path().join("builtin"), "scene");
+        let total: u64 = walk(&dir.path().join("builtin")).iter().map(|p| p.metadata().unwrap().len()).sum();
+        let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+        for e in walk(&dir.path().join("builtin")) {
+            std::fs::File::options().write(true).open(&e).unwrap().set_modified(old).unwrap();
+        }
+        assert!(cached.render_encoded(&s).unwrap().2, "a hit marks its entry used");
+        assert!(store.prune(total - 1) > 0);
+        let left: u64 = walk(&dir.path().join("builtin")).iter().map(|p| p.metadata().unwrap().len()).sum();
+        assert!(left <= (total - 1) / 4 * 3, "{left} of {total} bytes left");
+        assert!(cached.render_encoded(&s).unwrap().2, "the entry used last is kept");
+        assert_eq!(store.prune(u64::MAX), 0);
+    }
+
+    fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+        let mut out = Vec::new();
+        for d in std::fs::read_dir(dir).unwrap().flatten() {
+            out.extend(std::fs::read_dir(d.path()).unwrap().flatten().map(|f| f.path()));
+        }
+        out.sort();
+        out
     }
 }

@@ -20,6 +20,8 @@ mod gpu;
 #[cfg(feature = "render")]
 pub mod mesh;
 #[cfg(feature = "render")]
+pub mod scene_cache;
+#[cfg(feature = "render")]
 pub mod sheet;
 #[cfg(feature = "render")]
 mod visibility;
@@ -94,7 +96,8 @@ pub trait Renderer: Send + Sync {
 pub struct RendererOptions {
     /// Image size override `(width, height)`; defaults to the domain camera's.
     pub size: Option<(u32, u32)>,
-    /// Image cache folder (image-generation renderers).
+    /// Image cache folder: the image generators' images, and the builtin renderer's scene cache
+    /// in its folder `builtin`.
     pub cache_dir: Option<std::path::PathBuf>,
     /// `--renderer-base-url`: the image-generation provider's endpoint (else its provider's
     /// variable, `GEMINI_BASE_URL` or `OPENAI_BASE_URL`). Never the model's `--base-url`.
@@ -114,7 +117,10 @@ pub fn build_renderer(spec: &str, opts: &RendererOptions) -> Result<Option<std::
     match spec {
         "none" => Ok(None),
         #[cfg(feature = "render")]
-        "builtin" => Ok(Some(std::sync::Arc::new(BuiltinRenderer::new(opts.size).map_err(|e| e.message)?))),
+        "builtin" => {
+            let r = BuiltinRenderer::new(opts.size).map_err(|e| e.message)?;
+            Ok(Some(std::sync::Arc::new(r.with_cache(opts.cache_dir.as_deref()))))
+        }
         #[cfg(not(feature = "render"))]
         "builtin" => Err(without_feature("builtin", "render")),
         #[cfg(feature = "net")]

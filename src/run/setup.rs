@@ -140,6 +140,12 @@ pub fn cache_root(flag: Option<&Path>, disabled: bool) -> Option<PathBuf> {
     var("HOME").map(|h| h.join(".cache").join("revelio"))
 }
 
+/// The image cache in the cache folder `root`: generated images, and the builtin renderer's
+/// drawn scenes (`crate::render::scene_cache`).
+pub fn images_dir(root: &Path) -> PathBuf {
+    root.join("images")
+}
+
 /// Why a run's model or renderer could not be set up.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
@@ -216,7 +222,7 @@ pub fn build_parts(
         renderer_spec,
         &RendererOptions {
             size: None,
-            cache_dir: cache.map(|c| c.join("images")),
+            cache_dir: cache.map(images_dir),
             base_url: settings.renderer_base_url.clone(),
             allow_http: settings.allow_http,
             dry_run: settings.dry_run,

@@ -14,7 +14,7 @@
 //!
 //! Occlusion is treated like an overlap, one rank below it: a position where the entity would be
 //! hidden behind, or would hide, another entity of the scene by more than
-//! [`MAX_HIDDEN`](super::view::MAX_HIDDEN) of its projected area (`must.hidden`, estimated by
+//! [`MAX_HIDDEN`] of its projected area (`must.hidden`, estimated by
 //! [`view`](super::view)) is re-drawn too, and after the re-draws one draw in each ninth of
 //! where the entity may stand is tried (middle, edges, corners). When no position is both clear
 //! and seen, the clear one that hides least stands.

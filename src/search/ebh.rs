@@ -19,7 +19,7 @@ pub fn ebh(e: &[f64], q: f64) -> Vec<bool> {
 /// sum to K. Weights fixed before the e-values are observed (here: from the search's data, the
 /// e-values from fresh observations) keep the false discovery rate at most q under any
 /// dependence: a null i is rejected only when w_i·e_i ≥ K / (q·R), so the expected false share
-/// is at most q·Σ_null w_i·E[e_i] / K ≤ q. A hypothesis with a larger weight needs a smaller
+/// is at most q·Σ_null w_i·E\[e_i\] / K ≤ q. A hypothesis with a larger weight needs a smaller
 /// e-value; one with weight 0 is never rejected. All weights zero (or none given): plain e-BH.
 pub fn ebh_weighted(e: &[f64], w: &[f64], q: f64) -> Vec<bool> {
     debug_assert_eq!(e.len(), w.len());

@@ -27,7 +27,7 @@
 //! a weak heredity term ([`HEREDITY`]): a pattern whose part already fails more often than the
 //! base rate is likelier a core, as the paper's failure modes mostly are.
 //!
-//! The acquisition ([`Fit::score`]) is Thompson sampling over `d` (one draw from its posterior per
+//! The acquisition ([`Fit::scorer`], [`Scorer::score`]) is Thompson sampling over `d` (one draw from its posterior per
 //! pick) and, under the drawn `d`, the probability that testing S reveals a new core —
 //! 1 − Π(1 − q_p·det(k)) over S's open sub-patterns, where `det(k)` is the chance that a screen of
 //! S shows a core `k` concepts smaller — divided by the expected cost of testing S: the screen,

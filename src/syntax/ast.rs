@@ -1,7 +1,7 @@
 //! The syntax tree of one `.rev` file, with spans (byte ranges into the file).
 //!
 //! The tree keeps what the source says, not what it means: names are unresolved, numbers keep
-//! their unit suffix, and every part that failed to parse is an [`Item::Error`] or a
+//! their unit suffix, and every part that failed to parse is an [`ItemKind::Error`] or a
 //! `*::Error` statement so that editor features keep working on broken code.
 
 use crate::ir::{CmpOp, Primitive, Span};
