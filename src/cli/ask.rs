@@ -99,7 +99,7 @@ async fn ask(domain: &Domain, set: ConceptSet, args: &AskArgs) -> Result<String,
     let save = |png: &[u8]| {
         let path = args.save.as_deref().unwrap_or(std::path::Path::new(""));
         save(path, png)?;
-        let (w, h) = crate::vlm::cost::png_size(png).unwrap_or_default();
+        let (w, h) = crate::render::png_size(png).unwrap_or_default();
         // As `render` says it: on stdout, also when the scene is then not shown.
         let _ = saved.set(format!("wrote {} ({w}x{h})\n", path.display()));
         Ok(())

@@ -84,31 +84,30 @@ impl BuiltinRenderer {
     /// Render to pixels, with each placed entity's visibility in that same frame (from the scene
     /// cache when it holds the scene).
     pub fn render_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
-        if let Some(cache) = &self.cache {
-            let size = self.size_for(scene);
-            let decoded = cache.get(scene, size).and_then(|(png, seen)| {
-                let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).ok()?.to_rgba8();
-                (img.dimensions() == size).then_some((img, seen))
-            });
-            if let Some(hit) = decoded {
-                return Ok(hit);
-            }
-            let (img, seen) = self.draw_seen(scene)?;
-            cache.put(scene, &encode_png(&img)?, &seen);
-            return Ok((img, seen));
+        if self.cache.is_none() {
+            return self.draw_seen(scene);
         }
-        self.draw_seen(scene)
+        let (png, seen, _) = self.render_encoded(scene)?;
+        match image::load_from_memory_with_format(&png, image::ImageFormat::Png) {
+            Ok(img) => Ok((img.to_rgba8(), seen)),
+            // A cached PNG whose header reads right but whose data does not: draw it again.
+            Err(_) => self.draw_seen(scene),
+        }
     }
 
-    /// The scene as PNG with its visibility figures, and whether the scene cache held it.
+    /// The scene as PNG with its visibility figures, and whether the scene cache held it (a
+    /// drawing is kept there).
     fn render_encoded(&self, scene: &Scene) -> Result<(Vec<u8>, Vec<EntityVisibility>, bool), RenderError> {
-        if let Some((png, seen)) = self.cache.as_ref().and_then(|c| c.get(scene, self.size_for(scene))) {
+        let entry = self.cache.as_ref().and_then(|c| Some((c, c.key(scene)?)));
+        if let Some((cache, key)) = &entry
+            && let Some((png, seen)) = cache.get(key, scene.entities.len(), self.size_for(scene))
+        {
             return Ok((png, seen, true));
         }
         let (img, seen) = self.draw_seen(scene)?;
         let png = encode_png(&img)?;
-        if let Some(cache) = &self.cache {
-            cache.put(scene, &png, &seen);
+        if let Some((cache, key)) = &entry {
+            cache.put(key, &png, &seen);
         }
         Ok((png, seen, false))
     }

@@ -44,6 +44,16 @@ pub struct Rendered {
     pub visibility: Option<Vec<EntityVisibility>>,
 }
 
+/// The width and height a PNG's header states (`None` for anything that is not a PNG): what a
+/// model is billed for, and what a cached drawing must match.
+pub fn png_size(bytes: &[u8]) -> Option<(u32, u32)> {
+    if bytes.len() < 24 || &bytes[..8] != b"\x89PNG\r\n\x1a\n" || &bytes[12..16] != b"IHDR" {
+        return None;
+    }
+    let be = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+    Some((be(16), be(20)))
+}
+
 /// One placed entity's visibility in one image (the builtin renderer measures it from the same
 /// frame as the colours, see docs/render.md).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

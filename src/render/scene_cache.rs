@@ -50,40 +50,31 @@ impl SceneCache {
         Some(SceneCache { store, salt })
     }
 
-    fn key(&self, scene: &Scene) -> Option<String> {
+    /// The entry `scene` is kept under (`None`: it cannot be written as JSON, so it is not kept).
+    pub fn key(&self, scene: &Scene) -> Option<String> {
         let json = serde_json::to_vec(scene).ok()?;
         Some(crate::hash::parts_hex([self.salt.as_bytes(), &json]))
     }
 
-    /// The PNG and visibility figures of `scene` drawn at `(w, h)`, if drawn before.
-    pub fn get(&self, scene: &Scene, (w, h): (u32, u32)) -> Option<(Vec<u8>, Vec<EntityVisibility>)> {
-        let key = self.key(scene)?;
-        let bytes = self.store.get(&key)?;
+    /// The PNG and visibility figures kept under `key` (a scene with `entities` placed entities,
+    /// drawn at `(w, h)`), if drawn before.
+    pub fn get(&self, key: &str, entities: usize, (w, h): (u32, u32)) -> Option<(Vec<u8>, Vec<EntityVisibility>)> {
+        let bytes = self.store.get(key)?;
         let (line, png) = bytes.split_at(bytes.iter().position(|&b| b == b'\n')?);
         let png = &png[1..];
         let seen: Vec<EntityVisibility> = serde_json::from_slice(line).ok()?;
-        if seen.len() != scene.entities.len() || png_size(png) != Some((w, h)) {
+        if seen.len() != entities || super::png_size(png) != Some((w, h)) {
             return None;
         }
-        self.store.touch(&key);
+        self.store.touch(key);
         Some((png.to_vec(), seen))
     }
 
     /// Keep a drawn scene; a cache that cannot be written only costs a drawing later.
-    pub fn put(&self, scene: &Scene, png: &[u8], seen: &[EntityVisibility]) {
-        let (Some(key), Ok(mut bytes)) = (self.key(scene), serde_json::to_vec(seen)) else { return };
+    pub fn put(&self, key: &str, png: &[u8], seen: &[EntityVisibility]) {
+        let Ok(mut bytes) = serde_json::to_vec(seen) else { return };
         bytes.push(b'\n');
         bytes.extend_from_slice(png);
-        let _ = self.store.put(&key, &bytes);
+        let _ = self.store.put(key, &bytes);
     }
-}
-
-/// The width and height a PNG's header states (`None` for anything that is not a PNG).
-fn png_size(png: &[u8]) -> Option<(u32, u32)> {
-    const SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
-    if png.len() < 24 || &png[..8] != SIGNATURE || &png[12..16] != b"IHDR" {
-        return None;
-    }
-    let be = |i: usize| u32::from_be_bytes([png[i], png[i + 1], png[i + 2], png[i + 3]]);
-    Some((be(16), be(20)))
 }

@@ -213,7 +213,7 @@ impl Observer {
         let (Some(purse), Some(pricing)) = (&self.purse, model.pricing()) else {
             return Ok(model.ask(query).await);
         };
-        let image = query.image.as_deref().map(|b| crate::vlm::cost::png_size(b).unwrap_or((4096, 4096)));
+        let image = query.image.as_deref().map(|b| crate::render::png_size(b).unwrap_or((4096, 4096)));
         let Some(reservation) = purse.reserve(pricing.worst_case(&query.prompt, image)) else {
             return Err(ObserveError::CostCap { cap: purse.cap(), spent: purse.spent() });
         };

@@ -101,15 +101,6 @@ pub fn estimate_image_tokens(width: u32, height: u32, max_side: Option<u32>) -> 
     ((w * h) / 750.0).ceil() as u64
 }
 
-/// The width and height of a PNG from its header (`None`: not a PNG).
-pub fn png_size(bytes: &[u8]) -> Option<(u32, u32)> {
-    if bytes.len() < 24 || &bytes[..8] != b"\x89PNG\r\n\x1a\n" {
-        return None;
-    }
-    let be = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    Some((be(16), be(20)))
-}
-
 /// What one call of a model costs: its prices and its output bounds.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Pricing {
@@ -322,7 +313,7 @@ mod tests {
         let mut png = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR".to_vec();
         png.extend(640u32.to_be_bytes());
         png.extend(360u32.to_be_bytes());
-        assert_eq!(png_size(&png), Some((640, 360)));
+        assert_eq!(crate::render::png_size(&png), Some((640, 360)));
     }
 
     #[test]
