@@ -458,6 +458,14 @@ fn words(line: &str) -> Vec<String> {
     out
 }
 
+/// The builtin renderer's scene cache every page's scratch folder shares (through a link at
+/// `$XDG_CACHE_HOME/revelio/images/builtin`), as a user who follows the pages on one machine
+/// shares one: the search page's interact search draws few of the scenes the README's first
+/// command drew before it (42 → 17 s alone). Only the scenes are shared — a page's reply cache
+/// stays its own, so what a command prints does not depend on which page ran first — and a
+/// cached scene is the same image and figures as a drawn one (`src/render/scene_cache.rs`).
+static SCENES: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+
 /// Runs commands in one scratch folder holding copies of the shipped files.
 struct Scratch {
     dir: tempfile::TempDir,
@@ -480,6 +488,10 @@ impl Scratch {
             copy_tree(&root.join(folder), &dir.path().join(folder));
         }
         copy_tree(&root.join("tests/doc_files"), dir.path());
+        let images = dir.path().join(".cache/revelio/images");
+        std::fs::create_dir_all(&images).unwrap();
+        let scenes = SCENES.get_or_init(|| tempfile::tempdir().unwrap());
+        std::os::unix::fs::symlink(scenes.path(), images.join("builtin")).unwrap();
         Scratch { dir, mock: mock.to_string() }
     }
 

@@ -95,6 +95,15 @@ impl BuiltinRenderer {
         }
     }
 
+    /// Each placed entity's visibility in the scene's image, without its pixels (the visibility
+    /// lint): a scene the cache holds is neither drawn nor decoded.
+    pub fn render_visibility(&self, scene: &Scene) -> Result<Vec<EntityVisibility>, RenderError> {
+        match self.cache {
+            Some(_) => Ok(self.render_encoded(scene)?.1),
+            None => Ok(self.draw_seen(scene)?.1),
+        }
+    }
+
     /// The scene as PNG with its visibility figures, and whether the scene cache held it (a
     /// drawing is kept there).
     fn render_encoded(&self, scene: &Scene) -> Result<(Vec<u8>, Vec<EntityVisibility>, bool), RenderError> {
@@ -485,7 +494,9 @@ mod tests {
         let again = cached.render_encoded(&s).unwrap();
         assert_eq!((&again.0, &again.1, again.2), (&drawn.0, &drawn.1, true));
         let (img, seen) = cached.render_seen(&s).unwrap();
-        assert_eq!((img, seen), renderer().render_seen(&s).unwrap());
+        assert_eq!((img, &seen), (renderer().render_seen(&s).unwrap().0, &drawn.1));
+        assert_eq!(cached.render_visibility(&s).unwrap(), seen);
+        assert_eq!(renderer().render_visibility(&s).unwrap(), seen);
         // Another scene, or the same at another size, is drawn.
         let other = scene(vec![red_box(13.0)], clear());
         assert!(!cached.render_encoded(&other).unwrap().2);

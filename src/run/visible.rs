@@ -118,7 +118,7 @@ pub fn survey(domain: &Domain, renderer: &BuiltinRenderer, plan: Plan) -> Result
             if scene.entities.iter().all(|e| e.concept.is_none()) {
                 break;
             }
-            let (_, seen) = renderer.render_seen(&scene).map_err(|e| e.message)?;
+            let seen = renderer.render_visibility(&scene).map_err(|e| e.message)?;
             t.scenes += 1;
             for e in scene.entities.iter().filter(|e| e.draws_nothing()) {
                 let Some(concept) = &e.concept else { continue };
