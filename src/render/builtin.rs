@@ -84,15 +84,21 @@ impl BuiltinRenderer {
     /// Render to pixels, with each placed entity's visibility in that same frame (from the scene
     /// cache when it holds the scene).
     pub fn render_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
-        if self.cache.is_none() {
-            return self.draw_seen(scene);
+        let Some(cache) = &self.cache else { return self.draw_seen(scene) };
+        let key = cache.key(scene);
+        let hit = key.as_deref().and_then(|k| cache.get(k, scene.entities.len(), self.size_for(scene)));
+        if let Some((png, seen)) = hit
+            && let Ok(img) = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+        {
+            return Ok((img.to_rgba8(), seen));
         }
-        let (png, seen, _) = self.render_encoded(scene)?;
-        match image::load_from_memory_with_format(&png, image::ImageFormat::Png) {
-            Ok(img) => Ok((img.to_rgba8(), seen)),
-            // A cached PNG whose header reads right but whose data does not: draw it again.
-            Err(_) => self.draw_seen(scene),
+        // Not drawn before, or kept with a header that reads right over data that does not: draw
+        // it and keep the drawing (the pixels at hand, so nothing is decoded).
+        let (img, seen) = self.draw_seen(scene)?;
+        if let Some(k) = &key {
+            cache.put(k, &encode_png(&img)?, &seen);
         }
+        Ok((img, seen))
     }
 
     /// Each placed entity's visibility in the scene's image, without its pixels (the visibility
