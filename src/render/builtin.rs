@@ -11,6 +11,9 @@ use super::{EntityVisibility, RenderError, Rendered, Renderer, atmosphere, mesh,
 use crate::net::BoxFuture;
 use crate::scene::Scene;
 
+/// A scene as the scene cache keeps it: its PNG and its visibility figures.
+type Kept = (Vec<u8>, Vec<EntityVisibility>);
+
 /// Largest image side accepted; wgpu's guaranteed minimum texture size.
 pub const MAX_SIDE: u32 = 8192;
 
@@ -84,9 +87,10 @@ impl BuiltinRenderer {
     /// Render to pixels, with each placed entity's visibility in that same frame (from the scene
     /// cache when it holds the scene).
     pub fn render_seen(&self, scene: &Scene) -> Result<(RgbaImage, Vec<EntityVisibility>), RenderError> {
-        let Some(cache) = &self.cache else { return self.draw_seen(scene) };
-        let key = cache.key(scene);
-        let hit = key.as_deref().and_then(|k| cache.get(k, scene.entities.len(), self.size_for(scene)));
+        let (entry, hit) = self.cached(scene);
+        if entry.is_none() {
+            return self.draw_seen(scene);
+        }
         if let Some((png, seen)) = hit
             && let Ok(img) = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
         {
@@ -94,10 +98,7 @@ impl BuiltinRenderer {
         }
         // Not drawn before, or kept with a header that reads right over data that does not: draw
         // it and keep the drawing (the pixels at hand, so nothing is decoded).
-        let (img, seen) = self.draw_seen(scene)?;
-        if let Some(k) = &key {
-            cache.put(k, &encode_png(&img)?, &seen);
-        }
+        let (img, _, seen) = self.draw_and_keep(scene, entry)?;
         Ok((img, seen))
     }
 
@@ -113,18 +114,34 @@ impl BuiltinRenderer {
     /// The scene as PNG with its visibility figures, and whether the scene cache held it (a
     /// drawing is kept there).
     fn render_encoded(&self, scene: &Scene) -> Result<(Vec<u8>, Vec<EntityVisibility>, bool), RenderError> {
-        let entry = self.cache.as_ref().and_then(|c| Some((c, c.key(scene)?)));
-        if let Some((cache, key)) = &entry
-            && let Some((png, seen)) = cache.get(key, scene.entities.len(), self.size_for(scene))
-        {
+        let (entry, hit) = self.cached(scene);
+        if let Some((png, seen)) = hit {
             return Ok((png, seen, true));
         }
+        let (_, png, seen) = self.draw_and_keep(scene, entry)?;
+        Ok((png, seen, false))
+    }
+
+    /// The scene cache with the scene's key (none without a cache, or for a scene that has no
+    /// key), and what the cache holds for it.
+    fn cached(&self, scene: &Scene) -> (Option<(&SceneCache, String)>, Option<Kept>) {
+        let entry = self.cache.as_deref().and_then(|c| Some((c, c.key(scene)?)));
+        let hit = entry.as_ref().and_then(|(c, key)| c.get(key, scene.entities.len(), self.size_for(scene)));
+        (entry, hit)
+    }
+
+    /// Draw the scene and encode it as PNG, kept in the scene cache under `entry`'s key.
+    fn draw_and_keep(
+        &self,
+        scene: &Scene,
+        entry: Option<(&SceneCache, String)>,
+    ) -> Result<(RgbaImage, Vec<u8>, Vec<EntityVisibility>), RenderError> {
         let (img, seen) = self.draw_seen(scene)?;
         let png = encode_png(&img)?;
-        if let Some((cache, key)) = &entry {
-            cache.put(key, &png, &seen);
+        if let Some((cache, key)) = entry {
+            cache.put(&key, &png, &seen);
         }
-        Ok((png, seen, false))
+        Ok((img, png, seen))
     }
 
     /// Draw the scene: pixels and each placed entity's visibility in that same frame.
