@@ -322,8 +322,9 @@ pub struct SearchFlags {
     /// Beam diversity weight λ in FR − λ·max Jaccard [default: 0.5]
     #[arg(long)]
     pub lambda: Option<f64>,
-    /// GPTS and interact: sets picked per round, evaluated in parallel (interact fills every call
-    /// to this width) [default: GPTS 1; interact the concurrency at the run's start]
+    /// GPTS and interact: sets picked per round, evaluated in parallel (interact fills its calls
+    /// to this width, with screens to four fifths of it) [default: GPTS 1; interact the
+    /// concurrency at the run's start]
     #[arg(long)]
     pub batch: Option<usize>,
     /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the

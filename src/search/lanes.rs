@@ -6,7 +6,7 @@
 //! ([`Driver::fill_to`]), and the search's budget goes to screening before the explaining is
 //! done. Side by side, a lane is a [`Drive`] that *submits* its asks instead of calling: [`Hub::run`]
 //! polls every lane in a fixed order until each has submitted or finished, then makes one call
-//! with every lane's asks (filled to the width only with what is left), records it, and polls
+//! with every lane's asks (filled towards the width only with what is left), records it, and polls
 //! again. No lane waits on anything but that call, so the decisions stay a pure function of the
 //! seed and the answers: a resumed run replays them, whatever the concurrency.
 //!
