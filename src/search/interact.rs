@@ -835,9 +835,8 @@ impl<'s> PatternSearcher<'s> {
     /// wrong through the very failure mode being explained, and be escalated before its core
     /// covers them), apart from one another first ([`SPREAD`]), the asked sets left out; the best
     /// of the rest only when those are too few. Screens fill a listed space's call to
-    /// [`FILL_SHARE`] of its width, no further. (A sampled
-    /// space: [`PatternSearcher::pick`]'s concept sets and picks, those off the families first,
-    /// to the whole width.)
+    /// [`FILL_SHARE`] of its width, no further. (A sampled space: [`PatternSearcher::pick`]'s
+    /// concept sets and picks, those off the families first, to the whole width.)
     pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<super::Ask> {
         asks.iter().for_each(|a| self.board.explore(a.set));
         let hot_now = self.hot_now;
@@ -1081,9 +1080,10 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
 /// explaining steps, and a set a core found meanwhile covers is dropped unescalated. What a call
 /// still has room for is filled ([`Driver::fill_to`], [`PatternSearcher::fill`]): first with the
 /// escalation of hot sets waiting their turn, then with screens off the families being decided
-/// on, up to [`FILL_SHARE`] of the width; a screen that answers wrong joins the hot sets. A shrink's lookahead is its lane's share
-/// of the width ([`lanes::Lane`]). At width 1 this is the one-pick-at-a-time search, unchanged.
-/// Every decision is a pure function of the seed and the answers.
+/// on, up to [`FILL_SHARE`] of the width; a screen that answers wrong joins the hot sets. A
+/// shrink's lookahead is its lane's share of the width ([`lanes::Lane`]). At width 1 this is the
+/// one-pick-at-a-time search, unchanged. Every decision is a pure function of the seed and the
+/// answers.
 async fn run_patterns<'d, E: Evaluate>(
     params: &Params,
     space: &'d Space,
