@@ -323,8 +323,8 @@ pub struct SearchFlags {
     #[arg(long)]
     pub lambda: Option<f64>,
     /// GPTS and interact: sets picked per round, evaluated in parallel (interact fills its calls
-    /// to this width, with screens to four fifths of it) [default: GPTS 1; interact the
-    /// concurrency at the run's start]
+    /// to this width; on a listed lattice its screens stop at four fifths of it) [default: GPTS
+    /// 1; interact the concurrency at the run's start]
     #[arg(long)]
     pub batch: Option<usize>,
     /// GPTS: the GP kernel, `dot` (the paper's DotProduct + White) or `rbf` (RBF + White, the
