@@ -60,6 +60,15 @@ pub enum Shrunk {
         stats: SetStats,
         by: ConceptSet,
     },
+    /// The shrink reached a 1-minimal failing set (`stats`) whose lift over its passing
+    /// one-smaller subset `by` was not settled when the budget ran out: neither a core nor shown
+    /// to be no more than `by`. The shrink phase reports nothing of it (a minimal one stays a
+    /// failure mode no core explains, for confirmation to judge); the search sets `by`'s family
+    /// aside as for [`Shrunk::NotDistinct`].
+    Undecided {
+        stats: SetStats,
+        by: ConceptSet,
+    },
 }
 
 /// z of the one-sided two-proportion test ("`set` fails more often than `sub`") at 99 %: the
@@ -160,7 +169,7 @@ pub async fn shrink<D: Drive>(driver: &mut D, space: &Space, root: ConceptSet) -
                 return Ok(Shrunk::NotDistinct { stats, by: t.set });
             };
             if !driver.observe_more(more, m.min(max - has)).await? {
-                return Ok(Shrunk::NotDistinct { stats, by: t.set });
+                return Ok(Shrunk::Undecided { stats, by: t.set });
             }
             asked_by = Some(t.set);
         }
@@ -298,7 +307,8 @@ pub async fn run_capped<E: Evaluate>(
                     flat.push((stats.set, by));
                 }
             }
-            Shrunk::Unaffordable => {}
+            // A lift test the budget could not finish says nothing about the set and its part.
+            Shrunk::Undecided { .. } | Shrunk::Unaffordable => {}
         }
         driver.set_budget(cap(found.cores.len()));
     }

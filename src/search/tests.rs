@@ -467,6 +467,33 @@ fn the_lift_test_compares_a_set_with_its_subset() {
     assert!(shrink::lifts(&st(3, 5), &SetStats::new(bits(&[1]))), "nothing to compare with");
 }
 
+/// A lift test the budget cannot pay says nothing: the shrink phase with no budget left does not
+/// report a set that failed 3 of 3 as "not distinct" from a part seen once.
+#[test]
+fn a_lift_test_the_budget_cannot_pay_is_undecided_and_not_reported() {
+    let space = modifier_space();
+    let search = Params::default();
+    let seen = |set: ConceptSet, wrong: u32, right: u32| {
+        let mut s = SetStats::new(set);
+        (0..wrong).for_each(|_| s.add(Outcome::Wrong));
+        (0..right).for_each(|_| s.add(Outcome::Correct));
+        s
+    };
+    let (root, part, other) = (bits(&[2, 5]), bits(&[2]), bits(&[5]));
+    let history = vec![seen(root, 3, 0), seen(part, 0, 1), seen(other, 0, 1)];
+    let mut e = FnEval { f: |s: ConceptSet| if bits(&[2, 5]).is_subset_of(s) { 99 } else { 0 }, asked: vec![] };
+    let mut d = Driver::with_history(&mut e, search.shrink_rule(), 0, history.clone());
+    let shrunk = block_on(shrink::shrink(&mut d, &space, root)).unwrap();
+    assert!(
+        matches!(shrunk, shrink::Shrunk::Undecided { ref stats, by } if stats.set == root && (by == part || by == other)),
+        "{shrunk:?}"
+    );
+    let mut d = Driver::with_history(&mut e, search.shrink_rule(), 0, history);
+    let found = block_on(shrink::run(&mut d, &space, &[root])).unwrap();
+    assert!(found.not_distinct.is_empty() && found.cores.is_empty(), "{found:?}");
+    assert!(e.asked.is_empty(), "nothing asked without a budget");
+}
+
 /// A borderline concept (c2 fails 55 % of the time, just under τ) and, on top of it, a true pair.
 const BORDERLINE: &str = "name = \"borderline\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\"]\nerror = 0.55\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.95\n";
 
@@ -506,7 +533,7 @@ fn a_set_that_fails_only_as_much_as_its_borderline_part_is_no_core() {
                     );
                     flat += 1;
                 }
-                shrink::Shrunk::Refuted(_) | shrink::Shrunk::Unaffordable => {}
+                shrink::Shrunk::Refuted(_) | shrink::Shrunk::Undecided { .. } | shrink::Shrunk::Unaffordable => {}
             }
             assert_contiguous(&e.asked);
         }
