@@ -332,12 +332,12 @@ fn fail(e: &RunError) -> ExitCode {
     ExitCode::from(e.exit_code())
 }
 
-/// Where the candidates came from, when some are minimal failure modes no core explains:
-/// `2 of them minimal failure modes no core explained, 4 more the budget could not pay; `.
+/// Where the candidates came from, when some are failure modes no core explains:
+/// `2 of them failure modes no core explained, 4 more the budget could not pay; `.
 fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     let mut parts = Vec::new();
     if c.unexplained > 0 {
-        parts.push(format!("{} of them minimal failure modes no core explained", c.unexplained));
+        parts.push(format!("{} of them failure modes no core explained", c.unexplained));
     }
     if c.unpaid > 0 {
         parts.push(format!("{} more the budget could not pay", c.unpaid));

@@ -403,9 +403,9 @@ fn run_error(e: SearchError<RunError>) -> RunError {
 /// What fresh confirmation gave.
 struct Confirmed {
     /// The candidates sent, strongest search evidence first: the shrink phase's cores, then the
-    /// minimal failure modes no core explains ([`unexplained_failures`]).
+    /// failure modes no core explains ([`unexplained_failures`]).
     candidates: Vec<Core>,
-    /// How many of `candidates` are such unexplained minimal failure modes.
+    /// How many of `candidates` are such unexplained failure modes.
     unexplained: usize,
     /// Candidates left out (the weakest) because the budget could not pay for them.
     unpaid: usize,
@@ -450,14 +450,18 @@ struct Searched2 {
     confirmation: Option<Confirmed>,
 }
 
-/// The minimal failure modes of `history` that none of `cores` explains, as candidate cores,
-/// strongest search evidence first ([`shrink::roots`]' order): failure modes whose every valid
-/// one-smaller subset was evaluated and passes, holding no core. `interact` confirms only some
-/// of its cores during the search (the rest ran out of its confirmation rule's budget or
-/// triage); on a graded landscape these hold most of the planted modes it reached.
-fn unexplained_failures(history: &[SetStats], space: &Space, threshold: f64, cores: &[Core]) -> Vec<Core> {
+/// The failure modes of `history` that none of `cores` explains, as candidate cores, strongest
+/// search evidence first ([`shrink::roots`]' order): the minimal ones (every valid one-smaller
+/// subset was evaluated and passes, holding no core), and those that fail at least 2δ above each
+/// failing part ([`shrink::lifted_failures`]: a core with a near-threshold part, which the
+/// shrink took for the core). `interact` confirms only some of its cores during the search (the
+/// rest ran out of its confirmation rule's budget or triage); on a graded landscape these hold
+/// most of the planted modes it reached.
+fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> Vec<Core> {
+    let threshold = params.threshold;
     let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
-    let loose = shrink::unexplained_failures(history, space, threshold, &cores);
+    let mut loose = shrink::unexplained_failures(history, space, threshold, &cores);
+    loose.extend(shrink::lifted_failures(history, space, threshold, 2.0 * params.delta, &cores));
     shrink::roots(history, threshold)
         .into_iter()
         .filter(|s| loose.contains(s))
@@ -495,7 +499,7 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
     // The family: the shrink's cores, then the unexplained minimal failure modes, as many as
     // the budget pays (decided before any fresh observation).
-    let loose = unexplained_failures(&everything, space, params.threshold, &found.cores);
+    let loose = unexplained_failures(&everything, space, params, &found.cores);
     let mut candidates = found.cores.clone();
     candidates.extend(loose.iter().cloned());
     let paid = plan.paid(budget, candidates.len());

@@ -273,8 +273,8 @@ pub struct ConfirmSummary {
     /// Candidates sent to confirmation, and how many of them e-BH confirmed.
     pub candidates: usize,
     pub confirmed: usize,
-    /// How many of the candidates are minimal failure modes of the search that no core of the
-    /// shrink phase explains (the rest are its cores).
+    /// How many of the candidates are failure modes of the search that no core of the shrink
+    /// phase explains — minimal, or lifting well above a failing part (the rest are its cores).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unexplained: usize,
     /// Candidates not sent (the weakest): the budget paid for the ones before them only.

@@ -494,6 +494,34 @@ fn a_lift_test_the_budget_cannot_pay_is_undecided_and_not_reported() {
     assert!(e.asked.is_empty(), "nothing asked without a budget");
 }
 
+/// A part near τ that read high on its search answers (c2: 26 of 40) does not hide the set that
+/// lifts well above it ({2, 5}: 19 of 20) from confirmation, even when the shrink took the part
+/// for a core; a set that fails barely above it ({2, 6}: 4 of 5) is no candidate, nor one with
+/// a subset never evaluated.
+#[test]
+fn a_failure_mode_that_lifts_well_over_a_failing_part_is_a_candidate() {
+    let space = modifier_space();
+    let seen = |set: ConceptSet, wrong: u32, right: u32| {
+        let mut s = SetStats::new(set);
+        (0..wrong).for_each(|_| s.add(Outcome::Wrong));
+        (0..right).for_each(|_| s.add(Outcome::Correct));
+        s
+    };
+    let history = vec![
+        seen(bits(&[2]), 26, 14),
+        seen(bits(&[5]), 0, 5),
+        seen(bits(&[6]), 0, 5),
+        seen(bits(&[2, 5]), 19, 1),
+        seen(bits(&[2, 6]), 4, 1),
+        seen(bits(&[2, 5, 6]), 5, 0),
+    ];
+    for cores in [vec![], vec![bits(&[2])]] {
+        assert_eq!(shrink::lifted_failures(&history, &space, 0.6, 0.2, &cores), vec![bits(&[2, 5])], "{cores:?}");
+    }
+    assert!(shrink::unexplained_failures(&history, &space, 0.6, &[]).iter().all(|&m| m == bits(&[2])));
+    assert!(shrink::lifted_failures(&history, &space, 0.6, 0.4, &[]).is_empty());
+}
+
 /// A borderline concept (c2 fails 55 % of the time, just under τ) and, on top of it, a true pair.
 const BORDERLINE: &str = "name = \"borderline\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\"]\nerror = 0.55\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.95\n";
 
