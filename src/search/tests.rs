@@ -467,18 +467,20 @@ fn the_lift_test_compares_a_set_with_its_subset() {
     assert!(shrink::lifts(&st(3, 5), &SetStats::new(bits(&[1]))), "nothing to compare with");
 }
 
+/// A set seen `wrong` times wrong and `right` times right.
+fn seen(set: ConceptSet, wrong: u32, right: u32) -> SetStats {
+    let mut s = SetStats::new(set);
+    (0..wrong).for_each(|_| s.add(Outcome::Wrong));
+    (0..right).for_each(|_| s.add(Outcome::Correct));
+    s
+}
+
 /// A lift test the budget cannot pay says nothing: the shrink phase with no budget left does not
 /// report a set that failed 3 of 3 as "not distinct" from a part seen once.
 #[test]
 fn a_lift_test_the_budget_cannot_pay_is_undecided_and_not_reported() {
     let space = modifier_space();
     let search = Params::default();
-    let seen = |set: ConceptSet, wrong: u32, right: u32| {
-        let mut s = SetStats::new(set);
-        (0..wrong).for_each(|_| s.add(Outcome::Wrong));
-        (0..right).for_each(|_| s.add(Outcome::Correct));
-        s
-    };
     let (root, part, other) = (bits(&[2, 5]), bits(&[2]), bits(&[5]));
     let history = vec![seen(root, 3, 0), seen(part, 0, 1), seen(other, 0, 1)];
     let mut e = FnEval { f: |s: ConceptSet| if bits(&[2, 5]).is_subset_of(s) { 99 } else { 0 }, asked: vec![] };
@@ -501,12 +503,6 @@ fn a_lift_test_the_budget_cannot_pay_is_undecided_and_not_reported() {
 #[test]
 fn a_failure_mode_that_lifts_well_over_a_failing_part_is_a_candidate() {
     let space = modifier_space();
-    let seen = |set: ConceptSet, wrong: u32, right: u32| {
-        let mut s = SetStats::new(set);
-        (0..wrong).for_each(|_| s.add(Outcome::Wrong));
-        (0..right).for_each(|_| s.add(Outcome::Correct));
-        s
-    };
     let history = vec![
         seen(bits(&[2]), 26, 14),
         seen(bits(&[5]), 0, 5),
