@@ -29,6 +29,8 @@
 //! already gathered settles them ([`run`]). All decisions are pure functions of the
 //! observations, so a resumed run shrinks the same way.
 
+use std::collections::HashMap;
+
 use crate::ir::{ConceptId, ConceptSet};
 
 use super::{Drive, Driver, Evaluate, Searched, SetStats, Space};
@@ -183,19 +185,36 @@ fn settled<E: Evaluate>(driver: &Driver<'_, E>, space: &Space, core: ConceptSet)
     done(core) && core.one_smaller().filter(|s| space.contains(*s)).all(done)
 }
 
+/// Every evaluated set of `history`, by its concepts.
+fn by_set(history: &[SetStats]) -> HashMap<ConceptSet, &SetStats> {
+    history.iter().map(|s| (s.set, s)).collect()
+}
+
+/// Whether every valid one-smaller subset of `s` was evaluated and passes, or fails at an
+/// observed rate at least `margin` below `s`'s (an infinite margin: passes).
+fn over_parts(
+    by_set: &HashMap<ConceptSet, &SetStats>,
+    space: &Space,
+    threshold: f64,
+    margin: f64,
+    s: &SetStats,
+) -> bool {
+    let top = s.fr().unwrap_or(0.0);
+    s.set.one_smaller().filter(|sub| space.contains(*sub)).all(|sub| {
+        by_set
+            .get(&sub)
+            .and_then(|t| t.fr().map(|f| (t, f)))
+            .is_some_and(|(t, f)| !t.is_failure_mode(threshold) || f + margin < top)
+    })
+}
+
 /// The cores a run without a shrink phase reports: its failure modes whose every valid
 /// one-smaller subset was evaluated and passes.
 pub fn minimal_failures(history: &[SetStats], space: &Space, threshold: f64) -> Vec<ConceptSet> {
-    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
+    let by_set = by_set(history);
     history
         .iter()
-        .filter(|s| s.is_failure_mode(threshold))
-        .filter(|s| {
-            s.set
-                .one_smaller()
-                .filter(|sub| space.contains(*sub))
-                .all(|sub| by_set.get(&sub).is_some_and(|t| t.fr().is_some() && !t.is_failure_mode(threshold)))
-        })
+        .filter(|s| s.is_failure_mode(threshold) && over_parts(&by_set, space, threshold, f64::INFINITY, s))
         .map(|s| s.set)
         .collect()
 }
@@ -231,23 +250,16 @@ pub fn lifted_failures(
     margin: f64,
     cores: &[ConceptSet],
 ) -> Vec<ConceptSet> {
-    let by_set: std::collections::HashMap<ConceptSet, &SetStats> = history.iter().map(|s| (s.set, s)).collect();
-    let fr = |set: &ConceptSet| by_set.get(set).and_then(|t| t.fr());
+    let by_set = by_set(history);
     history
         .iter()
-        .filter(|s| s.is_failure_mode(threshold))
+        .filter(|s| s.is_failure_mode(threshold) && over_parts(&by_set, space, threshold, margin, s))
         .filter(|s| {
             let top = s.fr().unwrap_or(0.0);
-            let below = |sub: &ConceptSet| fr(sub).is_some_and(|f| f + margin < top);
-            let mut failing = false;
-            let parts_ok = s.set.one_smaller().filter(|sub| space.contains(*sub)).all(|sub| {
-                let Some(t) = by_set.get(&sub).filter(|t| t.fr().is_some()) else { return false };
-                let fails = t.is_failure_mode(threshold);
-                failing |= fails;
-                !fails || below(&sub)
-            });
+            let below = |sub: &ConceptSet| by_set.get(sub).and_then(|t| t.fr()).is_some_and(|f| f + margin < top);
+            let failing = s.set.one_smaller().any(|sub| by_set.get(&sub).is_some_and(|t| t.is_failure_mode(threshold)));
             let explained = cores.iter().any(|c| c.is_subset_of(s.set) && !(c.len() + 1 == s.set.len() && below(c)));
-            failing && parts_ok && !explained
+            failing && !explained
         })
         .map(|s| s.set)
         .collect()
