@@ -382,13 +382,17 @@ pub fn print_summary(
     if let Some(c) = &s.confirmation {
         writeln!(
             w,
-            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} ({}zone τ ± {}, up to {} observations each, {} inferences of {}){}",
+            "confirm: {} of {} candidate cores confirmed on fresh scenes at FDR q = {} ({}zone τ ± {}, up to {} observations each{}, {} inferences of {}){}",
             c.confirmed,
             c.candidates,
             c.q,
             candidates_note(c),
             c.delta,
             c.cap,
+            match c.extended {
+                0 => String::new(),
+                n => format!(" ({n} with calls left)"),
+            },
             c.inferences,
             c.budget,
             match s.borderline.len() {
@@ -651,6 +655,7 @@ mod tests {
             q: 0.05,
             delta: 0.1,
             cap: 40,
+            extended: 80,
             budget: 125,
             inferences: 67,
             candidates: 3,

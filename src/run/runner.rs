@@ -349,6 +349,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             q: params.fdr,
             delta: params.delta,
             cap: params.confirm_plan(0).cap,
+            extended: Some(params.confirm_plan(0)).filter(|p| p.extended > p.cap).map_or(0, |p| p.extended),
             budget: c.budget,
             inferences: c.spent,
             candidates: rows.len(),

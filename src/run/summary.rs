@@ -200,6 +200,10 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
+fn is_zero_u32(n: &u32) -> bool {
+    *n == 0
+}
+
 fn unit_interval() -> [f64; 2] {
     [0.0, 1.0]
 }
@@ -265,8 +269,14 @@ pub struct ConfirmSummary {
     pub q: f64,
     /// The indifference zone δ around τ.
     pub delta: f64,
-    /// Most fresh observations a candidate got (the per-set cap).
+    /// Most fresh observations a candidate got while the others waited for their turn (the
+    /// per-set cap).
     pub cap: u32,
+    /// Most it got once every candidate had had its turn and calls were left
+    /// ([`crate::search::confirm::EXTEND_FACTOR`] × the cap; 0: no such pass, as in runs
+    /// written before it or under `--max-samples`).
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    pub extended: u32,
     /// Inferences it was given and spent.
     pub budget: u64,
     pub inferences: u64,

@@ -349,6 +349,10 @@ impl Params {
             q: self.fdr,
             batch: self.samples,
             cap: self.confirm_rule().max_samples,
+            extended: match self.max_samples {
+                Some(_) => self.confirm_rule().max_samples,
+                None => confirm::EXTEND_FACTOR * self.confirm_rule().max_samples,
+            },
             budget,
         }
     }
