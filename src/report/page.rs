@@ -65,7 +65,12 @@ fn write_page(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     write_cores(out, p)?;
     if !p.borderline.is_empty() {
         writeln!(out, "<section id=\"borderline\">\n<h2>Borderline ({})</h2>", p.borderline.len())?;
-        out.push_str("<p class=\"note\">Candidate cores whose fresh observations reached the per-set cap (twice it where calls were left after every candidate's turn) with their interval still reaching both below τ − δ and above τ + δ: near the threshold, neither failure modes nor passing. More observations would settle them.</p>\n<div class=\"card\">");
+        writeln!(
+            out,
+            "<p class=\"note\">Candidate cores whose fresh observations reached {} with their interval still reaching both below τ − δ and above τ + δ: near the threshold, neither failure modes nor passing. More observations would settle them.</p>",
+            Esc(&p.borderline_cap)
+        )?;
+        out.push_str("<div class=\"card\">");
         write_modes(out, &p.borderline)?;
         out.push_str("</div>\n</section>\n\n");
     }

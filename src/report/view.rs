@@ -136,6 +136,9 @@ pub struct IndexPage<'a> {
     pub not_distinct: Vec<(ModeRow, ModeRow)>,
     /// Confirmation candidates left near τ at the per-set cap (fresh observations).
     pub borderline: Vec<ModeRow>,
+    /// The cap they reached, in words: "the per-set cap of 40 observations (80 once every
+    /// candidate had had its turn and calls were left)".
+    pub borderline_cap: String,
     /// The first [`TABLE_ROWS`] concepts, highest F(c) first.
     pub concepts: Vec<ConceptRow>,
     /// Concepts in all (`concepts.csv` holds every one).
@@ -601,6 +604,14 @@ pub fn index_page<'a>(
         .map(|(i, r)| (row(i, &r.set), row(i, &r.by)))
         .collect();
     let borderline = s.borderline.iter().enumerate().map(|(i, r)| row(i, &r.set)).collect();
+    let borderline_cap = match &s.confirmation {
+        Some(c) if c.extended > 0 => format!(
+            "the per-set cap of {} observations ({} once every candidate had had its turn and calls were left)",
+            c.cap, c.extended
+        ),
+        Some(c) => format!("the per-set cap of {} observations", c.cap),
+        None => "the per-set cap".into(),
+    };
     let (outcome_phases, outcome_rows) = outcome_table(f);
     let (pairs, pairs_total) = pair_rows(&f.pairs);
     let drawn = super::scale::heatmap_concepts(f).len();
@@ -659,6 +670,7 @@ pub fn index_page<'a>(
         refuted,
         not_distinct,
         borderline,
+        borderline_cap,
         concepts,
         concepts_total: f.concepts.len(),
         heatmap,
