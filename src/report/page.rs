@@ -144,6 +144,9 @@ fn write_header(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
 
 fn write_nav(out: &mut String, p: &IndexPage<'_>) -> fmt::Result {
     out.push_str("<nav>\n<a href=\"#metrics\">Metrics</a><a href=\"#cores\">Cores</a>");
+    if !p.borderline.is_empty() {
+        out.push_str("<a href=\"#borderline\">Borderline</a>");
+    }
     if !p.others.is_empty() {
         out.push_str("<a href=\"#others\">Other failure modes</a>");
     }

@@ -208,6 +208,11 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
     for m in s["failure_modes"].as_array_mut().unwrap() {
         m["ci95"] = serde_json::json!([0.11, 0.22]);
     }
+    let borderline = serde_json::json!({"concepts": ["pedestrian", "cone"], "fr": 0.65, "ci95": [0.45, 0.82],
+        "wrong": 52, "answered": 80, "observations": 80, "e_value": 3.0, "status": "borderline"});
+    s["borderline"] = serde_json::json!([borderline.clone()]);
+    s["confirmation"] = serde_json::json!({"q": 0.05, "delta": 0.1, "cap": 40, "extended": 80, "budget": 90,
+        "inferences": 80, "candidates": 1, "confirmed": 0, "checked": [borderline]});
     std::fs::write(&path, s.to_string()).unwrap();
     let run = load(&f.dir).unwrap();
     let findings = run.findings();
@@ -234,6 +239,14 @@ fn cores_and_intervals_from_the_summary_are_used_when_present() {
         "the set's and its part's rates"
     );
     assert!(html.contains("href=\"#not-distinct\""), "in the navigation");
+    let borderline = html.split("id=\"borderline\"").nth(1).expect("a 'borderline' section");
+    let borderline = borderline.split("</section>").next().unwrap();
+    assert!(borderline.contains("<code>pedestrian</code> + <code>cone</code>"), "{borderline}");
+    assert!(
+        borderline.contains("the per-set cap of 40 observations (80 once every candidate had had its turn"),
+        "the caps it reached"
+    );
+    assert!(html.contains("href=\"#borderline\""), "in the navigation");
     // {debris_far} contains no core: it is listed under the other failure modes.
     let others = html.split("id=\"others\"").nth(1).expect("an 'other failure modes' section");
     assert!(others.contains("<code>debris_far</code>"));
