@@ -345,11 +345,12 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             }
         }
         summary.borderline = rows.iter().filter(|r| r.status == Status::Borderline).cloned().collect();
+        let plan = params.confirm_plan(0);
         summary.confirmation = Some(ConfirmSummary {
             q: params.fdr,
             delta: params.delta,
-            cap: params.confirm_plan(0).cap,
-            extended: Some(params.confirm_plan(0)).filter(|p| p.extended > p.cap).map_or(0, |p| p.extended),
+            cap: plan.cap,
+            extended: if plan.extended > plan.cap { plan.extended } else { 0 },
             budget: c.budget,
             inferences: c.spent,
             candidates: rows.len(),
