@@ -555,7 +555,7 @@ impl<'s> PatternSearcher<'s> {
         }
         let space = self.space;
         self.board.push(set);
-        self.patterns.add(set, |p| space.contains(p));
+        self.patterns.add(set, space);
         while self.open.len() < self.patterns.len() {
             let p = self.patterns.pattern(self.open.len() as u32);
             self.open.push(!self.closed.iter().any(|c| c.is_subset_of(p)));

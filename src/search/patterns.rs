@@ -23,7 +23,9 @@
 //! each a core with its posterior probability).
 //!
 //! A pattern's prior is an Occam prior — [`EXPECTED_CORES`] cores expected among the patterns of
-//! each size, so a pair starts more likely than a triple (there are ten times fewer pairs) — plus
+//! each size, so a pair starts more likely than a triple (there are ten times fewer pairs); a
+//! concept that cannot stand alone keeps its share in the sets that make it valid (`towel_near +
+//! stove_on` is as likely as one concept: the towel is valid only by a lit hob) — plus
 //! a weak heredity term ([`HEREDITY`]): a pattern whose part already fails more often than the
 //! base rate is likelier a core, as the paper's failure modes mostly are.
 //!
@@ -102,10 +104,34 @@ pub struct Patterns {
     pub max: usize,
 }
 
-/// The Occam prior's logit for a pattern among `of` of its size.
-fn logit_prior(of: f64) -> f64 {
-    let p = (EXPECTED_CORES / of.max(1.0)).min(0.2);
-    (p / (1.0 - p)).ln()
+/// The Occam prior's probability for a pattern among `of` of its size.
+fn occam(of: f64) -> f64 {
+    (EXPECTED_CORES / of.max(1.0)).min(0.2)
+}
+
+/// The prior logit of pattern `p` whose concepts `own` are those it does not hold only to be valid
+/// (`p` itself when it holds none), `holding` the number of valid sets of `p`'s size that hold
+/// `own`. A concept that cannot stand alone (a towel by the hob needs the hob on) is as likely a
+/// core as one that can, its share spread over the sets that make it valid: `towel_near +
+/// stove_on` is as likely as one concept, each of a puddle's two weathers half as likely — never
+/// less likely than any pattern of its size.
+fn prior(per_size: &[f64], p: ConceptSet, own: ConceptSet, holding: impl Fn() -> f64) -> f64 {
+    let mut q = occam(per_size[p.len()]);
+    if own != p {
+        q = q.max(occam(per_size[own.len()]) / holding().max(1.0));
+    }
+    (q / (1.0 - q)).ln()
+}
+
+/// The concepts of `p` that it does not hold only to be valid: without each of the others, `p`
+/// is not valid (a towel by the hob needs the hob on, so `towel_near + stove_on` is held for
+/// `towel_near`). `p` itself when it holds no such concept, or only such concepts.
+fn unforced(p: ConceptSet, valid: impl Fn(ConceptSet) -> bool) -> ConceptSet {
+    if p.len() < 2 {
+        return p;
+    }
+    let own = p.iter().filter(|&c| valid(p.without(c))).fold(ConceptSet::EMPTY, |a, c| a.with(c));
+    if own.is_empty() { p } else { own }
 }
 
 impl Patterns {
@@ -136,7 +162,25 @@ impl Patterns {
         let pat_len: Vec<u8> = pats.iter().map(|p| p.len() as u8).collect();
         let mut per_size = vec![0.0; max + 1];
         pat_len.iter().for_each(|&k| per_size[usize::from(k)] += 1.0);
-        let logit_prior = pat_len.iter().map(|&k| logit_prior(per_size[usize::from(k)])).collect();
+        // The patterns that hold concepts only to be valid, and how many patterns of their size
+        // hold the rest (every valid set of at most `max` concepts is a pattern here).
+        let own: Vec<ConceptSet> = pats.iter().map(|&p| unforced(p, |q| index.contains_key(&q))).collect();
+        let mut holding: HashMap<(ConceptSet, usize), f64> =
+            pats.iter().zip(&own).filter(|(p, u)| p != u).map(|(p, u)| ((*u, p.len()), 0.0)).collect();
+        if !holding.is_empty() {
+            for p in &pats {
+                for_each_subset(*p, p.len(), |u| {
+                    if let Some(n) = holding.get_mut(&(u, p.len())) {
+                        *n += 1.0;
+                    }
+                });
+            }
+        }
+        let logit_prior = pats
+            .iter()
+            .zip(&own)
+            .map(|(p, u)| prior(&per_size, *p, *u, || holding.get(&(*u, p.len())).copied().unwrap_or(1.0)))
+            .collect();
         let mut parent_at = vec![0u32];
         let mut parents = Vec::new();
         for p in &pats {
@@ -182,9 +226,10 @@ impl Patterns {
         }
     }
 
-    /// Add `set` to the pool (at the next position) with its sub-patterns, the valid ones
-    /// (`valid`) not indexed yet becoming patterns; false when it is already in the pool.
-    pub fn add(&mut self, set: ConceptSet, valid: impl Fn(ConceptSet) -> bool) -> bool {
+    /// Add `set` to the pool (at the next position) with its sub-patterns, the ones valid in
+    /// `space` and not indexed yet becoming patterns; false when it is already in the pool.
+    pub fn add(&mut self, set: ConceptSet, space: &Space) -> bool {
+        let valid = |p: ConceptSet| space.contains(p);
         if self.pool.contains_key(&set) {
             return false;
         }
@@ -201,7 +246,9 @@ impl Patterns {
                     self.pats.push(p);
                     self.index.insert(p, j);
                     self.pat_len.push(p.len() as u8);
-                    self.logit_prior.push(logit_prior(self.per_size[p.len()]));
+                    let u = unforced(p, valid);
+                    let holding = || space.count_containing(u, p.len()) as f64;
+                    self.logit_prior.push(prior(&self.per_size, p, u, holding));
                     Some(j)
                 }
                 None => None,

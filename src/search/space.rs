@@ -70,6 +70,15 @@ impl Space {
         }
     }
 
+    /// The number of valid sets of `size` concepts holding `subset` (for a sampled space, the
+    /// diagram's exact count, before the sets without a ground truth are left out).
+    pub fn count_containing(&self, subset: ConceptSet, size: usize) -> u128 {
+        match &self.sampled {
+            Some((d, _)) => d.counts_containing(subset).get(size).copied().unwrap_or(0),
+            None => self.sets.iter().filter(|s| s.len() == size && subset.is_subset_of(**s)).count() as u128,
+        }
+    }
+
     pub fn contains(&self, set: ConceptSet) -> bool {
         match &self.sampled {
             Some((d, keep)) => d.contains(set) && keep(set),

@@ -175,3 +175,65 @@ fn binomial_tail() {
     assert!((at_least(5, 0, 0.3) - 1.0).abs() < 1e-12);
     assert!((at_least(2, 1, 0.1) - 0.19).abs() < 1e-12);
 }
+
+/// Twelve concepts: `c10` needs `c1`, `c11` needs `c2` or `c3` (a towel by the hob needs the hob
+/// on; a puddle needs rain, falling or recent); sets of up to 4. Listed and sampled.
+fn needing() -> (Space, Space) {
+    use crate::ir::ConstraintRule;
+    use crate::lattice::testkit::{Dom, num};
+    use crate::lattice::{Diagram, Validity};
+    let mut b = Dom::new(crate::ir::Selection::Priority);
+    b.world("on", num(0.0));
+    let ids: Vec<_> = (0..12).map(|i| b.world_concept(&format!("c{i}"), "on", num(1.0))).collect();
+    b.constraint("towel", ConstraintRule::Requires { concept: ids[10], any_of: set(&[1]) });
+    b.constraint("puddle", ConstraintRule::Requires { concept: ids[11], any_of: set(&[2, 3]) });
+    let d = b.build();
+    let validity = Validity::new(&d);
+    let listed = (1u128..1 << 12).map(ConceptSet::from_bits).filter(|s| s.len() <= 4 && validity.is_valid(*s));
+    let listed = Space::new(listed.collect(), 12);
+    let sampled = Space::sampled(std::sync::Arc::new(Diagram::build(&validity, 4)), std::sync::Arc::new(|_| true), 12);
+    (listed, sampled)
+}
+
+#[test]
+fn a_pattern_names_the_concepts_it_does_not_hold_only_to_be_valid() {
+    let (sp, _) = needing();
+    let valid = |s: ConceptSet| sp.contains(s);
+    assert_eq!(unforced(set(&[1, 10]), valid), set(&[10]), "c10 needs c1");
+    assert_eq!(unforced(set(&[2, 11]), valid), set(&[11]));
+    assert_eq!(unforced(set(&[0, 2, 11]), valid), set(&[0, 11]));
+    assert_eq!(unforced(set(&[1, 2]), valid), set(&[1, 2]), "neither needs the other");
+    assert_eq!(unforced(set(&[4]), valid), set(&[4]));
+}
+
+/// A concept that cannot stand alone is as likely a core, in the sets that make it valid, as one
+/// that can: its share of the Occam prior spread over them, never below its size's share. The
+/// listed lattice and a sampled one (patterns met as sets are drawn) give the same prior.
+#[test]
+fn a_concept_that_needs_another_keeps_a_single_concepts_prior() {
+    let (listed, sampled) = needing();
+    let pats = Patterns::new(&listed);
+    let per_size = |k: usize| listed.sets.iter().filter(|s| s.len() == k).count() as f64;
+    let (singles, pairs, triples) = (per_size(1), per_size(2), per_size(3));
+    assert_eq!((singles, pairs, triples), (10.0, 48.0, 146.0));
+    let logit = |q: f64| (q / (1.0 - q)).ln();
+    let prior_of = |p: &Patterns, s: &[u32]| p.logit_prior[p.position(set(s)).unwrap() as usize];
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    // The hob-and-towel pair: one concept's prior (c10 has one way to be valid).
+    assert!(close(prior_of(&pats, &[1, 10]), logit(EXPECTED_CORES / singles)));
+    // The puddle has two weathers: half each, still above a pair's.
+    assert!(close(prior_of(&pats, &[2, 11]), logit(EXPECTED_CORES / singles / 2.0)));
+    assert!(close(prior_of(&pats, &[3, 11]), logit(EXPECTED_CORES / singles / 2.0)));
+    assert!(close(prior_of(&pats, &[1, 2]), logit(EXPECTED_CORES / pairs)));
+    // The puddle beside c0 is a pair's prior spread over the two weathers: {0, 2, 11}, {0, 3, 11}.
+    assert!(close(prior_of(&pats, &[0, 2, 11]), logit(EXPECTED_CORES / pairs / 2.0)));
+    assert!(close(prior_of(&pats, &[0, 1, 2]), logit(EXPECTED_CORES / triples)));
+    // A sampled space meets the same patterns as sets are drawn and gives them the same prior.
+    let mut pooled = Patterns::pooled(&sampled);
+    for s in [set(&[1, 10]), set(&[0, 2, 11]), set(&[3, 11]), set(&[0, 1, 2])] {
+        assert!(pooled.add(s, &sampled));
+    }
+    for p in [&[1, 10][..], &[2, 11], &[3, 11], &[0, 2, 11], &[0, 11, 2], &[0, 1, 2], &[1, 2], &[2]] {
+        assert!(close(prior_of(&pooled, p), prior_of(&pats, p)), "{p:?}");
+    }
+}
