@@ -1065,7 +1065,7 @@ fn sort_out(shrunk: &Shrunk, tau: f64, flat: &mut Vec<ConceptSet>) -> Option<Con
         Shrunk::Core(c) => Some(c.stats.set),
         // An undecided lift (the budget ran out) is treated the same: taking it as unaffordable
         // (nothing set aside, the explaining stopped) recovered 1.9 [-0.8, 4.5] points less
-        // (release, 20 seeds of the seven shipped profiles, width 16).
+        // (release, 20 seeds of seven of the shipped profiles, width 16).
         Shrunk::NotDistinct { stats, by } | Shrunk::Undecided { stats, by } => {
             flat.push(if stats.is_failure_mode(tau) { *by } else { stats.set });
             None
