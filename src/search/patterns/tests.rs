@@ -228,12 +228,17 @@ fn a_concept_that_needs_another_keeps_a_single_concepts_prior() {
     // The puddle beside c0 is a pair's prior spread over the two weathers: {0, 2, 11}, {0, 3, 11}.
     assert!(close(prior_of(&pats, &[0, 2, 11]), logit(EXPECTED_CORES / pairs / 2.0)));
     assert!(close(prior_of(&pats, &[0, 1, 2]), logit(EXPECTED_CORES / triples)));
+    // Both spaces count the valid sets holding a subset alike (the sampled one by its diagram).
+    for (sub, size) in [(set(&[11]), 2), (set(&[0, 11]), 3), (set(&[10]), 2), (set(&[1]), 3), (set(&[0, 1]), 4)] {
+        assert_eq!(listed.count_containing(sub, size), sampled.count_containing(sub, size), "{sub:?} {size}");
+    }
+    assert_eq!(listed.count_containing(set(&[11]), 2), 2, "a puddle's two weathers");
     // A sampled space meets the same patterns as sets are drawn and gives them the same prior.
     let mut pooled = Patterns::pooled(&sampled);
     for s in [set(&[1, 10]), set(&[0, 2, 11]), set(&[3, 11]), set(&[0, 1, 2])] {
         assert!(pooled.add(s, &sampled));
     }
-    for p in [&[1, 10][..], &[2, 11], &[3, 11], &[0, 2, 11], &[0, 11, 2], &[0, 1, 2], &[1, 2], &[2]] {
+    for p in [&[1, 10][..], &[2, 11], &[3, 11], &[0, 2, 11], &[0, 1, 2], &[1, 2], &[2]] {
         assert!(close(prior_of(&pooled, p), prior_of(&pats, p)), "{p:?}");
     }
 }
