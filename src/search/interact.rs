@@ -950,8 +950,7 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// `batch` picks, each the unexplored open set with the best discovery chance per expected
-    /// observation under a dilution drawn from its posterior, the round's picks before it
-    /// believed answered right.
+    /// observation under a dilution drawn from its posterior.
     pub fn propose(&mut self, history: &[SetStats]) -> Vec<ConceptSet> {
         self.pick(history, self.params.batch)
     }
@@ -962,14 +961,11 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// `n` picks, the open sets ranked among those `keep` takes (a sampled space's concept sets
-    /// are drawn as by [`PatternSearcher::pick`]), each pick made as if those before it had
-    /// answered right ([`believe_right`]).
+    /// are drawn as by [`PatternSearcher::pick`]).
     fn pick_where(&mut self, history: &[SetStats], n: usize, keep: impl Fn(ConceptSet) -> bool) -> Vec<ConceptSet> {
         self.catch_up(history);
         let mut fit = self.fit(history);
         let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
-        // The history as the round's picks so far are believed to answer ([`believe_right`]).
-        let mut believed: Vec<SetStats> = if n > 1 { history.to_vec() } else { Vec::new() };
         // A sampled space: the sets that fail as tested (being explained) and those set aside; a
         // superset of one is not screened.
         let mut blocked: Vec<ConceptSet> = Vec::new();
@@ -985,8 +981,7 @@ impl<'s> PatternSearcher<'s> {
         }
         let holds_blocked = |set: ConceptSet| blocked.iter().any(|b| b.is_subset_of(set));
         // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
-        // pick is the best of its draw's list not picked yet, as one argmax per draw would give;
-        // the lists are drawn again after each pick, believed answered right.
+        // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
         let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
         while picks.len() < n {
             let di = fit.draw_dilution(self.rng.random::<f64>());
@@ -1030,14 +1025,7 @@ impl<'s> PatternSearcher<'s> {
                 open => open,
             };
             match pick {
-                Some((set, _)) => {
-                    picks.push(set);
-                    if picks.len() < n {
-                        believe_right(&mut believed, set);
-                        fit = self.fit(&believed);
-                        ranked.clear();
-                    }
-                }
+                Some((set, _)) => picks.push(set),
                 None => break,
             }
         }
@@ -1058,26 +1046,6 @@ impl<'s> PatternSearcher<'s> {
         subs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         subs.into_iter().map(|(_, j)| self.patterns.pattern(j)).collect()
     }
-}
-
-/// A round's next pick is made as if the picks before it had been screened and answered right:
-/// one correct answer added to `history` for `set` (the "constant liar" of batch Bayesian
-/// optimisation, Ginsbourger et al. 2010, at its most pessimistic value). A pick's patterns then
-/// lose some of their chance, so the round's later picks go to other patterns instead of the
-/// same ones over again, as one pick at a time would once the first had answered right. Measured
-/// (release, 20 seeds × the fifteen shipped profiles with planted modes, width 16, paired on
-/// seeds): recovered +1.5 [-0.9, +3.9] points (driving_triples 52 → 63 %, indoor_stress 83 →
-/// 93 %); against one pick at a time -2.5 [-5.3, +0.3], was -4.0 [-6.9, -1.1]
-/// (docs/search.md, parallel interact). A round refits the surrogate once per pick.
-fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet) {
-    let at = match history.iter().position(|s| s.set == set) {
-        Some(i) => i,
-        None => {
-            history.push(SetStats::new(set));
-            history.len() - 1
-        }
-    };
-    history[at].add(crate::outcome::Outcome::Correct);
 }
 
 /// Whether `set` is off the families of the sets in `focus` (being decided on): it shares at
@@ -1419,32 +1387,6 @@ mod tests {
         assert!(fill.iter().all(|a| a.obs == (0..SCREEN)), "{fill:?}");
         assert!(sets.iter().all(|&s| bits(&[2, 5, 7]).intersection(s).len() < 2), "{sets:?}");
         assert!(sets.iter().enumerate().all(|(i, s)| !sets[..i].contains(s)), "{sets:?}");
-    }
-
-    /// A round's picks are made as if the ones before them had answered right: after a wrong
-    /// answer of {2, 5} the first picks are its supersets, and the later ones leave it for other
-    /// patterns, as one pick at a time would once the first had answered right — not every pick
-    /// of the round a superset of the one suspect pair.
-    #[test]
-    fn a_rounds_picks_believe_the_picks_before_them_answered_right() {
-        let lattice = crate::ir::testkit::lattice(12, 4);
-        let space = Space::new(lattice.clone(), 12);
-        let params = Params { algo: super::super::Algo::Interact, budget: 1000, batch: 12, ..Params::default() };
-        let mut history: Vec<SetStats> = lattice.iter().filter(|s| s.len() == 1).map(|&s| stats(s, 0, 2)).collect();
-        history.push(stats(bits(&[2, 5]), 1, 0));
-        let mut searcher = PatternSearcher::new(&params, &space);
-        history.iter().for_each(|s| searcher.explored(s.set));
-        let picks = searcher.propose(&history);
-        assert_eq!(picks.len(), 12);
-        let on = |p: &ConceptSet| bits(&[2, 5]).is_subset_of(*p);
-        assert!(on(&picks[0]), "{picks:?}");
-        let on_pair = picks.iter().filter(|p| on(p)).count();
-        assert!(on_pair < picks.len(), "{on_pair} of 12 picks hold {{2, 5}}: {picks:?}");
-        // `believe_right` adds one right answer, to a set's entry or a new one.
-        let mut h = vec![stats(bits(&[1]), 1, 0)];
-        believe_right(&mut h, bits(&[1]));
-        believe_right(&mut h, bits(&[3, 4]));
-        assert_eq!((h[0].wrong, h[0].correct, h[1].set, h[1].correct), (1, 1, bits(&[3, 4]), 1));
     }
 
     /// A fill's screens: those sharing at most one concept with every one taken before come
