@@ -34,7 +34,7 @@
 //! found and one more, and for the minimal failure modes no core explains. Every decision is a
 //! pure function of the seed and the observed answers, so a resumed run replays exactly.
 use std::cell::RefCell;
-use std::collections::VecDeque;
+use std::collections::{BinaryHeap, VecDeque};
 use std::rc::Rc;
 
 use rand::{RngExt, SeedableRng};
@@ -213,24 +213,21 @@ impl Board {
         self.argmax_at(covered, |_, s| score(s))
     }
 
-    /// The `k` unexplored sets with the highest scores (none scored −∞) among the open or the
-    /// covered sets, best first; ties go to the earliest in lattice order, as in
-    /// [`Board::argmax`].
-    fn best_at(&self, covered: bool, k: usize, score: impl Fn(usize, ConceptSet) -> f64) -> Vec<ConceptSet> {
-        let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
+    /// The unexplored sets among the open or the covered ones, each with its score under the
+    /// fit of `version` (none scored −∞), as a queue best first; ties go to the earliest in
+    /// lattice order, as in [`Board::argmax`].
+    fn queue_at(&self, covered: bool, version: u32, score: impl Fn(usize, ConceptSet) -> f64) -> BinaryHeap<Queued> {
+        let mut queued = Vec::new();
         for (i, set) in self.sets.iter().enumerate() {
             if self.explored[i] || self.covered[i] != covered {
                 continue;
             }
             let v = score(i, *set);
-            if v == f64::NEG_INFINITY || (best.len() == k && best.last().is_some_and(|(w, _)| v <= *w)) {
-                continue;
+            if v > f64::NEG_INFINITY {
+                queued.push(Queued { score: v, at: i, version });
             }
-            let at = best.iter().position(|(w, _)| v > *w).unwrap_or(best.len());
-            best.insert(at, (v, i));
-            best.truncate(k);
         }
-        best.into_iter().map(|(_, i)| self.sets[i]).collect()
+        BinaryHeap::from(queued)
     }
 
     /// [`Board::argmax`] with the set's position in the space handed to the score too.
@@ -961,7 +958,8 @@ impl<'s> PatternSearcher<'s> {
     }
 
     /// `n` picks, the open sets ranked among those `keep` takes (a sampled space's concept sets
-    /// are drawn as by [`PatternSearcher::pick`]).
+    /// are drawn as by [`PatternSearcher::pick`]), each made as if the picks before it had
+    /// answered right ([`believe_right`]).
     fn pick_where(&mut self, history: &[SetStats], n: usize, keep: impl Fn(ConceptSet) -> bool) -> Vec<ConceptSet> {
         self.catch_up(history);
         let mut fit = self.fit(history);
@@ -980,33 +978,49 @@ impl<'s> PatternSearcher<'s> {
             }
         }
         let holds_blocked = |set: ConceptSet| blocked.iter().any(|b| b.is_subset_of(set));
-        // Per dilution drawn, its `n` best unexplored open sets (one pass over the lattice): each
-        // pick is the best of its draw's list not picked yet, as one argmax per draw would give.
-        let mut ranked: Vec<(usize, Vec<ConceptSet>)> = Vec::new();
+        let (screen, samples, tau) = (SCREEN.min(self.params.samples), self.params.samples, self.params.threshold);
+        // The history with the round's picks so far believed answered right, and how many.
+        let mut believed: Vec<SetStats> = if n > 1 { history.to_vec() } else { Vec::new() };
+        let mut version = 0u32;
+        // Per dilution drawn, its unexplored open sets in a queue, scored in one pass over the
+        // lattice: each pick is the best of its draw's queue not picked yet. A score from before
+        // a believed pick is computed again when it reaches the top, and the set goes back in
+        // (lazy greedy, Minoux 1978): a believed right answer lowers the sets that hold the
+        // pick's patterns and moves the others little (the base rate and the dilution posterior
+        // shift a hair), so a pass over the whole lattice per pick (4-6 times the search's CPU,
+        // on the calls' critical path) is not needed.
+        let mut queues: Vec<(usize, BinaryHeap<Queued>)> = Vec::new();
         while picks.len() < n {
             let di = fit.draw_dilution(self.rng.random::<f64>());
-            if !ranked.iter().any(|(d, _)| *d == di) {
-                let scorer = fit.scorer(
-                    &self.patterns,
-                    &self.open,
-                    di,
-                    SCREEN.min(self.params.samples),
-                    self.params.samples,
-                    self.params.threshold,
-                );
-                ranked.push((
-                    di,
-                    self.board.best_at(false, n, |i, set| {
+            let at = match queues.iter().position(|(d, _)| *d == di) {
+                Some(at) => at,
+                None => {
+                    let scorer = fit.scorer(&self.patterns, &self.open, di, screen, samples, tau);
+                    let queue = self.board.queue_at(false, version, |i, set| {
                         if holds_blocked(set) || !keep(set) {
                             f64::NEG_INFINITY
                         } else {
                             scorer.score(&self.patterns, i)
                         }
-                    }),
-                ));
+                    });
+                    queues.push((di, queue));
+                    queues.len() - 1
+                }
+            };
+            let queue = &mut queues[at].1;
+            let mut open = None;
+            while let Some(q) = queue.pop() {
+                let set = self.board.sets[q.at];
+                if picks.contains(&set) {
+                    continue;
+                }
+                if q.version == version {
+                    open = Some((set, 0.0));
+                    break;
+                }
+                let score = fit.score_one(&self.patterns, &self.open, di, screen, samples, tau, q.at);
+                queue.push(Queued { score, at: q.at, version });
             }
-            let best = ranked.iter().find(|(d, _)| *d == di).map(|(_, best)| best);
-            let open = best.and_then(|b| b.iter().find(|s| !picks.contains(s))).map(|&set| (set, 0.0));
             // No open set left (a small lattice): under `fallback`, measure the known families'
             // extent, the superset likeliest to fail first.
             let pick = match open {
@@ -1024,9 +1038,12 @@ impl<'s> PatternSearcher<'s> {
                 }
                 open => open,
             };
-            match pick {
-                Some((set, _)) => picks.push(set),
-                None => break,
+            let Some((set, _)) = pick else { break };
+            picks.push(set);
+            if picks.len() < n {
+                believe_right(&mut believed, set);
+                fit = self.fit(&believed);
+                version += 1;
             }
         }
         picks
@@ -1046,6 +1063,52 @@ impl<'s> PatternSearcher<'s> {
         subs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         subs.into_iter().map(|(_, j)| self.patterns.pattern(j)).collect()
     }
+}
+
+/// A set waiting in a pick's queue: its score under the fit of `version` and its position in
+/// the space. The best score first; ties to the earliest position.
+#[derive(Debug, Clone, Copy)]
+struct Queued {
+    score: f64,
+    at: usize,
+    version: u32,
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+
+impl Eq for Queued {}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.score.total_cmp(&other.score).then(other.at.cmp(&self.at))
+    }
+}
+
+/// A round's next pick is made as if the picks before it had been screened and answered right:
+/// one correct answer added to `history` for `set` (the "constant liar" of batch Bayesian
+/// optimisation, Ginsbourger, Le Riche and Carraro 2010, at its most pessimistic value). A
+/// pick's patterns then lose some of their chance, so the round's later picks go to other
+/// patterns instead of the same ones over again, as one pick at a time would once the first had
+/// answered right (docs/search.md, parallel interact).
+fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet) {
+    let at = match history.iter().position(|s| s.set == set) {
+        Some(i) => i,
+        None => {
+            history.push(SetStats::new(set));
+            history.len() - 1
+        }
+    };
+    history[at].add(crate::outcome::Outcome::Correct);
 }
 
 /// Whether `set` is off the families of the sets in `focus` (being decided on): it shares at
@@ -1387,6 +1450,44 @@ mod tests {
         assert!(fill.iter().all(|a| a.obs == (0..SCREEN)), "{fill:?}");
         assert!(sets.iter().all(|&s| bits(&[2, 5, 7]).intersection(s).len() < 2), "{sets:?}");
         assert!(sets.iter().enumerate().all(|(i, s)| !sets[..i].contains(s)), "{sets:?}");
+    }
+
+    /// A round's picks are made as if the ones before them had answered right: after a wrong
+    /// answer of {2, 5} the first pick is one of its supersets, and the later ones leave it for
+    /// other patterns, as one pick at a time would once the first had answered right — not every
+    /// pick of the round a superset of the one suspect pair (all twelve without the belief).
+    #[test]
+    fn a_rounds_picks_believe_the_picks_before_them_answered_right() {
+        let lattice = crate::ir::testkit::lattice(12, 4);
+        let space = Space::new(lattice.clone(), 12);
+        let params = Params { algo: super::super::Algo::Interact, budget: 1000, batch: 12, ..Params::default() };
+        let mut history: Vec<SetStats> = lattice.iter().filter(|s| s.len() == 1).map(|&s| stats(s, 0, 2)).collect();
+        history.push(stats(bits(&[2, 5]), 1, 0));
+        let mut searcher = PatternSearcher::new(&params, &space);
+        history.iter().for_each(|s| searcher.explored(s.set));
+        let picks = searcher.propose(&history);
+        assert_eq!(picks.len(), 12);
+        assert!(picks.iter().enumerate().all(|(i, p)| !picks[..i].contains(p)), "{picks:?}");
+        let on_pair = |p: &ConceptSet| bits(&[2, 5]).is_subset_of(*p);
+        assert!(on_pair(&picks[0]), "{picks:?}");
+        let held = picks.iter().filter(|p| on_pair(p)).count();
+        assert!(held < picks.len(), "{held} of 12 picks hold {{2, 5}}: {picks:?}");
+        // `believe_right` adds one right answer, to a set's entry or a new one.
+        let mut h = vec![stats(bits(&[1]), 1, 0)];
+        believe_right(&mut h, bits(&[1]));
+        believe_right(&mut h, bits(&[3, 4]));
+        assert_eq!((h[0].wrong, h[0].correct, h[1].set, h[1].correct), (1, 1, bits(&[3, 4]), 1));
+    }
+
+    /// A pick's queue: the best score first, ties to the earliest position in the space.
+    #[test]
+    fn a_pick_queue_serves_the_best_score_then_the_earliest_set() {
+        let mut q: BinaryHeap<Queued> = [(0.2, 4), (0.5, 7), (0.5, 3), (0.1, 0)]
+            .into_iter()
+            .map(|(score, at)| Queued { score, at, version: 0 })
+            .collect();
+        let order: Vec<usize> = std::iter::from_fn(|| q.pop().map(|e| e.at)).collect();
+        assert_eq!(order, vec![3, 7, 4, 0]);
     }
 
     /// A fill's screens: those sharing at most one concept with every one taken before come

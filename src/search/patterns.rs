@@ -437,6 +437,31 @@ impl Fit {
         (0..D).map(|di| self.pd[di] * self.q(pats, j, di)).sum()
     }
 
+    /// [`Scorer::score`] of the space's set `i` under dilution `di` without the scorer's tables
+    /// (the same value, from the set's own sub-patterns): a pick's score under a fit refitted
+    /// since its scorer was built.
+    #[allow(clippy::too_many_arguments)]
+    pub fn score_one(
+        &self,
+        pats: &Patterns,
+        open: &[bool],
+        di: usize,
+        screen: u32,
+        samples: u32,
+        tau: f64,
+        i: usize,
+    ) -> f64 {
+        let (from, to) = (pats.offsets[i] as usize, pats.offsets[i + 1] as usize);
+        let mut miss = 1.0;
+        let mut bg: f64 = 0.0;
+        for (&j, &k) in pats.subs[from..to].iter().zip(&pats.extra[from..to]) {
+            let q = if open[j as usize] { self.q(pats, j, di) } else { 0.0 };
+            miss *= 1.0 - q * detect(core_rate(self.base, DILUTIONS[di], usize::from(k)), screen, tau);
+            bg = bg.max(self.est[j as usize]);
+        }
+        per_observation(1.0 - miss, bg, screen, samples, tau)
+    }
+
     /// The scorer of one pick: per pattern q under dilution `di`, and the tables the score reads.
     pub fn scorer(&self, pats: &Patterns, open: &[bool], di: usize, screen: u32, samples: u32, tau: f64) -> Scorer {
         let n = pats.len();
@@ -444,8 +469,7 @@ impl Fit {
         let kmax = pats.set_len.iter().copied().max().unwrap_or(0) as usize;
         let mut miss = vec![1.0; (kmax + 1) * n];
         for k in 0..=kmax {
-            let r = core_rate(self.base, DILUTIONS[di], k);
-            let det = (1.0 - (1.0 - r).powi(screen as i32)) / (1.0 + (-(r - tau) / CONFIRM_STEP).exp());
+            let det = detect(core_rate(self.base, DILUTIONS[di], k), screen, tau);
             for j in 0..n {
                 miss[k * n + j] = 1.0 - q[j] * det;
             }
@@ -491,13 +515,25 @@ impl Scorer {
     /// The chance that testing the space's set `i` reveals a new core, per expected observation.
     pub fn score(&self, pats: &Patterns, i: usize) -> f64 {
         let (miss, bg) = self.miss_and_background(pats, i);
-        let value = 1.0 - miss;
-        let s = f64::from(self.screen);
-        let m = f64::from(self.samples);
-        let escalate = 1.0 - (1.0 - bg).powf(s);
-        let follow = at_least(self.samples, (self.tau * m).ceil() as u32, bg);
-        value / (s + escalate * (m - s).max(0.0) + follow * FOLLOW_UP_COST)
+        per_observation(1.0 - miss, bg, self.screen, self.samples, self.tau)
     }
+}
+
+/// The chance that a screen of `screen` observations of a set failing at `r` shows it failing,
+/// times the chance that its sequential test then takes it past τ.
+fn detect(r: f64, screen: u32, tau: f64) -> f64 {
+    (1.0 - (1.0 - r).powi(screen as i32)) / (1.0 + (-(r - tau) / CONFIRM_STEP).exp())
+}
+
+/// A set's chance `value` of revealing a new core per observation it is expected to take: its
+/// screen, the escalation to m when the screen answers wrong at its background rate `bg`, and
+/// the follow-up when its m observations fail.
+fn per_observation(value: f64, bg: f64, screen: u32, samples: u32, tau: f64) -> f64 {
+    let s = f64::from(screen);
+    let m = f64::from(samples);
+    let escalate = 1.0 - (1.0 - bg).powf(s);
+    let follow = at_least(samples, (tau * m).ceil() as u32, bg);
+    value / (s + escalate * (m - s).max(0.0) + follow * FOLLOW_UP_COST)
 }
 
 /// P(Binomial(n, p) ≥ k).

@@ -169,6 +169,25 @@ fn the_score_prefers_untested_and_clean_sets() {
     assert!(without.value(&pats, i) < scorer.value(&pats, i));
 }
 
+/// A pick's score computed alone (a fit refitted since the scorer was built) is the scorer's,
+/// to the bit, for every set, open and closed patterns and every dilution.
+#[test]
+fn a_score_computed_alone_is_the_scorers() {
+    let sp = space(8, 3);
+    let pats = Patterns::new(&sp);
+    let history = vec![stats(set(&[2, 3, 4]), 0, 20), stats(set(&[5]), 3, 7), stats(set(&[1, 6]), 4, 1)];
+    let fit = pats.fit(&sp, &history, &[], 0.6);
+    let closed: Vec<bool> = (0..pats.len() as u32).map(|j| !set(&[6, 7]).is_subset_of(pats.pattern(j))).collect();
+    for open in [vec![true; pats.len()], closed] {
+        for di in 0..D {
+            let scorer = fit.scorer(&pats, &open, di, 1, 5, 0.6);
+            for i in 0..sp.sets.len() {
+                assert_eq!(scorer.score(&pats, i).to_bits(), fit.score_one(&pats, &open, di, 1, 5, 0.6, i).to_bits());
+            }
+        }
+    }
+}
+
 #[test]
 fn binomial_tail() {
     assert!((at_least(5, 3, 0.5) - 0.5).abs() < 1e-12);
