@@ -979,7 +979,8 @@ impl<'s> PatternSearcher<'s> {
         }
         let holds_blocked = |set: ConceptSet| blocked.iter().any(|b| b.is_subset_of(set));
         let (screen, samples, tau) = (SCREEN.min(self.params.samples), self.params.samples, self.params.threshold);
-        // The history with the round's picks so far believed answered right, and how many.
+        // The history with the round's picks so far believed answered right, and `version`, how
+        // many (a queued score of an older version is stale).
         let mut believed: Vec<SetStats> = if n > 1 { history.to_vec() } else { Vec::new() };
         let mut version = 0u32;
         // Per dilution drawn, its unexplored open sets in a queue, scored in one pass over the
