@@ -451,14 +451,10 @@ impl Fit {
         tau: f64,
         i: usize,
     ) -> f64 {
-        let (from, to) = (pats.offsets[i] as usize, pats.offsets[i + 1] as usize);
-        let mut miss = 1.0;
-        let mut bg: f64 = 0.0;
-        for (&j, &k) in pats.subs[from..to].iter().zip(&pats.extra[from..to]) {
-            let q = if open[j as usize] { self.q(pats, j, di) } else { 0.0 };
-            miss *= 1.0 - q * detect(core_rate(self.base, DILUTIONS[di], usize::from(k)), screen, tau);
-            bg = bg.max(self.est[j as usize]);
-        }
+        let (miss, bg) = miss_and_background(pats, &self.est, i, |j, k| {
+            let q = if open[j] { self.q(pats, j as u32, di) } else { 0.0 };
+            1.0 - q * detect(core_rate(self.base, DILUTIONS[di], k), screen, tau)
+        });
         per_observation(1.0 - miss, bg, screen, samples, tau)
     }
 
@@ -501,15 +497,7 @@ impl Scorer {
     }
 
     fn miss_and_background(&self, pats: &Patterns, i: usize) -> (f64, f64) {
-        let (from, to) = (pats.offsets[i] as usize, pats.offsets[i + 1] as usize);
-        let mut miss = 1.0;
-        let mut bg: f64 = 0.0;
-        for (&j, &k) in pats.subs[from..to].iter().zip(&pats.extra[from..to]) {
-            let j = j as usize;
-            miss *= self.miss[usize::from(k) * self.n + j];
-            bg = bg.max(self.est[j]);
-        }
-        (miss, bg)
+        miss_and_background(pats, &self.est, i, |j, k| self.miss[k * self.n + j])
     }
 
     /// The chance that testing the space's set `i` reveals a new core, per expected observation.
@@ -517,6 +505,20 @@ impl Scorer {
         let (miss, bg) = self.miss_and_background(pats, i);
         per_observation(1.0 - miss, bg, self.screen, self.samples, self.tau)
     }
+}
+
+/// Of the space's set `i`: the chance that a screen reveals none of its sub-patterns as a core
+/// (the product of `miss(j, k)` over its patterns j, each k concepts smaller than the set), and
+/// the highest estimated rate `est` among them (what it fails at without a new core).
+fn miss_and_background(pats: &Patterns, est: &[f64], i: usize, miss: impl Fn(usize, usize) -> f64) -> (f64, f64) {
+    let (from, to) = (pats.offsets[i] as usize, pats.offsets[i + 1] as usize);
+    let mut product = 1.0;
+    let mut bg: f64 = 0.0;
+    for (&j, &k) in pats.subs[from..to].iter().zip(&pats.extra[from..to]) {
+        product *= miss(j as usize, usize::from(k));
+        bg = bg.max(est[j as usize]);
+    }
+    (product, bg)
 }
 
 /// The chance that a screen of `screen` observations of a set failing at `r` shows it failing,
