@@ -339,6 +339,9 @@ fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     if c.unexplained > 0 {
         parts.push(format!("{} of them failure modes no core explained", c.unexplained));
     }
+    if c.shared > 0 {
+        parts.push(format!("{} more left out as each shares a concept with a stronger one", c.shared));
+    }
     if c.unpaid > 0 {
         parts.push(format!("{} more the budget could not pay", c.unpaid));
     }
@@ -662,6 +665,7 @@ mod tests {
             confirmed: 1,
             unexplained: 2,
             unpaid: 4,
+            shared: 3,
             checked: rows,
         });
         let mut out = Vec::new();

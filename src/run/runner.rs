@@ -357,6 +357,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             confirmed: rows.iter().filter(|r| r.status == Status::Confirmed).count(),
             unexplained: c.unexplained,
             unpaid: c.unpaid,
+            shared: c.shared,
             checked: rows,
         });
     }
@@ -411,6 +412,8 @@ struct Confirmed {
     unexplained: usize,
     /// Candidates left out (the weakest) because the budget could not pay for them.
     unpaid: usize,
+    /// Failure modes no core explains left out because they share a concept with a stronger one.
+    shared: usize,
     /// Every candidate after confirmation, in `candidates` order.
     checked: Vec<Checked>,
     /// Inferences spent and given.
@@ -456,20 +459,22 @@ struct Searched2 {
 /// search evidence first ([`shrink::roots`]' order): the minimal ones (every valid one-smaller
 /// subset was evaluated and passes, holding no core), and those that fail at least 2δ above each
 /// failing part ([`shrink::lifted_failures`]: a core with a near-threshold part, which the
-/// shrink took for the core). `interact` confirms only some of its cores during the search (the
-/// rest ran out of its confirmation rule's budget or triage); on a graded landscape these hold
-/// most of the planted modes it reached.
-fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> Vec<Core> {
+/// shrink took for the core) — of those sharing a concept only the strongest
+/// ([`shrink::apart`]), with how many were left out. `interact` confirms only some of its cores
+/// during the search (the rest ran out of its confirmation rule's budget or triage); on a graded
+/// landscape these hold most of the planted modes it reached.
+fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> (Vec<Core>, usize) {
     let threshold = params.threshold;
     let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
     let mut loose = shrink::unexplained_failures(history, space, threshold, &cores);
     loose.extend(shrink::lifted_failures(history, space, threshold, 2.0 * params.delta, &cores));
-    shrink::roots(history, threshold)
+    let (kept, shared) = shrink::apart(shrink::roots(history, threshold).into_iter().filter(|s| loose.contains(s)));
+    let kept = kept
         .into_iter()
-        .filter(|s| loose.contains(s))
         .filter_map(|set| history.iter().find(|h| h.set == set))
         .map(|s| Core { stats: s.clone(), minimal: true, root: s.set })
-        .collect()
+        .collect();
+    (kept, shared)
 }
 
 /// The search, then the shrink phase, then fresh confirmation of the shrink's cores and of the
@@ -501,7 +506,7 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
     // The family: the shrink's cores, then the unexplained minimal failure modes, as many as
     // the budget pays (decided before any fresh observation).
-    let loose = unexplained_failures(&everything, space, params, &found.cores);
+    let (loose, shared) = unexplained_failures(&everything, space, params, &found.cores);
     let mut candidates = found.cores.clone();
     candidates.extend(loose.iter().cloned());
     let paid = plan.paid(budget, candidates.len());
@@ -535,7 +540,7 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
         })
         .collect();
     let confirmation =
-        Some(Confirmed { candidates, unexplained, unpaid, checked, spent: confirm_spent, budget, parts });
+        Some(Confirmed { candidates, unexplained, unpaid, shared, checked, spent: confirm_spent, budget, parts });
     Ok(Searched2 { history, found, shrink: Some(shrink), calls, confirmation })
 }
 

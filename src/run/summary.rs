@@ -290,6 +290,10 @@ pub struct ConfirmSummary {
     /// Candidates not sent (the weakest): the budget paid for the ones before them only.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unpaid: usize,
+    /// Failure modes no core explains that were not sent because each shares a concept with a
+    /// stronger one (which stands for them: they mostly fail through that concept).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub shared: usize,
     /// Every candidate with its fresh observations, e-value and status.
     pub checked: Vec<CheckedRow>,
 }

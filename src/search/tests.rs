@@ -734,3 +734,14 @@ fn lanes_join_their_asks_into_one_call_in_lane_order() {
     assert_eq!(asks, vec![vec![(a, 0..5), (b, 0..5), (c, 0..5)], vec![(c, 5..8)]]);
     assert_eq!(woke.take(), vec![5, 8], "the idle lane woke after each call, then ended");
 }
+
+/// Of the loose failure modes, strongest first, one stands for each concept they share: the
+/// pairs of one part near τ with anything are sent once, and a mode apart from them still is.
+#[test]
+fn loose_failure_modes_sharing_a_concept_send_only_the_strongest() {
+    let sets = [bits(&[1, 2]), bits(&[1, 3]), bits(&[4, 5]), bits(&[2, 6]), bits(&[1]), bits(&[7])];
+    let (kept, left) = shrink::apart(sets);
+    assert_eq!(kept, vec![bits(&[1, 2]), bits(&[4, 5]), bits(&[7])]);
+    assert_eq!(left, 3);
+    assert_eq!(shrink::apart([]), (vec![], 0));
+}
