@@ -213,13 +213,13 @@ impl Board {
         self.argmax_at(covered, |_, s| score(s))
     }
 
-    /// The unexplored sets among the open or the covered ones, each with its score under the
-    /// fit of `version` (none scored −∞), as a queue best first; ties go to the earliest in
-    /// lattice order, as in [`Board::argmax`].
-    fn queue_at(&self, covered: bool, version: u32, score: impl Fn(usize, ConceptSet) -> f64) -> BinaryHeap<Queued> {
+    /// The unexplored open sets (no core covers them), each with its score under the fit of
+    /// `version` (none scored −∞), as a queue best first; ties go to the earliest in lattice
+    /// order, as in [`Board::argmax`].
+    fn queue_at(&self, version: u32, score: impl Fn(usize, ConceptSet) -> f64) -> BinaryHeap<Queued> {
         let mut queued = Vec::new();
         for (i, set) in self.sets.iter().enumerate() {
-            if self.explored[i] || self.covered[i] != covered {
+            if self.explored[i] || self.covered[i] {
                 continue;
             }
             let v = score(i, *set);
@@ -997,7 +997,7 @@ impl<'s> PatternSearcher<'s> {
                 Some(at) => at,
                 None => {
                     let scorer = fit.scorer(&self.patterns, &self.open, di, screen, samples, tau);
-                    let queue = self.board.queue_at(false, version, |i, set| {
+                    let queue = self.board.queue_at(version, |i, set| {
                         if holds_blocked(set) || !keep(set) {
                             f64::NEG_INFINITY
                         } else {
