@@ -460,7 +460,7 @@ struct Searched2 {
 /// subset was evaluated and passes, holding no core), and those that fail at least 2δ above each
 /// failing part ([`shrink::lifted_failures`]: a core with a near-threshold part, which the
 /// shrink took for the core) — of those sharing a concept only the strongest
-/// ([`shrink::apart`]), with how many were left out. `interact` confirms only some of its cores
+/// ([`shrink::disjoint_strongest`]), with how many were left out. `interact` confirms only some of its cores
 /// during the search (the rest ran out of its confirmation rule's budget or triage); on a graded
 /// landscape these hold most of the planted modes it reached.
 fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> (Vec<Core>, usize) {
@@ -468,7 +468,8 @@ fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, co
     let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
     let mut loose = shrink::unexplained_failures(history, space, threshold, &cores);
     loose.extend(shrink::lifted_failures(history, space, threshold, 2.0 * params.delta, &cores));
-    let (kept, shared) = shrink::apart(shrink::roots(history, threshold).into_iter().filter(|s| loose.contains(s)));
+    let (kept, shared) =
+        shrink::disjoint_strongest(shrink::roots(history, threshold).into_iter().filter(|s| loose.contains(s)));
     let kept = kept
         .into_iter()
         .filter_map(|set| history.iter().find(|h| h.set == set))

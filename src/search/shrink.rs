@@ -240,8 +240,8 @@ pub fn unexplained_failures(
 /// of sixteen picks does far more often than one pick at a time — and each one sent takes its
 /// triage's calls, and e-BH's tolerance, from the real modes: the strongest stands for them.
 /// Measured (release, 20 seeds, width 16): driving_recognition 30 → 41 % recovered, driving_many
-/// 28 → 33 % (docs/search.md, "What a finding promises").
-pub fn apart(sets: impl IntoIterator<Item = ConceptSet>) -> (Vec<ConceptSet>, usize) {
+/// 28 → 33 % (docs/search.md, "Parallel interact").
+pub fn disjoint_strongest(sets: impl IntoIterator<Item = ConceptSet>) -> (Vec<ConceptSet>, usize) {
     let mut seen = ConceptSet::default();
     let mut left = 0;
     let mut kept = Vec::new();

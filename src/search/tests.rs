@@ -740,8 +740,8 @@ fn lanes_join_their_asks_into_one_call_in_lane_order() {
 #[test]
 fn loose_failure_modes_sharing_a_concept_send_only_the_strongest() {
     let sets = [bits(&[1, 2]), bits(&[1, 3]), bits(&[4, 5]), bits(&[2, 6]), bits(&[1]), bits(&[7])];
-    let (kept, left) = shrink::apart(sets);
+    let (kept, left) = shrink::disjoint_strongest(sets);
     assert_eq!(kept, vec![bits(&[1, 2]), bits(&[4, 5]), bits(&[7])]);
     assert_eq!(left, 3);
-    assert_eq!(shrink::apart([]), (vec![], 0));
+    assert_eq!(shrink::disjoint_strongest([]), (vec![], 0));
 }
