@@ -832,8 +832,10 @@ impl<'s> PatternSearcher<'s> {
     /// wrong through the very failure mode being explained, and be escalated before its core
     /// covers them), apart from one another first ([`SPREAD`]), the asked sets left out; the best
     /// of the rest only when those are too few. Screens fill a listed space's call to
-    /// [`FILL_SHARE`] of its width, no further. (A sampled space: [`PatternSearcher::pick`]'s
-    /// concept sets and picks, those off the families first, to the whole width.)
+    /// [`FILL_SHARE`] of its width, no further, each picked as if the call's other observations
+    /// (`asks` and the escalations) had answered right ([`believe_right`]). (A sampled space:
+    /// [`PatternSearcher::pick`]'s concept sets and picks, those off the families first, to the
+    /// whole width.)
     pub fn fill(&mut self, history: &[SetStats], asks: &[super::Ask], room: usize) -> Vec<super::Ask> {
         asks.iter().for_each(|a| self.board.explore(a.set));
         let hot_now = self.hot_now;
@@ -872,8 +874,13 @@ impl<'s> PatternSearcher<'s> {
             return out;
         }
         let screen = |set| super::Ask { set, obs: 0..SCREEN };
+        // A listed space's picks believe the call's other observations answered right
+        // ([`believe_right`]). A sampled space's do not: there the belief took the 250-concept
+        // bench's pair / triple from 16 / 12 to 19 / 7 of 30 seeds.
+        let pending: Vec<super::Ask> =
+            if self.space.is_sampled() { Vec::new() } else { asks.iter().chain(&out).cloned().collect() };
         if focus.is_empty() {
-            out.extend(self.pick(history, left).into_iter().map(screen));
+            out.extend(self.pick(history, &pending, left).into_iter().map(screen));
             return out;
         }
         if self.space.is_sampled() {
@@ -882,7 +889,7 @@ impl<'s> PatternSearcher<'s> {
             // pair / triple in 36 / 9 of 60 seeds instead of 44 / 20: there the screens on a
             // family hold hot concepts, the parts of the modes not found yet.)
             let (off, on): (Vec<ConceptSet>, Vec<ConceptSet>) =
-                self.pick(history, 2 * left).into_iter().partition(|&p| apart(&focus, p, hot_now));
+                self.pick(history, &pending, 2 * left).into_iter().partition(|&p| apart(&focus, p, hot_now));
             out.extend(off.into_iter().chain(on).take(left).map(screen));
             return out;
         }
@@ -890,13 +897,13 @@ impl<'s> PatternSearcher<'s> {
         // width from the best picks of all. (Taking the best picks of all first and the screens
         // off the families among them, the calls were filled with sets of the families: the
         // ranking puts a family's supersets first while it is explained.)
-        let ranked = self.pick_where(history, SPREAD * left, |p| apart(&focus, p, hot_now));
+        let ranked = self.pick_where(history, &pending, SPREAD * left, |p| apart(&focus, p, hot_now));
         let off = spread(&ranked, left);
         let short = left - off.len();
         out.extend(off.into_iter().map(screen));
         if short > 0 {
             let asked: Vec<ConceptSet> = out.iter().map(|a| a.set).collect();
-            let rest = self.pick(history, short + asked.len()).into_iter().filter(|p| !asked.contains(p));
+            let rest = self.pick(history, &pending, short + asked.len()).into_iter().filter(|p| !asked.contains(p));
             out.extend(rest.take(short).map(screen));
         }
         out
@@ -949,20 +956,35 @@ impl<'s> PatternSearcher<'s> {
     /// `batch` picks, each the unexplored open set with the best discovery chance per expected
     /// observation under a dilution drawn from its posterior.
     pub fn propose(&mut self, history: &[SetStats]) -> Vec<ConceptSet> {
-        self.pick(history, self.params.batch)
+        self.pick(history, &[], self.params.batch)
     }
 
-    /// `n` picks ([`PatternSearcher::propose`]).
-    fn pick(&mut self, history: &[SetStats], n: usize) -> Vec<ConceptSet> {
-        self.pick_where(history, n, |_| true)
+    /// `n` picks ([`PatternSearcher::propose`]), with the `pending` observations believed
+    /// answered right.
+    fn pick(&mut self, history: &[SetStats], pending: &[super::Ask], n: usize) -> Vec<ConceptSet> {
+        self.pick_where(history, pending, n, |_| true)
     }
 
     /// `n` picks, the open sets ranked among those `keep` takes (a sampled space's concept sets
-    /// are drawn as by [`PatternSearcher::pick`]), each made as if the picks before it had
-    /// answered right ([`believe_right`]).
-    fn pick_where(&mut self, history: &[SetStats], n: usize, keep: impl Fn(ConceptSet) -> bool) -> Vec<ConceptSet> {
+    /// are drawn as by [`PatternSearcher::pick`]), each made as if the `pending` observations
+    /// (asked in the same call, not answered yet) and the picks before it had answered right
+    /// ([`believe_right`]).
+    fn pick_where(
+        &mut self,
+        history: &[SetStats],
+        pending: &[super::Ask],
+        n: usize,
+        keep: impl Fn(ConceptSet) -> bool,
+    ) -> Vec<ConceptSet> {
         self.catch_up(history);
-        let mut fit = self.fit(history);
+        // The history with what is believed answered right: the pending observations, then the
+        // round's picks so far; `version` counts the picks (a queued score of an older version
+        // is stale).
+        let mut believed: Vec<SetStats> = if n > 1 || !pending.is_empty() { history.to_vec() } else { Vec::new() };
+        for a in pending {
+            believe_right(&mut believed, a.set, a.len());
+        }
+        let mut fit = self.fit(if pending.is_empty() { history } else { &believed });
         let mut picks: Vec<ConceptSet> = Vec::with_capacity(n);
         // A sampled space: the sets that fail as tested (being explained) and those set aside; a
         // superset of one is not screened.
@@ -979,9 +1001,6 @@ impl<'s> PatternSearcher<'s> {
         }
         let holds_blocked = |set: ConceptSet| blocked.iter().any(|b| b.is_subset_of(set));
         let (screen, samples, tau) = (SCREEN.min(self.params.samples), self.params.samples, self.params.threshold);
-        // The history with the round's picks so far believed answered right, and `version`, how
-        // many (a queued score of an older version is stale).
-        let mut believed: Vec<SetStats> = if n > 1 { history.to_vec() } else { Vec::new() };
         let mut version = 0u32;
         // Per dilution drawn, its unexplored open sets in a queue, scored in one pass over the
         // lattice: each pick is the best of its draw's queue not picked yet. A score from before
@@ -1042,7 +1061,7 @@ impl<'s> PatternSearcher<'s> {
             let Some((set, _)) = pick else { break };
             picks.push(set);
             if picks.len() < n {
-                believe_right(&mut believed, set);
+                believe_right(&mut believed, set, 1);
                 fit = self.fit(&believed);
                 version += 1;
             }
@@ -1096,12 +1115,18 @@ impl Ord for Queued {
 }
 
 /// A round's next pick is made as if the picks before it had been screened and answered right:
-/// one correct answer added to `history` for `set` (the "constant liar" of batch Bayesian
+/// `n` correct answers added to `history` for `set` (the "constant liar" of batch Bayesian
 /// optimisation, Ginsbourger, Le Riche and Carraro 2010, at its most pessimistic value). A
 /// pick's patterns then lose some of their chance, so the round's later picks go to other
 /// patterns instead of the same ones over again, as one pick at a time would once the first had
-/// answered right (docs/search.md, parallel interact).
-fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet) {
+/// answered right. A fill believes the same of the observations its call already holds (the
+/// lanes' escalations and tests, asked and not answered yet): the liar for pending evaluations,
+/// so a set that answered wrong once does not draw a fill's screens to its concepts while the
+/// escalation that most often clears it is in the same call (docs/search.md, parallel interact).
+fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet, n: u32) {
+    if n == 0 {
+        return;
+    }
     let at = match history.iter().position(|s| s.set == set) {
         Some(i) => i,
         None => {
@@ -1109,7 +1134,9 @@ fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet) {
             history.len() - 1
         }
     };
-    history[at].add(crate::outcome::Outcome::Correct);
+    for _ in 0..n {
+        history[at].add(crate::outcome::Outcome::Correct);
+    }
 }
 
 /// Whether `set` is off the families of the sets in `focus` (being decided on): it shares at
@@ -1475,9 +1502,38 @@ mod tests {
         assert!(held < picks.len(), "{held} of 12 picks hold {{2, 5}}: {picks:?}");
         // `believe_right` adds one right answer, to a set's entry or a new one.
         let mut h = vec![stats(bits(&[1]), 1, 0)];
-        believe_right(&mut h, bits(&[1]));
-        believe_right(&mut h, bits(&[3, 4]));
+        believe_right(&mut h, bits(&[1]), 1);
+        believe_right(&mut h, bits(&[3, 4]), 1);
         assert_eq!((h[0].wrong, h[0].correct, h[1].set, h[1].correct), (1, 1, bits(&[3, 4]), 1));
+        believe_right(&mut h, bits(&[1]), 2);
+        believe_right(&mut h, bits(&[6]), 0);
+        assert_eq!((h[0].correct, h.len()), (3, 2), "n answers; none adds no entry");
+    }
+
+    /// A fill believes the observations its call already holds answered right: while {2, 5, 7},
+    /// wrong once, is escalated in the same call, the fill's screens go to other patterns too
+    /// (8 of 13 hold one of its concepts) instead of each testing one of them (13 of 13), as one
+    /// pick at a time would once the escalation had cleared it.
+    #[test]
+    fn a_fill_believes_the_calls_pending_observations_answered_right() {
+        let lattice = crate::ir::testkit::lattice(20, 3);
+        let space = Space::new(lattice.clone(), 20);
+        let params = Params { algo: super::super::Algo::Interact, budget: 1000, batch: 16, ..Params::default() };
+        let suspect = bits(&[2, 5, 7]);
+        let mut history: Vec<SetStats> = lattice.iter().filter(|s| s.len() == 1).map(|&s| stats(s, 0, 2)).collect();
+        history.push(stats(suspect, 1, 0));
+        let escalation = [super::super::Ask { set: suspect, obs: 1..3 }];
+        let held = |pending: &[super::super::Ask]| {
+            let mut searcher = PatternSearcher::new(&params, &space);
+            history.iter().for_each(|s| searcher.explored(s.set));
+            searcher.focus = vec![suspect];
+            let fill = searcher.fill(&history, pending, 16);
+            assert_eq!(fill.len(), 13, "{fill:?}");
+            fill.iter().filter(|a| a.set.intersects(suspect)).count()
+        };
+        let (believing, not) = (held(&escalation), held(&[]));
+        assert_eq!(not, 13, "without the belief every screen holds one of its concepts");
+        assert!(believing <= 9, "{believing} of 13 screens hold one of its concepts");
     }
 
     /// A pick's queue: the best score first, ties to the earliest position in the space.
