@@ -29,6 +29,11 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "2 000 calls at 500 ms each",
     ),
     (
+        "revelio bench search --profile examples/sim/P.toml --seeds 20 --budget 1000 --shrink 250 --batch 16 --concurrency 16 --algos interact --renderer none --json",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --shrink 20 --batch 16 --concurrency 16 --algos interact --renderer none --json",
+        "`P` is any profile; 15 profiles × 20 seeds × 1000 calls",
+    ),
+    (
         "revelio campaign examples/campaign_200ms.toml --no-cache --concurrency 16",
         "revelio campaign examples/campaign_200ms.toml --no-cache --concurrency 16 --dry-run",
         "1 518 calls at 200 ms each",

@@ -1121,7 +1121,7 @@ impl Ord for Queued {
 /// patterns instead of the same ones over again, as one pick at a time would once the first had
 /// answered right. A fill believes the same of the observations its call already holds (the
 /// lanes' escalations and tests, asked and not answered yet): the liar for pending evaluations,
-/// so a set that answered wrong once does not draw a fill's screens to its concepts while the
+/// so a set that answered wrong once draws fewer of a fill's screens to its concepts while the
 /// escalation that most often clears it is in the same call (docs/search.md, parallel interact).
 fn believe_right(history: &mut Vec<SetStats>, set: ConceptSet, n: u32) {
     if n == 0 {
