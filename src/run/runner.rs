@@ -460,9 +460,9 @@ struct Searched2 {
 /// subset was evaluated and passes, holding no core), and those that fail at least 2δ above each
 /// failing part ([`shrink::lifted_failures`]: a core with a near-threshold part, which the
 /// shrink took for the core) — of those sharing a concept only the strongest
-/// ([`shrink::disjoint_strongest`]), with how many were left out. `interact` confirms only some of its cores
-/// during the search (the rest ran out of its confirmation rule's budget or triage); on a graded
-/// landscape these hold most of the planted modes it reached.
+/// ([`shrink::disjoint_strongest`]), with how many were left out. `interact` confirms only some
+/// of its cores during the search (the rest ran out of its confirmation rule's budget or
+/// triage); on a graded landscape these hold most of the planted modes it reached.
 fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> (Vec<Core>, usize) {
     let threshold = params.threshold;
     let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
