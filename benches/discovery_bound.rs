@@ -1,0 +1,103 @@
+//! What any search could find on `revelio bench scale`'s 250-concept domain (issue 34's target:
+//! its planted pair and triple found as cores in 9 of 10 seeds), bounded by an idealised
+//! discovery: every call screens a set of five concepts and nothing is spent on escalating,
+//! explaining, shrinking or confirming. The answers are the bench's own sim model (its profile,
+//! [`revelio::cli::bench::scale::profile`]: base error 0.05, each of the five parts 0.3–0.35
+//! alone). The discovery knows what a real search does not: that a part fails at about 0.32
+//! alone and that about 2 % of the concepts are parts (5 of 250). It keeps, per concept, the
+//! probability that it is a part (a spike-and-slab posterior, updated after each answer with the
+//! other concepts of the set at their current probabilities), screens by Thompson sampling
+//! (each concept drawn a part with its probability; the drawn ones first, the set filled at
+//! random) and sets a concept aside once its probability passes the naming level. A mode's parts
+//! all named is what a search needs before it can screen the mode at all; the search must then
+//! still put them together, shrink and confirm, so a search's recovery is below these shares.
+//!
+//! `cargo bench --bench discovery_bound` (200 runs; about a second). Figures are in
+//! docs/search.md ("Sampled spaces").
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use revelio::ir::{ConceptId, ConceptSet};
+use revelio::vlm::sim::Profile;
+
+const CONCEPTS: usize = 250;
+const SIZE: usize = 5;
+const RUNS: u64 = 200;
+/// The calls after which the shares are read.
+const CHECKPOINTS: [usize; 4] = [300, 500, 700, 1000];
+/// The prior share of parts and the rate a part fails at alone (what the discovery is told).
+const PRIOR: f64 = 5.0 / CONCEPTS as f64;
+const SLAB: f64 = 0.32;
+const BASE: f64 = 0.05;
+
+/// One run: per checkpoint, whether the pair's parts and the triple's parts were all named, and
+/// how many concepts that are no part were named.
+fn run(profile: &Profile, seed: u64, named_at: f64, pair: ConceptSet, triple: ConceptSet) -> Vec<(bool, bool, usize)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let parts = pair.union(triple);
+    let mut odds = vec![(PRIOR / (1.0 - PRIOR)).ln(); CONCEPTS];
+    let mut named = ConceptSet::EMPTY;
+    let mut out = Vec::new();
+    for t in 0..=*CHECKPOINTS.last().unwrap() {
+        let p: Vec<f64> = odds.iter().map(|l| 1.0 / (1.0 + (-l).exp())).collect();
+        for (c, &pc) in p.iter().enumerate() {
+            if pc > named_at {
+                named = named.with(ConceptId(c as u32));
+            }
+        }
+        if CHECKPOINTS.contains(&t) {
+            let false_named = named.difference(parts).len();
+            out.push((pair.is_subset_of(named), triple.is_subset_of(named), false_named));
+        }
+        // Thompson sampling: the concepts drawn a part first, then the others, each group in a
+        // random order; named ones are set aside.
+        let mut keyed: Vec<(bool, f64, usize)> = (0..CONCEPTS)
+            .filter(|&c| !named.contains(ConceptId(c as u32)))
+            .map(|c| (rng.random::<f64>() < p[c], rng.random::<f64>(), c))
+            .collect();
+        keyed.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+        let set: Vec<usize> = keyed.iter().take(SIZE).map(|k| k.2).collect();
+        let bits = set.iter().fold(ConceptSet::EMPTY, |s, &c| s.with(ConceptId(c as u32)));
+        let wrong = rng.random::<f64>() < profile.error_for(bits);
+        for (i, &c) in set.iter().enumerate() {
+            // The chance the set fails if `c` is a part, and if it is not (another part may be in
+            // the set: the set fails at about a part's rate then).
+            let none_other: f64 = set.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &o)| 1.0 - p[o]).product();
+            let if_not = none_other * BASE + (1.0 - none_other) * SLAB;
+            odds[c] += if wrong { (SLAB / if_not).ln() } else { ((1.0 - SLAB) / (1.0 - if_not)).ln() };
+        }
+    }
+    out
+}
+
+fn main() {
+    let domain = revelio::check::compile_source("generated.rev", &revelio::cli::bench::scale::generated(CONCEPTS))
+        .expect("the generated domain compiles");
+    let profile = Profile::parse(&revelio::cli::bench::scale::profile(), "generated profile", &domain)
+        .expect("the bench's profile parses");
+    let planted = profile.planted(0.6, |_| true);
+    let (pair, triple) = match planted.as_slice() {
+        [a, b] if a.len() == 2 && b.len() == 3 => (*a, *b),
+        _ => panic!("the bench's profile plants a pair and a triple, got {planted:?}"),
+    };
+    println!("idealised discovery on `bench scale`'s 250-concept profile, {RUNS} runs: share of runs whose");
+    println!("parts are all named (P(part) above the naming level) within the calls, and concepts");
+    println!("named that are no part (mean per run)\n");
+    println!("| naming level | calls | pair's 2 parts | triple's 3 parts | named, no part |");
+    println!("|---|---|---|---|---|");
+    for named_at in [0.5, 0.8] {
+        let runs: Vec<Vec<(bool, bool, usize)>> =
+            (0..RUNS).map(|seed| run(&profile, seed, named_at, pair, triple)).collect();
+        for (k, calls) in CHECKPOINTS.iter().enumerate() {
+            let share = |f: &dyn Fn(&(bool, bool, usize)) -> bool| {
+                runs.iter().filter(|r| f(&r[k])).count() as f64 / RUNS as f64 * 100.0
+            };
+            let false_named = runs.iter().map(|r| r[k].2).sum::<usize>() as f64 / RUNS as f64;
+            println!(
+                "| {named_at} | {calls} | {:.0} % | {:.0} % | {false_named:.1} |",
+                share(&|r| r.0),
+                share(&|r| r.1)
+            );
+        }
+    }
+}
