@@ -14,8 +14,7 @@
 //! they were only named), shrink and confirm, so a search's recovery is below these shares.
 //!
 //! `cargo bench --bench discovery_bound` (200 runs of 1 000 calls at two naming levels; about
-//! four seconds once built). Figures are in
-//! docs/search.md ("Lattices past `--max-sets`").
+//! four seconds once built). Figures are in docs/search.md ("Lattices past `--max-sets`").
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
