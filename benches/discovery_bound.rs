@@ -3,8 +3,8 @@
 //! discovery: every call screens a set of five concepts and nothing is spent on escalating,
 //! explaining, shrinking or confirming. The answers are the bench's own sim model (its profile,
 //! [`revelio::cli::bench::scale::profile`]: base error 0.05, each of the five parts 0.3–0.35
-//! alone). The discovery knows what a real search does not: that a part fails at about 0.32
-//! alone and that about 2 % of the concepts are parts (5 of 250). It keeps, per concept, the
+//! alone). The discovery knows what a real search does not, read from that profile: the base
+//! error, the parts' mean rate alone and their share of the concepts (5 of 250). It keeps, per concept, the
 //! probability that it is a part (a spike-and-slab posterior, updated after each answer with the
 //! other concepts of the set at their current probabilities), screens by Thompson sampling
 //! (each concept drawn a part with its probability; the drawn ones first, the set filled at
@@ -26,18 +26,31 @@ const SIZE: usize = 5;
 const RUNS: u64 = 200;
 /// The calls after which the shares are read.
 const CHECKPOINTS: [usize; 4] = [300, 500, 700, 1000];
-/// The prior share of parts and the rate a part fails at alone (what the discovery is told).
-const PRIOR: f64 = 5.0 / CONCEPTS as f64;
-const SLAB: f64 = 0.32;
-const BASE: f64 = 0.05;
+
+/// What the discovery is told (a real search is not): the prior share of parts among the
+/// concepts, the rate a part fails at alone, and the base error.
+#[derive(Clone, Copy)]
+struct Told {
+    prior: f64,
+    slab: f64,
+    base: f64,
+}
 
 /// One run: per checkpoint, whether the pair and the triple were each met — its parts all named,
 /// or the mode itself screened (a set holding it, answering at the mode's rate) — and how many
 /// concepts that are no part were named.
-fn run(profile: &Profile, seed: u64, named_at: f64, pair: ConceptSet, triple: ConceptSet) -> Vec<(bool, bool, usize)> {
+fn run(
+    profile: &Profile,
+    told: &Told,
+    seed: u64,
+    named_at: f64,
+    pair: ConceptSet,
+    triple: ConceptSet,
+) -> Vec<(bool, bool, usize)> {
+    let Told { prior, slab, base } = *told;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let parts = pair.union(triple);
-    let mut odds = vec![(PRIOR / (1.0 - PRIOR)).ln(); CONCEPTS];
+    let mut odds = vec![(prior / (1.0 - prior)).ln(); CONCEPTS];
     let mut named = ConceptSet::EMPTY;
     let mut screened = (false, false);
     let mut out = Vec::new();
@@ -67,8 +80,8 @@ fn run(profile: &Profile, seed: u64, named_at: f64, pair: ConceptSet, triple: Co
             // The chance the set fails if `c` is a part, and if it is not (another part may be in
             // the set: the set fails at about a part's rate then).
             let none_other: f64 = set.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &o)| 1.0 - p[o]).product();
-            let if_not = none_other * BASE + (1.0 - none_other) * SLAB;
-            odds[c] += if wrong { (SLAB / if_not).ln() } else { ((1.0 - SLAB) / (1.0 - if_not)).ln() };
+            let if_not = none_other * base + (1.0 - none_other) * slab;
+            odds[c] += if wrong { (slab / if_not).ln() } else { ((1.0 - slab) / (1.0 - if_not)).ln() };
         }
     }
     out
@@ -79,11 +92,14 @@ fn main() {
         .expect("the generated domain compiles");
     let profile = Profile::parse(&revelio::cli::bench::scale::profile(), "generated profile", &domain)
         .expect("the bench's profile parses");
-    let planted = profile.planted(0.6, |_| true);
+    let planted = profile.planted(revelio::search::Params::default().threshold, |_| true);
     let (pair, triple) = match planted.as_slice() {
         [a, b] if a.len() == 2 && b.len() == 3 => (*a, *b),
         _ => panic!("the bench's profile plants a pair and a triple, got {planted:?}"),
     };
+    let parts = pair.union(triple);
+    let slab = parts.iter().map(|c| profile.error_for(ConceptSet::single(c))).sum::<f64>() / parts.len() as f64;
+    let told = Told { prior: parts.len() as f64 / CONCEPTS as f64, slab, base: profile.base_error };
     println!("idealised discovery on `bench scale`'s 250-concept profile, {RUNS} runs: share of runs that");
     println!("met each mode within the calls (its parts all named, P(part) above the naming level, or");
     println!("the whole mode screened), and concepts named that are no part (mean per run)\n");
@@ -91,7 +107,7 @@ fn main() {
     println!("|---|---|---|---|---|");
     for named_at in [0.5, 0.8] {
         let runs: Vec<Vec<(bool, bool, usize)>> =
-            (0..RUNS).map(|seed| run(&profile, seed, named_at, pair, triple)).collect();
+            (0..RUNS).map(|seed| run(&profile, &told, seed, named_at, pair, triple)).collect();
         for (k, calls) in CHECKPOINTS.iter().enumerate() {
             let share = |f: &dyn Fn(&(bool, bool, usize)) -> bool| {
                 runs.iter().filter(|r| f(&r[k])).count() as f64 / RUNS as f64 * 100.0
