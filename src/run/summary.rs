@@ -462,12 +462,16 @@ impl Summary {
             n => format!("; {n} failure mode{} refuted when re-tested", if n == 1 { "" } else { "s" }),
         };
         let lift = crate::search::shrink::LIFT_MAX_FACTOR * sh.max_samples;
+        // Interact tests a core it found with up to CORE_TEST_STRETCH times as many.
+        let stretch = crate::search::interact::CORE_TEST_STRETCH;
         match &self.calls {
             Some(c) => format!(
-                "shrink: {candidates} {noun}, shrunk and tested during the search ({} calls explaining failures, {} calls in core tests; up to {} observations per set, {lift} to test a core's lift); the shrink phase after it: {} calls of {}{refuted}",
+                "shrink: {candidates} {noun}, shrunk and tested during the search ({} calls explaining failures, {} calls in core tests; up to {} observations per set, {} to test a core found, {} its lift); the shrink phase after it: {} calls of {}{refuted}",
                 spaced(c.explaining),
                 spaced(c.confirmation),
                 sh.max_samples,
+                stretch * sh.max_samples,
+                stretch * lift,
                 spaced(sh.inferences),
                 spaced(sh.budget),
             ),

@@ -745,3 +745,28 @@ fn loose_failure_modes_sharing_a_concept_send_only_the_strongest() {
     assert_eq!(left, 3);
     assert_eq!(shrink::disjoint_strongest([]), (vec![], 0));
 }
+
+/// One concept just above τ + δ (c3 at 0.75), base 0.05: the anytime-valid test establishes it
+/// above τ − δ in about 36 observations on average, past the confirmation rule's M = 40 now and
+/// then.
+const NEAR_ZONE: &str = "name = \"near\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c3\"]\nerror = 0.75\n";
+
+#[test]
+fn interact_establishes_a_core_just_above_the_zone_past_the_rules_cap() {
+    let space = Space::new(lattice(10, 4), 10);
+    let c3 = bits(&[3]);
+    let (mut established, mut past_m) = (0, 0);
+    for seed in 0..20 {
+        let p = Params { algo: Algo::Interact, budget: 1000, seed, ..Params::default() };
+        let mut e = sim(NEAR_ZONE, seed);
+        let h = block_on(run(&p, &space, &mut e)).unwrap();
+        assert_sound(&h, &space, &p);
+        let confirm = p.confirm_rule().with_zone(p.delta);
+        let core = h.iter().find(|s| s.set == c3).expect("c3 is tested");
+        established += usize::from(confirm.fails(core));
+        past_m += usize::from(confirm.fails(core) && core.observations() > confirm.max_samples);
+    }
+    // Seed 4 needs 55 observations: at the rule's M it was undecided, and no core.
+    assert_eq!(established, 20, "c3 established above τ − δ on {established} of 20 seeds");
+    assert!(past_m >= 1, "the stretch is what established it on {past_m} seeds");
+}
