@@ -19,7 +19,8 @@
 //!   leave the open sets (exclusion) and it closes every pattern that holds it (conditioning), so
 //!   the next picks go looking for the next family. A failing set that does not lift over a
 //!   passing subset near τ ([`Shrunk::NotDistinct`]) is no core, and that subset's family is set
-//!   aside the same way ([`PatternSearcher::explain`]) without being reported.
+//!   aside the same way ([`PatternSearcher::explain`]) without being reported; so is a core's
+//!   when its test, which may go to [`CORE_TEST_STRETCH`] times the rule's M, ends undecided.
 //! - **`horseshoe`**, **`ridge`**, **`linear`**: Thompson sampling with a Bayesian regression on
 //!   concept indicators and their pairwise products ([`super::surrogate`]), as in BOCS. A round:
 //!   a few Gibbs sweeps on every evaluated set (warm-started), `batch` draws, and for each the

@@ -585,6 +585,16 @@ fn a_set_that_fails_only_as_much_as_its_borderline_part_is_no_core() {
     assert!(distinct >= 15, "the true pair is the core on most seeds ({distinct} of 30)");
 }
 
+/// An interact run of `budget` calls on the sim `profile`, checked sound: its history and the
+/// confirmation rule it decided cores by.
+fn interact_on(profile: &str, space: &Space, budget: u64, seed: u64) -> (Vec<SetStats>, Rule) {
+    let p = Params { algo: Algo::Interact, budget, seed, ..Params::default() };
+    let mut e = sim(profile, seed);
+    let h = block_on(run(&p, space, &mut e)).unwrap();
+    assert_sound(&h, space, &p);
+    (h, p.confirm_rule().with_zone(p.delta))
+}
+
 /// A triple over a part that carries a third of its signal ({c2, c5} at 0.35), base 0.05.
 const PART_AND_TRIPLE: &str = "name = \"part\"\nbase_error = 0.05\n[[mode]]\nconcepts = [\"c2\", \"c5\"]\nerror = 0.35\n[[mode]]\nconcepts = [\"c2\", \"c5\", \"c7\"]\nerror = 0.9\n";
 
@@ -594,11 +604,7 @@ fn interact_confirms_what_its_triage_finds_at_the_full_rule() {
     let triple = bits(&[2, 5, 7]);
     let mut found = 0;
     for seed in 0..10 {
-        let p = Params { algo: Algo::Interact, budget: 600, seed, ..Params::default() };
-        let mut e = sim(PART_AND_TRIPLE, seed);
-        let h = block_on(run(&p, &space, &mut e)).unwrap();
-        assert_sound(&h, &space, &p);
-        let confirm = p.confirm_rule().with_zone(p.delta);
+        let (h, confirm) = interact_on(PART_AND_TRIPLE, &space, 600, seed);
         let stats = |s: ConceptSet| h.iter().find(|t| t.set == s);
         // Every 1-minimal set the confirmation established as failing (above τ − δ, by the
         // anytime-valid test) holds the triple, and each of its one-smaller subsets is settled.
@@ -757,11 +763,7 @@ fn interact_establishes_a_core_just_above_the_zone_past_the_rules_cap() {
     let c3 = bits(&[3]);
     let (mut established, mut past_m) = (0, 0);
     for seed in 0..20 {
-        let p = Params { algo: Algo::Interact, budget: 1000, seed, ..Params::default() };
-        let mut e = sim(NEAR_ZONE, seed);
-        let h = block_on(run(&p, &space, &mut e)).unwrap();
-        assert_sound(&h, &space, &p);
-        let confirm = p.confirm_rule().with_zone(p.delta);
+        let (h, confirm) = interact_on(NEAR_ZONE, &space, 1000, seed);
         let core = h.iter().find(|s| s.set == c3).expect("c3 is tested");
         established += usize::from(confirm.fails(core));
         past_m += usize::from(confirm.fails(core) && core.observations() > confirm.max_samples);
