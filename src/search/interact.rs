@@ -400,10 +400,12 @@ pub const JUMPS: usize = 3;
 /// The core a triage found is confirmed in the search with up to this many times the
 /// confirmation rule's M observations (its lift test with twice as many again): a core at 0.75,
 /// just above τ + δ, is established above τ − δ by the anytime-valid test in about 36 on
-/// average, so at M = 40 about a third of them ended undecided, were taken for no core, and their
-/// family stayed open — the search found it again through every superset it screened (on
-/// `driving_many.toml`, seed 0, 369 of 770 search calls went to sets holding `child_pedestrian`,
-/// 0.75). A core still undecided at this cap is near τ: its family is set aside as a
+/// average, so at M = 40 one now and then ended undecided (1 of 20 seeds in
+/// `search::tests::interact_establishes_a_core_just_above_the_zone_past_the_rules_cap`), was
+/// taken for no core, and its family stayed open — the search found it again through every
+/// superset it screened (on `driving_many.toml`, seed 0, `child_pedestrian` at 0.75 read 30 of 44
+/// and 369 of 770 search calls went to sets holding it). A core still undecided at this cap is
+/// near τ: its family is set aside as a
 /// not-distinct set's is. Measured (release, 20 seeds of the fifteen shipped profiles, width 16):
 /// +1.6 [+0.0, +3.1] points recovered, exact +1.9 [+0.4, +3.4] (docs/search.md, "Near-τ cores in
 /// the search").
