@@ -405,10 +405,9 @@ pub const JUMPS: usize = 3;
 /// taken for no core, and its family stayed open — the search found it again through every
 /// superset it screened (on `driving_many.toml`, seed 0, `child_pedestrian` at 0.75 read 30 of 44
 /// and 369 of 770 search calls went to sets holding it). A core still undecided at this cap is
-/// near τ: its family is set aside as a
-/// not-distinct set's is. Measured (release, 20 seeds of the fifteen shipped profiles, width 16):
-/// +1.6 [+0.0, +3.1] points recovered, exact +1.9 [+0.4, +3.4] (docs/search.md, "Near-τ cores in
-/// the search").
+/// near τ: its family is set aside as a not-distinct set's is. Measured (release, the fifteen
+/// shipped profiles, width 16): +1.6 [+0.0, +3.1] points recovered over seeds 0–19, +2.0 [+1.0,
+/// +3.1] over 0–39 (docs/search.md, "Near-τ cores in the search").
 pub const CORE_TEST_STRETCH: u32 = 2;
 
 /// Fills escalate hot sets ahead of the workers up to their number plus one in this many of the
