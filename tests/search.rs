@@ -446,7 +446,8 @@ fn bench_reports_each_planted_mode_and_its_reach() {
         &profile,
         "name = \"two\"\nbase_error = 0.02\n\
          [[mode]]\nconcepts = [\"debris_far\", \"town_town02\"]\nerror = 0.95\n\
-         [[mode]]\nconcepts = [\"cone\", \"far\", \"weather_wet\", \"town_town01\"]\nerror = 0.9\n",
+         [[mode]]\nconcepts = [\"cone\", \"far\", \"weather_wet\", \"town_town01\"]\nerror = 0.9\n\
+         [[mode]]\nconcepts = [\"cyclist\"]\nerror = 0.65\n",
     )
     .unwrap();
     let args = ["bench", "search", "--profile", profile.to_str().unwrap(), "--seeds", "2", "--budget", "100"];
@@ -457,16 +458,19 @@ fn bench_reports_each_planted_mode_and_its_reach() {
     for r in results.as_array().unwrap() {
         let modes = r["planted"].as_array().unwrap();
         let sizes: Vec<usize> = modes.iter().map(|m| m["concepts"].as_array().unwrap().len()).collect();
-        assert_eq!(sizes, [2, 4], "{out}");
+        assert_eq!(sizes, [2, 4, 1], "{out}");
         assert_eq!(modes[0]["error"].as_f64(), Some(0.95));
         assert_eq!(modes[0]["reach"].as_f64(), Some(1.0), "356 pairs, 10 in each 5-set: 150 sets hold them all");
         let needle = modes[1]["reach"].as_f64().unwrap();
         assert!(needle > 0.0 && needle < 150.0 * 5.0 / 19_000.0, "{needle}");
         // The per-mode shares average to the run's recovered and exact.
         for (per, all) in [("recovered", "core_recovered"), ("exact", "exact")] {
-            let mean: f64 = modes.iter().map(|m| m[per].as_f64().unwrap()).sum::<f64>() / 2.0;
+            let mean: f64 = modes.iter().map(|m| m[per].as_f64().unwrap()).sum::<f64>() / 3.0;
             assert!((mean - r[all]["mean"].as_f64().unwrap()).abs() < 1e-9, "{per}: {out}");
         }
+        // The modes a search must find leave out the one inside the zone (0.65 < τ + δ).
+        let must: f64 = modes[..2].iter().map(|m| m["recovered"].as_f64().unwrap()).sum::<f64>() / 2.0;
+        assert!((must - r["must_find"]["mean"].as_f64().unwrap()).abs() < 1e-9, "{out}");
     }
     let (code, out, err) = revelio(&args);
     assert_eq!(code, 0, "{err}");
@@ -474,6 +478,7 @@ fn bench_reports_each_planted_mode_and_its_reach() {
     let header = table.lines().nth(1).unwrap();
     assert!(header.split_whitespace().eq(["mode", "error", "reach", "random", "interact"]), "{table}");
     assert!(table.contains("town_town02 + debris_far") && table.contains("  0.95   100%"), "{table}");
+    assert!(table.contains("error ≥ τ + δ (0.70): recovered"), "{table}");
 }
 
 /// Issue 29: resuming never changes the plan silently. The same command with its flags left

@@ -319,7 +319,7 @@ pub struct Triage {
     pub wrong: u32,
     pub answered: u32,
     /// Its e-BH weight before scaling: the search's likelihood ratio (at most 20) times the
-    /// triage's, each of a mode at (τ + δ + 1) / 2 against a set at τ − δ.
+    /// triage's, each of a mode at τ + δ against a set at τ − δ.
     pub weight: f64,
 }
 
