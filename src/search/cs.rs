@@ -95,12 +95,16 @@ pub fn ln_e(k: u32, n: u32, p: f64) -> f64 {
 /// ```
 ///
 /// the integral being a Beta tail, which for whole k and n is a binomial sum. 1 when nothing
-/// was answered.
+/// was answered. At the edges (`--threshold` and `--delta` can put p₀ there): against p₀ ≤ 0
+/// one wrong answer refutes the null (infinite), and nothing refutes p₀ ≥ 1 (1).
 pub fn e_above(k: u32, n: u32, p0: f64) -> f64 {
-    if n == 0 {
+    let k = k.min(n);
+    if n == 0 || p0 >= 1.0 {
         return 1.0;
     }
-    let k = k.min(n);
+    if p0 <= 0.0 {
+        return if k > 0 { f64::INFINITY } else { 1.0 };
+    }
     let (kf, nf) = (f64::from(k), f64::from(n));
     let ln = ln_beta(kf + 1.0, nf - kf + 1.0) + ln_binomial_cdf(k, n + 1, p0)
         - (1.0 - p0).ln()
@@ -228,6 +232,7 @@ mod tests {
         let by_sum = integral / 0.4 / (0.6f64.powi(3) * 0.4f64.powi(2));
         assert!((e_above(3, 5, 0.6) - by_sum).abs() < 1e-6 * by_sum);
         assert_eq!(e_above(0, 0, 0.5), 1.0);
+        assert_eq!((e_above(1, 3, 0.0), e_above(0, 3, -0.1), e_above(3, 3, 1.0)), (f64::INFINITY, 1.0, 1.0));
         // Valid: 2 000 streams at the null's edge (0.5) and below it (0.4), each stopped the
         // first time its e-value reaches 20 (within 300 answers): at most 5 % ever do.
         let mut rng = ChaCha8Rng::seed_from_u64(2028);
