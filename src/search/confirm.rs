@@ -275,30 +275,38 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// A fake model: each set fails at its rate, answers drawn from (set, index), and every
-    /// index asked is recorded so the test can check none repeats the search's.
-    struct Rates {
-        rates: Vec<(ConceptSet, f64)>,
+    /// A fake model answering wrong where `wrong(set, index)` says; every index asked is
+    /// recorded so a test can check none repeats the search's.
+    struct Fake<F> {
+        wrong: F,
         asked: Vec<(ConceptSet, u32)>,
     }
 
-    impl Evaluate for Rates {
+    impl<F: FnMut(ConceptSet, u32) -> bool> Evaluate for Fake<F> {
         type Error = ();
         async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, ()> {
             Ok(asks
                 .iter()
                 .map(|a| {
-                    let p = self.rates.iter().find(|(s, _)| *s == a.set).unwrap().1;
                     let mut s = SetStats::new(a.set);
                     for i in a.obs.clone() {
                         self.asked.push((a.set, i));
-                        let mut rng = ChaCha8Rng::seed_from_u64(a.set.low_bits() as u64 * 1_000_003 + u64::from(i));
-                        s.add(if rng.random::<f64>() < p { Outcome::Wrong } else { Outcome::Correct });
+                        s.add(if (self.wrong)(a.set, i) { Outcome::Wrong } else { Outcome::Correct });
                     }
                     s
                 })
                 .collect())
         }
+    }
+
+    /// Each set fails at its rate, answers drawn from (set, index).
+    fn at_rates(rates: Vec<(ConceptSet, f64)>) -> Fake<impl FnMut(ConceptSet, u32) -> bool> {
+        let wrong = move |set: ConceptSet, i: u32| {
+            let p = rates.iter().find(|(s, _)| *s == set).unwrap().1;
+            let mut rng = ChaCha8Rng::seed_from_u64(set.low_bits() as u64 * 1_000_003 + u64::from(i));
+            rng.random::<f64>() < p
+        };
+        Fake { wrong, asked: Vec::new() }
     }
 
     fn block_on<T>(f: impl std::future::Future<Output = T>) -> T {
@@ -320,7 +328,7 @@ mod tests {
         let sets: Vec<ConceptSet> = [5, 0, 2].iter().map(|i| ConceptSet::from_bits(1 << i)).collect();
         let rates = [0.74, 0.2, 0.95];
         let run = |extended| {
-            let mut eval = Rates { rates: sets.iter().copied().zip(rates).collect(), asked: Vec::new() };
+            let mut eval = at_rates(sets.iter().copied().zip(rates).collect());
             let plan = Plan { extended, ..plan(1000) };
             let (checked, spent) = block_on(confirm(&mut eval, &plain(&sets, 20), plan)).unwrap();
             assert_eq!(spent, eval.asked.len() as u64);
@@ -343,7 +351,7 @@ mod tests {
     fn strong_candidates_are_confirmed_weak_ones_are_not_and_indices_are_fresh() {
         let sets: Vec<ConceptSet> = (0..5).map(|i| ConceptSet::from_bits(1 << i)).collect();
         let rates = [0.95, 0.9, 0.05, 0.1, 0.4];
-        let mut eval = Rates { rates: sets.iter().copied().zip(rates).collect(), asked: Vec::new() };
+        let mut eval = at_rates(sets.iter().copied().zip(rates).collect());
         let candidates = plain(&sets, 20);
         let (checked, spent) = block_on(confirm(&mut eval, &candidates, plan(1000))).unwrap();
         let status: Vec<Status> = checked.iter().map(|c| c.status).collect();
@@ -363,7 +371,7 @@ mod tests {
         // are confirmed, where spreading the calls evenly (15 each) would confirm neither.
         let sets: Vec<ConceptSet> = (0..10).map(|i| ConceptSet::from_bits(1 << i)).collect();
         let rates = [0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.95, 0.95];
-        let mut eval = Rates { rates: sets.iter().copied().zip(rates).collect(), asked: Vec::new() };
+        let mut eval = at_rates(sets.iter().copied().zip(rates).collect());
         let candidates = plain(&sets, 0);
         let (checked, spent) = block_on(confirm(&mut eval, &candidates, plan(150))).unwrap();
         assert!(spent <= 150);
@@ -385,7 +393,7 @@ mod tests {
         let (mut fdp, mut found, runs) = (0.0, 0usize, 200);
         for run in 0..runs {
             let rates: Vec<f64> = (0..20).map(|i| if i % 5 == 4 { 0.85 } else { 0.5 }).collect();
-            let mut eval = Rates { rates: sets.iter().copied().zip(rates.clone()).collect(), asked: Vec::new() };
+            let mut eval = at_rates(sets.iter().copied().zip(rates.clone()).collect());
             // A different stream per run: the fake model's answers depend on the index.
             let candidates: Vec<Candidate> =
                 sets.iter().map(|&set| Candidate { set, first: run * 1000, weight: 1.0 }).collect();
@@ -402,23 +410,6 @@ mod tests {
         assert!(found as f64 / f64::from(runs * 4) >= 0.5, "power {found}");
     }
 
-    /// Answers wrong on four indices of every five, whatever the set.
-    struct FourInFive;
-
-    impl Evaluate for FourInFive {
-        type Error = ();
-        async fn evaluate(&mut self, asks: &[Ask]) -> Result<Vec<SetStats>, ()> {
-            Ok(asks
-                .iter()
-                .map(|a| {
-                    let mut s = SetStats::new(a.set);
-                    a.obs.clone().for_each(|i| s.add(if i % 5 < 4 { Outcome::Wrong } else { Outcome::Correct }));
-                    s
-                })
-                .collect())
-        }
-    }
-
     #[test]
     fn a_confirmed_core_is_established_above_the_zone_on_its_own_observations() {
         // 16 of 20 passes a lone candidate's bar (the one-sided e-value is past 20) while its
@@ -428,8 +419,10 @@ mod tests {
         assert!(cs::interval(20, 25)[0] > 0.5);
         let set = ConceptSet::from_bits(1);
         let plan = Plan { extended: 40, ..plan(1000) };
+        // Wrong on four indices of every five.
+        let mut four_in_five = Fake { wrong: |_, i: u32| i % 5 < 4, asked: Vec::new() };
         let (checked, spent) =
-            block_on(confirm(&mut FourInFive, &[Candidate { set, first: 0, weight: 1.0 }], plan)).unwrap();
+            block_on(confirm(&mut four_in_five, &[Candidate { set, first: 0, weight: 1.0 }], plan)).unwrap();
         assert_eq!(checked[0].status, Status::Confirmed, "{checked:?}");
         assert_eq!((checked[0].stats.wrong, checked[0].stats.observations()), (20, 25));
         assert_eq!(spent, 30, "five in triage, 25 after it");
@@ -438,7 +431,7 @@ mod tests {
     #[test]
     fn candidates_the_budget_could_not_triage_are_unfinished() {
         let sets: Vec<ConceptSet> = (0..3).map(|i| ConceptSet::from_bits(1 << i)).collect();
-        let mut eval = Rates { rates: sets.iter().map(|s| (*s, 0.55)).collect(), asked: Vec::new() };
+        let mut eval = at_rates(sets.iter().map(|s| (*s, 0.55)).collect());
         let (checked, spent) = block_on(confirm(&mut eval, &plain(&sets, 0), plan(7))).unwrap();
         assert_eq!(spent, 7);
         assert_eq!(checked[2].triage.observations(), 0);
@@ -448,7 +441,7 @@ mod tests {
     #[test]
     fn the_budget_bounds_the_spend() {
         let sets: Vec<ConceptSet> = (0..6).map(|i| ConceptSet::from_bits(1 << i)).collect();
-        let mut eval = Rates { rates: sets.iter().map(|s| (*s, 0.55)).collect(), asked: Vec::new() };
+        let mut eval = at_rates(sets.iter().map(|s| (*s, 0.55)).collect());
         let candidates = plain(&sets, 0);
         let (checked, spent) = block_on(confirm(&mut eval, &candidates, plan(37))).unwrap();
         assert_eq!(spent, 37);
