@@ -471,6 +471,14 @@ fn bench_reports_each_planted_mode_and_its_reach() {
         // The modes a search must find leave out the one inside the zone (0.65 < τ + δ).
         let must: f64 = modes[..2].iter().map(|m| m["recovered"].as_f64().unwrap()).sum::<f64>() / 2.0;
         assert!((must - r["must_find"]["mean"].as_f64().unwrap()).abs() < 1e-9, "{out}");
+        // Each mode's runs are recovered or lost at one step; so are the must-find modes'.
+        let lost = |l: &serde_json::Value| {
+            ["untested", "never_failed", "not_sent", "unconfirmed"].iter().map(|k| l[k].as_f64().unwrap()).sum::<f64>()
+        };
+        for m in modes {
+            assert!((m["recovered"].as_f64().unwrap() + lost(&m["lost"]) - 1.0).abs() < 1e-9, "{m}");
+        }
+        assert!((must + lost(&r["must_find_lost"]) - 1.0).abs() < 1e-9, "{out}");
     }
     let (code, out, err) = revelio(&args);
     assert_eq!(code, 0, "{err}");
@@ -479,6 +487,10 @@ fn bench_reports_each_planted_mode_and_its_reach() {
     assert!(header.split_whitespace().eq(["mode", "error", "reach", "random", "interact"]), "{table}");
     assert!(table.contains("town_town02 + debris_far") && table.contains("  0.95   100%"), "{table}");
     assert!(table.contains("error ≥ τ + δ (0.70): recovered"), "{table}");
+    let lost = table.split("where the modes not recovered were lost").nth(1).unwrap_or_else(|| panic!("{table}"));
+    let rows: Vec<&str> = lost.lines().skip(2).take(2).collect();
+    assert!(rows[0].starts_with("random ") && rows[1].starts_with("interact "), "{lost}");
+    assert_eq!(rows[1].split_whitespace().filter(|w| w.ends_with('%')).count(), 4, "{lost}");
 }
 
 /// Issue 29: resuming never changes the plan silently. The same command with its flags left

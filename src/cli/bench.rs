@@ -208,6 +208,9 @@ pub struct AlgoResult {
     /// least τ + δ (issue 28's target); a mode inside the zone may go either way. `n` is 0 when
     /// the profile plants none.
     pub must_find: Stat,
+    /// Where the modes a search must find were lost, as shares of all their runs (mode × seed);
+    /// `None` when the profile plants none.
+    pub must_find_lost: Option<Lost>,
     /// Wall time per inference, microseconds (with a zero-latency profile: Revelio's overhead).
     pub us_per_inference: Stat,
     /// Sets picked per round (interact: the width every call is filled to).
@@ -239,6 +242,73 @@ pub struct ModeRecovery {
     pub recovered: f64,
     /// Share of seeds in which it is reported exactly as a core.
     pub exact: f64,
+    /// Where it was lost in the other seeds ([`Fate`]).
+    pub lost: Lost,
+}
+
+/// Where a planted mode ended in one run: the first of these that holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fate {
+    /// Some reported core holds it.
+    Recovered,
+    /// A confirmation candidate held it and was not confirmed (borderline, passing or
+    /// unfinished).
+    Unconfirmed,
+    /// A failure mode of the search held it; no candidate core did (without confirmation: no
+    /// core did).
+    NotSent,
+    /// Sets the search tested held it; none failed.
+    NeverFailed,
+    /// No set the search tested held it.
+    Untested,
+}
+
+impl Fate {
+    /// Where `mode` ended in a run whose search tested `history`, that sent `candidates` to
+    /// confirmation and reported `cores`.
+    pub fn of(
+        mode: crate::ir::ConceptSet,
+        cores: &[crate::ir::ConceptSet],
+        candidates: &[crate::ir::ConceptSet],
+        history: &[SetStats],
+        threshold: f64,
+    ) -> Fate {
+        let holds = |set: &crate::ir::ConceptSet| mode.is_subset_of(*set);
+        if cores.iter().any(holds) {
+            Fate::Recovered
+        } else if candidates.iter().any(holds) {
+            Fate::Unconfirmed
+        } else if history.iter().any(|s| holds(&s.set) && s.is_failure_mode(threshold)) {
+            Fate::NotSent
+        } else if history.iter().any(|s| holds(&s.set)) {
+            Fate::NeverFailed
+        } else {
+            Fate::Untested
+        }
+    }
+}
+
+/// Shares of runs (or of mode-runs) a planted mode was lost in, by where ([`Fate`]); with the
+/// share recovered they sum to 1.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Lost {
+    pub untested: f64,
+    pub never_failed: f64,
+    pub not_sent: f64,
+    pub unconfirmed: f64,
+}
+
+impl Lost {
+    /// The shares of `fates` lost at each step.
+    pub fn of(fates: &[Fate]) -> Lost {
+        let share = |f: Fate| fates.iter().filter(|&&x| x == f).count() as f64 / fates.len().max(1) as f64;
+        Lost {
+            untested: share(Fate::Untested),
+            never_failed: share(Fate::NeverFailed),
+            not_sent: share(Fate::NotSent),
+            unconfirmed: share(Fate::Unconfirmed),
+        }
+    }
 }
 
 /// The share of the search space's `k`-concept sets that `inferences` observations can touch:
@@ -288,6 +358,8 @@ pub(crate) struct RunFigures {
     repeated: f64,
     /// Per planted mode: (some core holds it, it is a core).
     per_mode: Vec<(bool, bool)>,
+    /// Per planted mode: where it ended.
+    fates: Vec<Fate>,
 }
 
 /// One benchmark run's parameters: `algo` and `seed` on `at`; interact's width is the
@@ -405,6 +477,8 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                 fdp: col(&|r| Some(r.fdp), share),
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
+                must_find_lost: (!must.is_empty())
+                    .then(|| Lost::of(&rows.iter().flat_map(|r| must.iter().map(|&i| r.fates[i])).collect::<Vec<_>>())),
                 must_find: col(
                     &|r| {
                         let held = must.iter().filter(|&&i| r.per_mode[i].0).count();
@@ -431,6 +505,7 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                             reach: truths[i].1,
                             recovered: of(|m| m.0),
                             exact: of(|m| m.1),
+                            lost: Lost::of(&rows.iter().map(|r| r.fates[i]).collect::<Vec<_>>()),
                         }
                     })
                     .collect(),
@@ -504,6 +579,8 @@ pub(crate) fn bench_one(
     let zone_low = args.params.threshold - args.params.delta + 1e-9;
     let per_mode: Vec<(bool, bool)> =
         planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
+    let candidates: Vec<_> = r.confirmation.iter().flatten().map(|c| c.stats.set).collect();
+    let fates = planted.iter().map(|&p| Fate::of(p, &cores, &candidates, &r.history, args.params.threshold)).collect();
     let spent = r.summary.calls_made();
     Ok(RunFigures {
         pfm: m.pfm,
@@ -545,6 +622,7 @@ pub(crate) fn bench_one(
         wall_s: elapsed.as_secs_f64(),
         repeated: r.summary.repeated_scenes.iter().map(|row| f64::from(row.repeated)).sum(),
         per_mode,
+        fates,
     })
 }
 
@@ -753,6 +831,30 @@ fn print_planted(
             write!(w, " {:>16}", format!("{:.0}%", 100.0 * r.must_find.mean))?;
         }
         writeln!(w)?;
+        writeln!(
+            w,
+            "\nerror ≥ τ + δ, where the modes not recovered were lost, as shares of mode-runs (untested: in no \
+             set the search tested)"
+        )?;
+        writeln!(
+            w,
+            "{:<16} {:>10} {:>14} {:>18} {:>20}",
+            "", "untested", "never failing", "failing, not sent", "sent, not confirmed"
+        )?;
+        for r in results {
+            if let Some(l) = &r.must_find_lost {
+                let pc = |x: f64| format!("{:.0}%", 100.0 * x);
+                writeln!(
+                    w,
+                    "{:<16} {:>10} {:>14} {:>18} {:>20}",
+                    label(r, samples),
+                    pc(l.untested),
+                    pc(l.never_failed),
+                    pc(l.not_sent),
+                    pc(l.unconfirmed)
+                )?;
+            }
+        }
     }
     Ok(())
 }
@@ -791,6 +893,24 @@ mod tests {
         let mut cores = crate::search::shrink::minimal_failures(&history, &space, 0.6);
         cores.sort();
         assert_eq!(cores, vec![set(&[1]), set(&[2, 3])]);
+    }
+
+    #[test]
+    fn a_planted_mode_is_placed_at_the_first_step_that_lost_it() {
+        let (mode, tau) = (set(&[2, 3]), 0.6);
+        let history = vec![stats(&[2, 3, 4], 1), stats(&[1, 2], 5)];
+        let fate = |cores: &[ConceptSet], candidates: &[ConceptSet], history: &[SetStats]| {
+            Fate::of(mode, cores, candidates, history, tau)
+        };
+        assert_eq!(fate(&[], &[], &history[1..]), Fate::Untested, "{{1, 2}} does not hold it");
+        assert_eq!(fate(&[], &[], &history), Fate::NeverFailed, "{{2, 3, 4}} holds it, 1 of 5 wrong");
+        let failing = [stats(&[2, 3, 4], 4)];
+        assert_eq!(fate(&[], &[], &failing), Fate::NotSent);
+        assert_eq!(fate(&[], &[set(&[2, 3, 4])], &failing), Fate::Unconfirmed);
+        assert_eq!(fate(&[], &[set(&[2])], &failing), Fate::NotSent, "a candidate that does not hold it");
+        assert_eq!(fate(&[set(&[2, 3, 4])], &[set(&[2, 3, 4])], &failing), Fate::Recovered);
+        let lost = Lost::of(&[Fate::Recovered, Fate::Untested, Fate::Untested, Fate::Unconfirmed]);
+        assert_eq!(lost, Lost { untested: 0.5, never_failed: 0.0, not_sent: 0.0, unconfirmed: 0.25 });
     }
 
     #[test]
