@@ -473,7 +473,7 @@ fn bench_reports_each_planted_mode_and_its_reach() {
         assert!((must - r["must_find"]["mean"].as_f64().unwrap()).abs() < 1e-9, "{out}");
         // Each mode's runs are recovered or lost at one step; so are the must-find modes'.
         let lost = |l: &serde_json::Value| {
-            ["untested", "never_failed", "not_sent", "unconfirmed"].iter().map(|k| l[k].as_f64().unwrap()).sum::<f64>()
+            ["untested", "not_failing", "not_sent", "unconfirmed"].iter().map(|k| l[k].as_f64().unwrap()).sum::<f64>()
         };
         for m in modes {
             assert!((m["recovered"].as_f64().unwrap() + lost(&m["lost"]) - 1.0).abs() < 1e-9, "{m}");

@@ -257,8 +257,9 @@ pub enum Fate {
     /// A failure mode of the search held it; no candidate core did (without confirmation: no
     /// core did).
     NotSent,
-    /// Sets the search tested held it; none failed.
-    NeverFailed,
+    /// Sets the search tested held it; none was failing (observed FR ≥ τ) when the search
+    /// ended.
+    NotFailing,
     /// No set the search tested held it.
     Untested,
 }
@@ -281,7 +282,7 @@ impl Fate {
         } else if history.iter().any(|s| holds(&s.set) && s.is_failure_mode(threshold)) {
             Fate::NotSent
         } else if history.iter().any(|s| holds(&s.set)) {
-            Fate::NeverFailed
+            Fate::NotFailing
         } else {
             Fate::Untested
         }
@@ -293,7 +294,7 @@ impl Fate {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Lost {
     pub untested: f64,
-    pub never_failed: f64,
+    pub not_failing: f64,
     pub not_sent: f64,
     pub unconfirmed: f64,
 }
@@ -304,7 +305,7 @@ impl Lost {
         let share = |f: Fate| fates.iter().filter(|&&x| x == f).count() as f64 / fates.len().max(1) as f64;
         Lost {
             untested: share(Fate::Untested),
-            never_failed: share(Fate::NeverFailed),
+            not_failing: share(Fate::NotFailing),
             not_sent: share(Fate::NotSent),
             unconfirmed: share(Fate::Unconfirmed),
         }
@@ -838,18 +839,18 @@ fn print_planted(
         )?;
         writeln!(
             w,
-            "{:<16} {:>10} {:>14} {:>18} {:>20}",
-            "", "untested", "never failing", "failing, not sent", "sent, not confirmed"
+            "{:<16} {:>10} {:>20} {:>18} {:>20}",
+            "", "untested", "tested, not failing", "failing, not sent", "sent, not confirmed"
         )?;
         for r in results {
             if let Some(l) = &r.must_find_lost {
                 let pc = |x: f64| format!("{:.0}%", 100.0 * x);
                 writeln!(
                     w,
-                    "{:<16} {:>10} {:>14} {:>18} {:>20}",
+                    "{:<16} {:>10} {:>20} {:>18} {:>20}",
                     label(r, samples),
                     pc(l.untested),
-                    pc(l.never_failed),
+                    pc(l.not_failing),
                     pc(l.not_sent),
                     pc(l.unconfirmed)
                 )?;
@@ -903,14 +904,14 @@ mod tests {
             Fate::of(mode, cores, candidates, history, tau)
         };
         assert_eq!(fate(&[], &[], &history[1..]), Fate::Untested, "{{1, 2}} does not hold it");
-        assert_eq!(fate(&[], &[], &history), Fate::NeverFailed, "{{2, 3, 4}} holds it, 1 of 5 wrong");
+        assert_eq!(fate(&[], &[], &history), Fate::NotFailing, "{{2, 3, 4}} holds it, 1 of 5 wrong");
         let failing = [stats(&[2, 3, 4], 4)];
         assert_eq!(fate(&[], &[], &failing), Fate::NotSent);
         assert_eq!(fate(&[], &[set(&[2, 3, 4])], &failing), Fate::Unconfirmed);
         assert_eq!(fate(&[], &[set(&[2])], &failing), Fate::NotSent, "a candidate that does not hold it");
         assert_eq!(fate(&[set(&[2, 3, 4])], &[set(&[2, 3, 4])], &failing), Fate::Recovered);
         let lost = Lost::of(&[Fate::Recovered, Fate::Untested, Fate::Untested, Fate::Unconfirmed]);
-        assert_eq!(lost, Lost { untested: 0.5, never_failed: 0.0, not_sent: 0.0, unconfirmed: 0.25 });
+        assert_eq!(lost, Lost { untested: 0.5, not_failing: 0.0, not_sent: 0.0, unconfirmed: 0.25 });
     }
 
     #[test]
