@@ -357,10 +357,9 @@ pub(crate) struct RunFigures {
     calls: f64,
     wall_s: f64,
     repeated: f64,
-    /// Per planted mode: (some core holds it, it is a core).
-    per_mode: Vec<(bool, bool)>,
-    /// Per planted mode: where it ended.
-    fates: Vec<Fate>,
+    /// Per planted mode: where it ended (recovered: some core holds it), and whether it is a
+    /// core itself.
+    per_mode: Vec<(Fate, bool)>,
 }
 
 /// One benchmark run's parameters: `algo` and `seed` on `at`; interact's width is the
@@ -478,11 +477,12 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                 fdp: col(&|r| Some(r.fdp), share),
                 core_recovered: col(&|r| r.core_recovered, share),
                 exact: col(&|r| r.exact, share),
-                must_find_lost: (!must.is_empty())
-                    .then(|| Lost::of(&rows.iter().flat_map(|r| must.iter().map(|&i| r.fates[i])).collect::<Vec<_>>())),
+                must_find_lost: (!must.is_empty()).then(|| {
+                    Lost::of(&rows.iter().flat_map(|r| must.iter().map(|&i| r.per_mode[i].0)).collect::<Vec<_>>())
+                }),
                 must_find: col(
                     &|r| {
-                        let held = must.iter().filter(|&&i| r.per_mode[i].0).count();
+                        let held = must.iter().filter(|&&i| r.per_mode[i].0 == Fate::Recovered).count();
                         (!must.is_empty()).then(|| held as f64 / must.len() as f64)
                     },
                     share,
@@ -497,16 +497,16 @@ fn search(mut args: SearchBenchArgs) -> ExitCode {
                     .iter()
                     .enumerate()
                     .map(|(i, p)| {
-                        let of = |f: fn(&(bool, bool)) -> bool| {
+                        let of = |f: fn(&(Fate, bool)) -> bool| {
                             rows.iter().filter(|r| f(&r.per_mode[i])).count() as f64 / rows.len().max(1) as f64
                         };
                         ModeRecovery {
                             concepts: names(&domain, *p),
                             error: truths[i].0,
                             reach: truths[i].1,
-                            recovered: of(|m| m.0),
+                            recovered: of(|m| m.0 == Fate::Recovered),
                             exact: of(|m| m.1),
-                            lost: Lost::of(&rows.iter().map(|r| r.fates[i]).collect::<Vec<_>>()),
+                            lost: Lost::of(&rows.iter().map(|r| r.per_mode[i].0).collect::<Vec<_>>()),
                         }
                     })
                     .collect(),
@@ -578,10 +578,11 @@ pub(crate) fn bench_one(
     let share = |k: usize| (!planted.is_empty()).then(|| k as f64 / planted.len() as f64);
     // A core is true when its error is above τ − δ (inside the zone either answer is right).
     let zone_low = args.params.threshold - args.params.delta + 1e-9;
-    let per_mode: Vec<(bool, bool)> =
-        planted.iter().map(|p| (cores.iter().any(|c| p.is_subset_of(*c)), cores.contains(p))).collect();
     let candidates: Vec<_> = r.confirmation.iter().flatten().map(|c| c.stats.set).collect();
-    let fates = planted.iter().map(|&p| Fate::of(p, &cores, &candidates, &r.history, args.params.threshold)).collect();
+    let per_mode: Vec<(Fate, bool)> = planted
+        .iter()
+        .map(|&p| (Fate::of(p, &cores, &candidates, &r.history, args.params.threshold), cores.contains(&p)))
+        .collect();
     let spent = r.summary.calls_made();
     Ok(RunFigures {
         pfm: m.pfm,
@@ -616,14 +617,13 @@ pub(crate) fn bench_one(
             (cores.len() - true_modes(truth, &cores, zone_low)) as f64 / cores.len() as f64
         },
         // Every core failed when it was confirmed (the shrink keeps failing subsets only).
-        core_recovered: share(per_mode.iter().filter(|m| m.0).count()),
+        core_recovered: share(per_mode.iter().filter(|m| m.0 == Fate::Recovered).count()),
         exact: share(per_mode.iter().filter(|m| m.1).count()),
         us: 1e6 * elapsed.as_secs_f64() / (spent.max(1) as f64),
         calls: spent as f64,
         wall_s: elapsed.as_secs_f64(),
         repeated: r.summary.repeated_scenes.iter().map(|row| f64::from(row.repeated)).sum(),
         per_mode,
-        fates,
     })
 }
 
