@@ -60,8 +60,8 @@ const D: usize = DILUTIONS.len();
 /// dilution, and the search screened a hot pair's completions one concept at a time). Measured
 /// (release, the fifteen shipped profiles, 40 seeds, width 16, paired against the uniform prior):
 /// +2.2 [+0.6, +3.8] points recovered, +2.1 over seeds 0–19 and +2.4 over 20–39; the three
-/// graded profiles −0.3 [−4.8, +4.3] (delivery_graded +11, driving_graded −4, indoor_graded −8),
-/// the others +2.9 [+1.2, +4.5] (docs/search.md, "A sixth round").
+/// graded profiles −0.3 [−4.8, +4.3] (their must-find modes: delivery_graded +11, driving_graded
+/// −4, indoor_graded −8), the others +2.9 [+1.2, +4.5] (docs/search.md, "A sixth round").
 pub const DILUTION_PRIOR: [f64; D] = [0.7, 0.1, 0.1, 0.1];
 
 /// The failure rate of a core on its own.
