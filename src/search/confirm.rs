@@ -15,7 +15,9 @@
 //! weight that are still open — neither confirmed by weighted e-BH over the current e-values
 //! nor established below τ + δ, and holding fewer than the cap — get m more fresh observations
 //! each, while the budget lasts; once none under the cap is open, the open ones go on up to the
-//! extended cap ([`EXTEND_FACTOR`]) with the calls left.
+//! extended cap ([`EXTEND_FACTOR`]) with the calls left. The candidates e-BH could not confirm
+//! even if every answer still to come were a mode's at τ + δ ([`within_reach`]) wait through
+//! both passes and get the calls left after them.
 //! The e-value of a candidate is the one-sided mixture's e-value against "its rate is at most
 //! τ − δ" ([`super::cs::e_above`]) over the observations after its triage; e-values stay valid
 //! at whatever round their candidate stopped, and weighted e-BH ([`super::ebh::ebh_weighted`])
@@ -141,6 +143,35 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
     likelihood_ratio(search.wrong, search.answered(), plan.tau, plan.delta).min(SEARCH_WEIGHT_CAP)
 }
 
+/// Which candidates e-BH could still confirm: those whose weight, scaled as e-BH scales it (to
+/// a mean of 1), times the e-value they would show at the extended cap if every observation
+/// still to come were a mode's at τ + δ, at its expected count, reaches e-BH's lowest bar, 1/q
+/// (every candidate rejected). Before any confirmation observation that is the e-value of a mode
+/// at τ + δ at the extended cap (184 at 56 of 80 at the defaults, so a weight of 0.11 of the
+/// mean); a candidate at 20 of 40 could show at most about 1.3 (48 of 80). The others wait:
+/// before this rule a candidate weighted 0.006 of the mean, which needs an e-value near 3 300,
+/// took 65 calls in the first pass, and the budget ran out before the extension of the modes
+/// (driving_recognition seed 3: `debris_far`, at 0.8, borderline at 34 of 49). Whom it defers
+/// depends only on weights fixed before confirmation and on each candidate's own past
+/// observations, so every e-value stays valid at the point its candidate stops.
+pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<bool> {
+    let total: f64 = weights.iter().map(|w| w.max(0.0)).sum();
+    if !(total > 0.0) || !(plan.q > 0.0) {
+        return vec![true; weights.len()];
+    }
+    let n = plan.extended.max(plan.cap);
+    let scale = weights.len() as f64 / total;
+    weights
+        .iter()
+        .zip(stats)
+        .map(|(w, s)| {
+            let rest = n.saturating_sub(s.answered());
+            let k = s.wrong + ((plan.tau + plan.delta) * f64::from(rest)).round() as u32;
+            w.max(0.0) * scale * cs::e_above(k, n, plan.tau - plan.delta) >= 1.0 / plan.q
+        })
+        .collect()
+}
+
 /// Confirm `candidates` (strongest search evidence first): returns one [`Checked`] per
 /// candidate, in the input order, and the inferences spent.
 ///
@@ -148,8 +179,9 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 ///    its search weight times the triage's likelihood ratio — fixed before any of step 2.
 /// 2. **Confirmation**: in rounds, the [`WINDOW`] open candidates of the highest weight get m
 ///    more fresh observations each, up to the cap, while the budget lasts; then, with the calls
-///    left, the ones still open up to the extended cap ([`Plan::extended`]). A candidate's e-value
-///    comes from these observations only; weighted e-BH ([`super::ebh::ebh_weighted`]) over
+///    left, the ones still open up to the extended cap ([`Plan::extended`]); both passes take
+///    only the candidates [`within_reach`] (judged each round), the others get what is left in
+///    two passes after. A candidate's e-value comes from these observations only; weighted e-BH ([`super::ebh::ebh_weighted`]) over
 ///    them, with the weights of step 1, decides which are confirmed. A candidate is open while
 ///    it is neither confirmed nor established below τ + δ (on every fresh observation, triage
 ///    included).
@@ -202,13 +234,17 @@ pub async fn confirm<E: Evaluate>(
     // keeps its guarantee.
     let e_of = |s: &SetStats| cs::e_above(s.wrong, s.answered(), p0);
     let counted = |s: &SetStats| if cs::interval(s.wrong, s.answered())[0] > p0 { e_of(s) } else { 0.0 };
-    // The cap of this pass: `plan.cap`, then, once no candidate under it is open and the budget
-    // has calls left, `plan.extended` (the e-values stay valid at any stopping point, so the
-    // candidates still open at the cap may go on).
-    let mut cap = plan.cap;
+    // The passes: the candidates within reach (judged each round) up to `plan.cap`, then up to
+    // `plan.extended` (the e-values stay valid at any stopping point, so the candidates still
+    // open at the cap may go on), then all of them the same way; each pass starts once no
+    // candidate of the one before is open and the budget has calls left.
+    let passes = [(plan.cap, true), (plan.extended, true), (plan.cap, false), (plan.extended, false)];
+    let mut pass = 0;
     loop {
+        let (cap, only_reach) = passes[pass];
         let e: Vec<f64> = stats.iter().map(counted).collect();
         let rejected = super::ebh::ebh_weighted(&e, &weights, plan.q);
+        let reach = within_reach(&weights, &stats, &plan);
         let mut asks = Vec::new();
         let mut left = plan.budget - spent;
         let mut open = 0;
@@ -217,7 +253,11 @@ pub async fn confirm<E: Evaluate>(
             let n = s.observations();
             let all = fresh(i, &stats);
             let verdict = cs::verdict(all.wrong, all.answered(), plan.tau, plan.delta);
-            if rejected[i] || n >= cap || (all.answered() > 0 && verdict == Verdict::Passes) {
+            if rejected[i]
+                || n >= cap
+                || (only_reach && !reach[i])
+                || (all.answered() > 0 && verdict == Verdict::Passes)
+            {
                 continue;
             }
             if open == WINDOW {
@@ -234,8 +274,8 @@ pub async fn confirm<E: Evaluate>(
             left -= k;
         }
         if asks.is_empty() {
-            if cap < plan.extended && spent < plan.budget && !stopped_by_budget {
-                cap = plan.extended;
+            if pass + 1 < passes.len() && spent < plan.budget && !stopped_by_budget {
+                pass += 1;
                 continue;
             }
             break;
@@ -345,6 +385,39 @@ mod tests {
         for i in 1..3 {
             assert_eq!(extended[i], capped[i]);
         }
+    }
+
+    #[test]
+    fn a_candidate_out_of_reach_waits_until_the_others_are_settled() {
+        // At the defaults a mode at τ + δ shows e ≈ 184 at 56 of 80, so a candidate is in reach
+        // when its weight is at least 1 / (0.05 · 184) ≈ 0.11 of the mean.
+        let plan80 = Plan { extended: 80, ..plan(1000) };
+        let none = |k: usize| vec![SetStats::new(ConceptSet::from_bits(1)); k];
+        assert_eq!(within_reach(&[1.0, 1.0, 1.0], &none(3), &plan80), vec![true; 3]);
+        let weak = [10.0, 10.0, 0.2];
+        assert_eq!(within_reach(&weak, &none(3), &plan80), vec![true, true, false], "0.03 of the mean");
+        assert_eq!(within_reach(&[10.0, 10.0, 1.0], &none(3), &plan80), vec![true; 3], "0.14 of the mean");
+        assert_eq!(within_reach(&[0.0, 0.0], &none(2), &plan80), vec![true; 2], "no weights: plain e-BH");
+        // What a candidate showed counts: at 20 of 40, the 40 to come at 0.7 make 48 of 80
+        // (e ≈ 1.3), out of reach at the mean weight; at 28 of 40, 56 of 80 as before.
+        let shown = |k: u32| {
+            let mut s = SetStats::new(ConceptSet::from_bits(1));
+            (0..40).for_each(|i| s.add(if i < k { Outcome::Wrong } else { Outcome::Correct }));
+            s
+        };
+        assert_eq!(within_reach(&[1.0, 1.0], &[shown(20), shown(28)], &plan80), vec![false, true]);
+        // The 0.74 mode of the test above needs more than the cap of 40; a near-miss weighted
+        // 1/2000 of it must not take calls from its extension.
+        let (mode, weak) = (ConceptSet::from_bits(1 << 5), ConceptSet::from_bits(1));
+        let mut eval = at_rates(vec![(mode, 0.74), (weak, 0.62)]);
+        let candidates =
+            [Candidate { set: weak, first: 20, weight: 0.01 }, Candidate { set: mode, first: 20, weight: 20.0 }];
+        let (checked, _) = block_on(confirm(&mut eval, &candidates, plan80)).unwrap();
+        assert_eq!(checked[1].status, Status::Confirmed, "{checked:?}");
+        assert!(checked[1].stats.observations() > 40, "{checked:?}");
+        let last_mode = eval.asked.iter().rposition(|(s, _)| *s == mode).unwrap();
+        let first_weak = eval.asked.iter().position(|(s, i)| *s == weak && *i >= 25);
+        assert!(first_weak.is_none_or(|w| w > last_mode), "{:?}", eval.asked);
     }
 
     #[test]
