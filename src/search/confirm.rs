@@ -156,7 +156,8 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 /// observations, so every e-value stays valid at the point its candidate stops.
 pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<bool> {
     let total: f64 = weights.iter().map(|w| w.max(0.0)).sum();
-    if !(total > 0.0) || !(plan.q > 0.0) {
+    let usable = total.is_finite() && total > 0.0 && plan.q > 0.0;
+    if !usable {
         return vec![true; weights.len()];
     }
     let n = plan.extended.max(plan.cap);
