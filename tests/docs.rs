@@ -127,6 +127,11 @@ const REDUCED: &[(&str, &str, &str)] = &[
         "`P` is any profile; 4 algorithms × 10 seeds × 1250 inferences",
     ),
     (
+        "revelio bench search --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1 --renderer none",
+        "revelio bench search --profile examples/sim/driving_paper.toml --seeds 1 --budget 60 --shrink 20 --batch 1 --renderer none",
+        "`P` is any profile; 4 algorithms × 10 seeds × 1250 inferences on sixteen profiles",
+    ),
+    (
         "revelio bench search --domain domains/indoor.rev --profile examples/sim/P.toml --seeds 10 --budget 1250 --shrink 250 --batch 1",
         "revelio bench search --profile examples/sim/indoor_stress.toml --domain domains/indoor.rev --seeds 1 --budget 60 --shrink 20 --algos random,beam",
         "`P` is any indoor profile; 4 algorithms × 10 seeds × 1250 inferences",
