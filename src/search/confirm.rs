@@ -148,7 +148,7 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 /// still to come were a mode's at τ + δ, at its expected count, reaches e-BH's lowest bar, 1/q
 /// (every candidate rejected). Before any confirmation observation that is the e-value of a mode
 /// at τ + δ at the extended cap (184 at 56 of 80 at the defaults, so a weight of 0.11 of the
-/// mean); a candidate at 20 of 40 could show at most about 1.3 (48 of 80). The others wait:
+/// mean); a candidate at 20 of 40 would show about 1.3 (48 of 80). The others wait:
 /// before this rule a candidate weighted 0.006 of the mean, which needs an e-value near 3 300,
 /// took 65 calls in the first pass, and the budget ran out before the extension of the modes
 /// (driving_recognition seed 3: `debris_far`, at 0.8, borderline at 34 of 49). Whom it defers
@@ -182,10 +182,10 @@ pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<boo
 ///    more fresh observations each, up to the cap, while the budget lasts; then, with the calls
 ///    left, the ones still open up to the extended cap ([`Plan::extended`]); both passes take
 ///    only the candidates [`within_reach`] (judged each round), the others get what is left in
-///    two passes after. A candidate's e-value comes from these observations only; weighted e-BH ([`super::ebh::ebh_weighted`]) over
-///    them, with the weights of step 1, decides which are confirmed. A candidate is open while
-///    it is neither confirmed nor established below τ + δ (on every fresh observation, triage
-///    included).
+///    two passes after. A candidate's e-value comes from these observations only; weighted
+///    e-BH ([`super::ebh::ebh_weighted`]) over them, with the weights of step 1, decides which
+///    are confirmed. A candidate is open while it is neither confirmed nor established below
+///    τ + δ (on every fresh observation, triage included).
 pub async fn confirm<E: Evaluate>(
     eval: &mut E,
     candidates: &[Candidate],
