@@ -155,20 +155,18 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 /// depends only on weights fixed before confirmation and on each candidate's own past
 /// observations, so every e-value stays valid at the point its candidate stops.
 pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<bool> {
-    let total: f64 = weights.iter().map(|w| w.max(0.0)).sum();
-    let usable = total.is_finite() && total > 0.0 && plan.q > 0.0;
-    if !usable {
+    let scaled = super::ebh::scaled_weights(weights).filter(|_| plan.q > 0.0);
+    let Some(scaled) = scaled else {
         return vec![true; weights.len()];
-    }
+    };
     let n = plan.extended.max(plan.cap);
-    let scale = weights.len() as f64 / total;
-    weights
+    scaled
         .iter()
         .zip(stats)
         .map(|(w, s)| {
             let rest = n.saturating_sub(s.answered());
             let k = s.wrong + ((plan.tau + plan.delta) * f64::from(rest)).round() as u32;
-            w.max(0.0) * scale * cs::e_above(k, n, plan.tau - plan.delta) >= 1.0 / plan.q
+            w * cs::e_above(k, n, plan.tau - plan.delta) >= 1.0 / plan.q
         })
         .collect()
 }

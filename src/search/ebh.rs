@@ -23,12 +23,9 @@ pub fn ebh(e: &[f64], q: f64) -> Vec<bool> {
 /// e-value; one with weight 0 is never rejected. All weights zero (or none given): plain e-BH.
 pub fn ebh_weighted(e: &[f64], w: &[f64], q: f64) -> Vec<bool> {
     debug_assert_eq!(e.len(), w.len());
-    let total: f64 = w.iter().map(|x| x.max(0.0)).sum();
-    let e: Vec<f64> = if total > 0.0 {
-        let scale = e.len() as f64 / total;
-        e.iter().zip(w).map(|(e, w)| e * w.max(0.0) * scale).collect()
-    } else {
-        e.to_vec()
+    let e: Vec<f64> = match scaled_weights(w) {
+        Some(w) => e.iter().zip(w).map(|(e, w)| e * w).collect(),
+        None => e.to_vec(),
     };
     let k = e.len();
     let mut order: Vec<usize> = (0..k).collect();
@@ -42,6 +39,16 @@ pub fn ebh_weighted(e: &[f64], w: &[f64], q: f64) -> Vec<bool> {
         }
     }
     out
+}
+
+/// The weights as weighted e-BH uses them: negative ones as 0, the rest scaled to sum to K (a
+/// mean of 1); `None` when none is positive (plain e-BH).
+pub fn scaled_weights(w: &[f64]) -> Option<Vec<f64>> {
+    let total: f64 = w.iter().map(|x| x.max(0.0)).sum();
+    (total > 0.0).then(|| {
+        let scale = w.len() as f64 / total;
+        w.iter().map(|x| x.max(0.0) * scale).collect()
+    })
 }
 
 #[cfg(test)]
