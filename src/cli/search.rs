@@ -333,11 +333,15 @@ fn fail(e: &RunError) -> ExitCode {
 }
 
 /// Where the candidates came from, when some are failure modes no core explains:
-/// `2 of them failure modes no core explained, 4 more the budget could not pay; `.
+/// `2 of them failure modes no core explained, 1 of those sent last as each shares a concept with
+/// a stronger one, 4 more the budget could not pay; `.
 fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     let mut parts = Vec::new();
     if c.unexplained > 0 {
         parts.push(format!("{} of them failure modes no core explained", c.unexplained));
+    }
+    if c.last > 0 {
+        parts.push(format!("{} of those sent last as each shares a concept with a stronger one", c.last));
     }
     if c.shared > 0 {
         parts.push(format!("{} more left out as each shares a concept with a stronger one", c.shared));
@@ -665,7 +669,8 @@ mod tests {
             confirmed: 1,
             unexplained: 2,
             unpaid: 4,
-            shared: 3,
+            shared: 0,
+            last: 1,
             checked: rows,
         });
         let mut out = Vec::new();

@@ -358,6 +358,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             unexplained: c.unexplained,
             unpaid: c.unpaid,
             shared: c.shared,
+            last: c.last,
             checked: rows,
         });
     }
@@ -412,8 +413,12 @@ struct Confirmed {
     unexplained: usize,
     /// Candidates left out (the weakest) because the budget could not pay for them.
     unpaid: usize,
-    /// Failure modes no core explains left out because they share a concept with a stronger one.
+    /// Failure modes no core explains left out because each shares a concept with a stronger one
+    /// and holds a candidate sent.
     shared: usize,
+    /// How many of the `unexplained` were sent last, each sharing a concept with a stronger one
+    /// ([`Candidate::last`]).
+    last: usize,
     /// Every candidate after confirmation, in `candidates` order.
     checked: Vec<Checked>,
     /// Inferences spent and given.
@@ -459,23 +464,29 @@ struct Searched2 {
 /// search evidence first ([`shrink::roots`]' order): the minimal ones (every valid one-smaller
 /// subset was evaluated and passes, holding no core), and those that fail at least 2δ above each
 /// failing part ([`shrink::lifted_failures`]: a core with a near-threshold part, which the
-/// shrink took for the core) — of those sharing a concept only the strongest
-/// ([`shrink::disjoint_strongest`]), with how many were left out. `interact` confirms only some
-/// of its cores during the search (the rest ran out of its confirmation rule's budget or
-/// triage); on a graded landscape these hold most of the planted modes it reached.
-fn unexplained_failures(history: &[SetStats], space: &Space, params: &Params, cores: &[Core]) -> (Vec<Core>, usize) {
+/// shrink took for the core) — of those sharing a concept the strongest, then the others, sent
+/// last ([`shrink::disjoint_strongest`]). `interact` confirms only some of its cores during the
+/// search (the rest ran out of its confirmation rule's budget or triage); on a graded landscape
+/// these hold most of the planted modes it reached.
+fn unexplained_failures(
+    history: &[SetStats],
+    space: &Space,
+    params: &Params,
+    cores: &[Core],
+) -> (Vec<Core>, Vec<Core>) {
     let threshold = params.threshold;
     let cores: Vec<ConceptSet> = cores.iter().map(|c| c.stats.set).collect();
     let mut loose = shrink::unexplained_failures(history, space, threshold, &cores);
     loose.extend(shrink::lifted_failures(history, space, threshold, 2.0 * params.delta, &cores));
     let (kept, shared) =
         shrink::disjoint_strongest(shrink::roots(history, threshold).into_iter().filter(|s| loose.contains(s)));
-    let kept = kept
-        .into_iter()
-        .filter_map(|set| history.iter().find(|h| h.set == set))
-        .map(|s| Core { stats: s.clone(), minimal: true, root: s.set })
-        .collect();
-    (kept, shared)
+    let as_cores = |sets: Vec<ConceptSet>| {
+        sets.into_iter()
+            .filter_map(|set| history.iter().find(|h| h.set == set))
+            .map(|s| Core { stats: s.clone(), minimal: true, root: s.set })
+            .collect()
+    };
+    (as_cores(kept), as_cores(shared))
 }
 
 /// The search, then the shrink phase, then fresh confirmation of the shrink's cores and of the
@@ -506,23 +517,32 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     }
     let of = |set: ConceptSet| everything.iter().find(|s| s.set == set);
     // The family: the shrink's cores, then the unexplained minimal failure modes, as many as
-    // the budget pays (decided before any fresh observation).
+    // the budget pays, then the ones sharing a concept with a stronger one, sent last (all
+    // decided before any fresh observation).
     let (loose, shared) = unexplained_failures(&everything, space, params, &found.cores);
     let mut candidates = found.cores.clone();
-    candidates.extend(loose.iter().cloned());
+    candidates.extend(loose);
     let paid = plan.paid(budget, candidates.len());
     let unpaid = candidates.len() - paid;
     candidates.truncate(paid);
+    // Of those, the ones holding a candidate sent are left out: not distinct from it if it
+    // fails, and only one calls left over would reach.
+    let (held, last): (Vec<Core>, Vec<Core>) =
+        shared.into_iter().partition(|s| candidates.iter().any(|c| c.stats.set.is_subset_of(s.stats.set)));
+    let (shared, last_n) = (held.len(), last.len());
+    candidates.extend(last);
     let unexplained = candidates.len().saturating_sub(found.cores.len());
     let confirm_plan = params.confirm_plan(budget);
     let asked: Vec<Candidate> = candidates
         .iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(i, c)| {
             let searched = of(c.stats.set);
             Candidate {
                 set: c.stats.set,
                 first: searched.map_or(0, SetStats::observations),
                 weight: confirm::search_weight(searched.unwrap_or(&c.stats), &confirm_plan),
+                last: i >= paid,
             }
         })
         .collect();
@@ -540,8 +560,17 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
                 .cloned()
         })
         .collect();
-    let confirmation =
-        Some(Confirmed { candidates, unexplained, unpaid, shared, checked, spent: confirm_spent, budget, parts });
+    let confirmation = Some(Confirmed {
+        candidates,
+        unexplained,
+        unpaid,
+        shared,
+        last: last_n,
+        checked,
+        spent: confirm_spent,
+        budget,
+        parts,
+    });
     Ok(Searched2 { history, found, shrink: Some(shrink), calls, confirmation })
 }
 

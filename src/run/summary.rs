@@ -291,9 +291,16 @@ pub struct ConfirmSummary {
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unpaid: usize,
     /// Failure modes no core explains that were not sent because each shares a concept with a
-    /// stronger one (which stands for them: they mostly fail through that concept).
+    /// stronger one (which stands for them: they mostly fail through that concept) and holds a
+    /// candidate sent. In runs written before the others were sent last (`last`): every failure
+    /// mode no core explains that shares a concept with a stronger one.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub shared: usize,
+    /// How many of the `unexplained` were sent last because each shares a concept with a
+    /// stronger one (holding no candidate sent): not triaged, observed once every other
+    /// candidate was settled.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub last: usize,
     /// Every candidate with its fresh observations, e-value and status.
     pub checked: Vec<CheckedRow>,
 }

@@ -17,7 +17,8 @@
 //! each, while the budget lasts; once none under the cap is open, the open ones go on up to the
 //! extended cap ([`EXTEND_FACTOR`]) with the calls left. The candidates e-BH could not confirm
 //! even if every answer still to come were a mode's at τ + δ ([`within_reach`]) wait through
-//! both passes and get the calls left after them.
+//! both passes and get the calls left after them; the candidates sent last
+//! ([`Candidate::last`]) skip the triage and get only the calls left after that.
 //! The e-value of a candidate is the one-sided mixture's e-value against "its rate is at most
 //! τ − δ" ([`super::cs::e_above`]) over the observations after its triage; e-values stay valid
 //! at whatever round their candidate stopped, and weighted e-BH ([`super::ebh::ebh_weighted`])
@@ -112,6 +113,12 @@ pub struct Candidate {
     pub first: u32,
     /// Its search weight ([`search_weight`]): from the search's data only.
     pub weight: f64,
+    /// Sent last: no triage (its weight is its search weight alone), and observed only once
+    /// every other candidate is settled, in passes of its own after theirs.
+    /// A failure mode no core explains that shares a concept with a stronger one
+    /// ([`crate::search::shrink::disjoint_strongest`]) mostly fails through that concept, but not
+    /// always: a planted pair beside a near-threshold part it shares a concept with.
+    pub last: bool,
 }
 
 /// Most a candidate's search evidence multiplies its weight: the search's observations chose it
@@ -145,28 +152,35 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 
 /// Which candidates e-BH could still confirm: those whose weight, scaled as e-BH scales it (to
 /// a mean of 1), times the e-value they would show at the extended cap if every observation
-/// still to come were a mode's at τ + δ, at its expected count, reaches e-BH's lowest bar, 1/q
-/// (every candidate rejected). Before any confirmation observation that is the e-value of a mode
-/// at τ + δ at the extended cap (184 at 56 of 80 at the defaults, so a weight of 0.11 of the
-/// mean); a candidate at 20 of 40 would show about 1.3 (48 of 80). The others wait:
-/// before this rule a candidate weighted 0.006 of the mean, which needs an e-value near 3 300,
-/// took 65 calls in the first pass, and the budget ran out before the extension of the modes
-/// (driving_recognition seed 3: `debris_far`, at 0.8, borderline at 34 of 49). Whom it defers
-/// depends only on weights fixed before confirmation and on each candidate's own past
-/// observations, so every e-value stays valid at the point its candidate stops.
-pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<bool> {
-    let scaled = super::ebh::scaled_weights(weights).filter(|_| plan.q > 0.0);
+/// still to come were a mode's at τ + δ, at its expected count, reaches e-BH's lowest bar with
+/// `most` candidates rejected, K/(most·q) — 1/q when `most` is the whole family K. Before any
+/// confirmation observation that is the e-value of a mode at τ + δ at the extended cap (184 at
+/// 56 of 80 at the defaults, so a weight of 0.11 of the mean); a candidate at 20 of 40 would
+/// show about 1.3 (48 of 80). The others wait: before this rule a candidate weighted 0.006 of
+/// the mean, which needs an e-value near 3 300, took 65 calls in the first pass, and the budget
+/// ran out before the extension of the modes (driving_recognition seed 3: `debris_far`, at 0.8,
+/// borderline at 34 of 49). `most` is the candidates the passes it limits observe (those not
+/// sent last): counting the ones sent last, which those passes never observe, would lower the
+/// bar for the others as if they too could be confirmed there (driving_many seed 10: nine sent
+/// last, of little weight, halved the mean weight and put `debris_far + weather_foggy`, 0.10 of
+/// the ten others' mean, in reach; its 25 calls were the ones two modes' extension then lacked,
+/// and 4 of 19 were confirmed instead of 7). Whom it defers depends only on weights fixed before confirmation and on each
+/// candidate's own past observations, so every e-value stays valid at the point its candidate
+/// stops.
+pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan, most: usize) -> Vec<bool> {
+    let scaled = super::ebh::scaled_weights(weights).filter(|_| plan.q > 0.0 && most > 0);
     let Some(scaled) = scaled else {
         return vec![true; weights.len()];
     };
     let n = plan.extended.max(plan.cap);
+    let bar = weights.len() as f64 / (most as f64 * plan.q);
     scaled
         .iter()
         .zip(stats)
         .map(|(w, s)| {
             let rest = n.saturating_sub(s.answered());
             let k = s.wrong + ((plan.tau + plan.delta) * f64::from(rest)).round() as u32;
-            w * cs::e_above(k, n, plan.tau - plan.delta) >= 1.0 / plan.q
+            w * cs::e_above(k, n, plan.tau - plan.delta) >= bar
         })
         .collect()
 }
@@ -174,15 +188,17 @@ pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan) -> Vec<boo
 /// Confirm `candidates` (strongest search evidence first): returns one [`Checked`] per
 /// candidate, in the input order, and the inferences spent.
 ///
-/// 1. **Triage**: every candidate gets m fresh observations (one parallel round). Its weight is
-///    its search weight times the triage's likelihood ratio — fixed before any of step 2.
+/// 1. **Triage**: every candidate not sent last ([`Candidate::last`]) gets m fresh observations
+///    (one parallel round). Its weight is its search weight times the triage's likelihood
+///    ratio (a candidate sent last: its search weight) — fixed before any of step 2.
 /// 2. **Confirmation**: in rounds, the [`WINDOW`] open candidates of the highest weight get m
 ///    more fresh observations each, up to the cap, while the budget lasts; then, with the calls
 ///    left, the ones still open up to the extended cap ([`Plan::extended`]); both passes take
 ///    only the candidates [`within_reach`] (judged each round), the others get what is left in
-///    two passes after. A candidate's e-value comes from these observations only; weighted
-///    e-BH ([`super::ebh::ebh_weighted`]) over them, with the weights of step 1, decides which
-///    are confirmed. A candidate is open while it is neither confirmed nor established below
+///    two passes after, and the candidates sent last what is left after those, in two passes
+///    more. A candidate's e-value comes from these observations only; weighted e-BH
+///    ([`super::ebh::ebh_weighted`]) over them, with the weights of step 1, decides which are
+///    confirmed. A candidate is open while it is neither confirmed nor established below
 ///    τ + δ (on every fresh observation, triage included).
 pub async fn confirm<E: Evaluate>(
     eval: &mut E,
@@ -197,7 +213,7 @@ pub async fn confirm<E: Evaluate>(
     let mut asks = Vec::new();
     // A candidate the budget could not triage is unfinished, not borderline.
     let mut stopped_by_budget = false;
-    for (i, c) in candidates.iter().enumerate() {
+    for (i, c) in candidates.iter().enumerate().filter(|(_, c)| !c.last) {
         let k = u64::from(super::budget::triage_each(plan.batch, plan.cap)).min(plan.budget - spent);
         if k == 0 {
             stopped_by_budget = true;
@@ -233,17 +249,26 @@ pub async fn confirm<E: Evaluate>(
     // keeps its guarantee.
     let e_of = |s: &SetStats| cs::e_above(s.wrong, s.answered(), p0);
     let counted = |s: &SetStats| if cs::interval(s.wrong, s.answered())[0] > p0 { e_of(s) } else { 0.0 };
-    // The passes: the candidates within reach (judged each round) up to `plan.cap`, then up to
-    // `plan.extended` (the e-values stay valid at any stopping point, so the candidates still
-    // open at the cap may go on), then all of them the same way; each pass starts once no
-    // candidate of the one before is open and the budget has calls left.
-    let passes = [(plan.cap, true), (plan.extended, true), (plan.cap, false), (plan.extended, false)];
+    // The passes, as (cap, only those within reach, the ones sent last too): the candidates
+    // within reach (judged each round) up to `plan.cap`, then up to `plan.extended` (the
+    // e-values stay valid at any stopping point, so the candidates still open at the cap may go
+    // on), then all of them but the ones sent last the same way, then all; each pass starts once
+    // no candidate of the one before is open and the budget has calls left.
+    let passes = [
+        (plan.cap, true, false),
+        (plan.extended, true, false),
+        (plan.cap, false, false),
+        (plan.extended, false, false),
+        (plan.cap, false, true),
+        (plan.extended, false, true),
+    ];
+    let first_passes = candidates.iter().filter(|c| !c.last).count();
     let mut pass = 0;
     loop {
-        let (cap, only_reach) = passes[pass];
+        let (cap, only_reach, with_last) = passes[pass];
         let e: Vec<f64> = stats.iter().map(counted).collect();
         let rejected = super::ebh::ebh_weighted(&e, &weights, plan.q);
-        let reach = within_reach(&weights, &stats, &plan);
+        let reach = within_reach(&weights, &stats, &plan, first_passes);
         let mut asks = Vec::new();
         let mut left = plan.budget - spent;
         let mut open = 0;
@@ -255,6 +280,7 @@ pub async fn confirm<E: Evaluate>(
             if rejected[i]
                 || n >= cap
                 || (only_reach && !reach[i])
+                || (candidates[i].last && !with_last)
                 || (all.answered() > 0 && verdict == Verdict::Passes)
             {
                 continue;
@@ -296,7 +322,7 @@ pub async fn confirm<E: Evaluate>(
                 Status::Confirmed
             } else if all.answered() > 0 && verdict == Verdict::Passes {
                 Status::Passes
-            } else if stats[i].observations() >= plan.cap || !stopped_by_budget {
+            } else if stats[i].observations() >= plan.cap {
                 Status::Borderline
             } else {
                 Status::Unfinished
@@ -354,7 +380,7 @@ mod tests {
 
     /// Candidates of equal weight, their fresh indices from `first`.
     fn plain(sets: &[ConceptSet], first: u32) -> Vec<Candidate> {
-        sets.iter().map(|&set| Candidate { set, first, weight: 1.0 }).collect()
+        sets.iter().map(|&set| Candidate { set, first, weight: 1.0, last: false }).collect()
     }
 
     fn plan(budget: u64) -> Plan {
@@ -392,11 +418,17 @@ mod tests {
         // when its weight is at least 1 / (0.05 · 184) ≈ 0.11 of the mean.
         let plan80 = Plan { extended: 80, ..plan(1000) };
         let none = |k: usize| vec![SetStats::new(ConceptSet::from_bits(1)); k];
-        assert_eq!(within_reach(&[1.0, 1.0, 1.0], &none(3), &plan80), vec![true; 3]);
+        assert_eq!(within_reach(&[1.0, 1.0, 1.0], &none(3), &plan80, 3), vec![true; 3]);
         let weak = [10.0, 10.0, 0.2];
-        assert_eq!(within_reach(&weak, &none(3), &plan80), vec![true, true, false], "0.03 of the mean");
-        assert_eq!(within_reach(&[10.0, 10.0, 1.0], &none(3), &plan80), vec![true; 3], "0.14 of the mean");
-        assert_eq!(within_reach(&[0.0, 0.0], &none(2), &plan80), vec![true; 2], "no weights: plain e-BH");
+        assert_eq!(within_reach(&weak, &none(3), &plan80, 3), vec![true, true, false], "0.03 of the mean");
+        assert_eq!(within_reach(&[10.0, 10.0, 1.0], &none(3), &plan80, 3), vec![true; 3], "0.14 of the mean");
+        assert_eq!(within_reach(&[0.0, 0.0], &none(2), &plan80, 2), vec![true; 2], "no weights: plain e-BH");
+        // Three weak candidates sent last do not bring a weak one into reach: counted as if they
+        // could be confirmed too, the bar would drop to 1/q (0.5 would then be 0.14 of the mean).
+        let with_last = [10.0, 10.0, 0.5, 0.1, 0.1, 0.1];
+        assert!(!within_reach(&with_last[..3], &none(3), &plan80, 3)[2]);
+        assert!(!within_reach(&with_last, &none(6), &plan80, 3)[2]);
+        assert!(within_reach(&with_last, &none(6), &plan80, 6)[2]);
         // What a candidate showed counts: at 20 of 40, the 40 to come at 0.7 make 48 of 80
         // (e ≈ 1.3), out of reach at the mean weight; at 28 of 40, 56 of 80 as before.
         let shown = |k: u32| {
@@ -404,19 +436,50 @@ mod tests {
             (0..40).for_each(|i| s.add(if i < k { Outcome::Wrong } else { Outcome::Correct }));
             s
         };
-        assert_eq!(within_reach(&[1.0, 1.0], &[shown(20), shown(28)], &plan80), vec![false, true]);
+        assert_eq!(within_reach(&[1.0, 1.0], &[shown(20), shown(28)], &plan80, 2), vec![false, true]);
         // The 0.74 mode of the test above needs more than the cap of 40; a near-miss weighted
         // 1/2000 of it must not take calls from its extension.
         let (mode, weak) = (ConceptSet::from_bits(1 << 5), ConceptSet::from_bits(1));
         let mut eval = at_rates(vec![(mode, 0.74), (weak, 0.62)]);
-        let candidates =
-            [Candidate { set: weak, first: 20, weight: 0.01 }, Candidate { set: mode, first: 20, weight: 20.0 }];
+        let candidates = [
+            Candidate { set: weak, first: 20, weight: 0.01, last: false },
+            Candidate { set: mode, first: 20, weight: 20.0, last: false },
+        ];
         let (checked, _) = block_on(confirm(&mut eval, &candidates, plan80)).unwrap();
         assert_eq!(checked[1].status, Status::Confirmed, "{checked:?}");
         assert!(checked[1].stats.observations() > 40, "{checked:?}");
         let last_mode = eval.asked.iter().rposition(|(s, _)| *s == mode).unwrap();
         let first_weak = eval.asked.iter().position(|(s, i)| *s == weak && *i >= 25);
         assert!(first_weak.is_none_or(|w| w > last_mode), "{:?}", eval.asked);
+    }
+
+    #[test]
+    fn a_candidate_sent_last_skips_the_triage_and_waits_for_the_others() {
+        let sets: Vec<ConceptSet> = (0..3).map(|i| ConceptSet::from_bits(1 << i)).collect();
+        // Two triaged candidates (a mode and a near-miss), then a mode sent last, weighted by
+        // its search alone.
+        let rates = [0.9, 0.3, 0.9];
+        let candidates: Vec<Candidate> =
+            sets.iter().enumerate().map(|(i, &set)| Candidate { set, first: 10, weight: 4.0, last: i == 2 }).collect();
+        let mut eval = at_rates(sets.iter().copied().zip(rates).collect());
+        let plan = Plan { extended: 80, ..plan(1000) };
+        let (checked, spent) = block_on(confirm(&mut eval, &candidates, plan)).unwrap();
+        assert_eq!(spent, eval.asked.len() as u64);
+        assert_eq!(checked[2].triage.observations(), 0, "not triaged");
+        assert_eq!(checked[2].weight, 4.0, "its search weight: {checked:?}");
+        assert_ne!(checked[0].weight, 4.0, "the others' weights hold their triage's");
+        assert_eq!(checked[0].status, Status::Confirmed, "{checked:?}");
+        assert_eq!(checked[2].status, Status::Confirmed, "{checked:?}");
+        // Its first observation comes after every other candidate's last: the mode's, and the
+        // near-miss's, out of reach once its triage weighed it down.
+        let first_last = eval.asked.iter().position(|(s, _)| *s == sets[2]).unwrap();
+        let last_other = eval.asked.iter().rposition(|(s, _)| *s != sets[2]).unwrap();
+        assert!(last_other < first_last, "{:?}", eval.asked);
+        assert!(checked[1].stats.observations() > 0, "the near-miss was observed: {checked:?}");
+        // With no calls left for it, it is unfinished, not borderline.
+        let mut eval = at_rates(sets.iter().copied().zip(rates).collect());
+        let (checked, _) = block_on(confirm(&mut eval, &candidates, Plan { budget: spent - 20, ..plan })).unwrap();
+        assert_eq!(checked[2].status, Status::Unfinished, "{checked:?}");
     }
 
     #[test]
@@ -468,7 +531,7 @@ mod tests {
             let mut eval = at_rates(sets.iter().copied().zip(rates.clone()).collect());
             // A different stream per run: the fake model's answers depend on the index.
             let candidates: Vec<Candidate> =
-                sets.iter().map(|&set| Candidate { set, first: run * 1000, weight: 1.0 }).collect();
+                sets.iter().map(|&set| Candidate { set, first: run * 1000, weight: 1.0, last: false }).collect();
             let (checked, _) = block_on(confirm(&mut eval, &candidates, plan(600))).unwrap();
             let confirmed: Vec<usize> = (0..20).filter(|&i| checked[i].status == Status::Confirmed).collect();
             let false_ones = confirmed.iter().filter(|&&i| rates[i] <= 0.5).count();
@@ -494,7 +557,8 @@ mod tests {
         // Wrong on four indices of every five.
         let mut four_in_five = Fake { wrong: |_, i: u32| i % 5 < 4, asked: Vec::new() };
         let (checked, spent) =
-            block_on(confirm(&mut four_in_five, &[Candidate { set, first: 0, weight: 1.0 }], plan)).unwrap();
+            block_on(confirm(&mut four_in_five, &[Candidate { set, first: 0, weight: 1.0, last: false }], plan))
+                .unwrap();
         assert_eq!(checked[0].status, Status::Confirmed, "{checked:?}");
         assert_eq!((checked[0].stats.wrong, checked[0].stats.observations()), (20, 25));
         assert_eq!(spent, 30, "five in triage, 25 after it");

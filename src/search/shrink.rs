@@ -233,21 +233,21 @@ pub fn unexplained_failures(
     loose
 }
 
-/// Of `sets`, strongest first, those that share no concept with a set kept before them, and how
-/// many were left out: the failure modes no core explains that fresh confirmation takes. Where
-/// several share a concept they mostly fail through it — a part near τ (`pedestrian` at 0.6
-/// beside anything) screened beside many others before its family was explained, which a round
-/// of sixteen picks does far more often than one pick at a time — and each one sent takes its
-/// triage's calls, and e-BH's tolerance, from the real modes: the strongest stands for them.
-/// Measured (release, 20 seeds, width 16): driving_recognition 30 → 41 % recovered, driving_many
-/// 28 → 33 % (docs/search.md, "Parallel interact").
-pub fn disjoint_strongest(sets: impl IntoIterator<Item = ConceptSet>) -> (Vec<ConceptSet>, usize) {
+/// Of `sets`, strongest first, those that share no concept with a set kept before them, and the
+/// others (in order): the failure modes no core explains that fresh confirmation triages, and
+/// the ones it sends last ([`super::confirm::Candidate::last`]). Where several share a concept
+/// they mostly fail through it — a part near τ (`pedestrian` at 0.6 beside anything) screened
+/// beside many others before its family was explained, which a round of sixteen picks does far
+/// more often than one pick at a time — and each one triaged takes its calls, and e-BH's
+/// tolerance, from the real modes: the strongest stands for them. Measured (release, 20 seeds,
+/// width 16): driving_recognition 30 → 41 % recovered, driving_many 28 → 33 % (docs/search.md,
+/// "Parallel interact").
+pub fn disjoint_strongest(sets: impl IntoIterator<Item = ConceptSet>) -> (Vec<ConceptSet>, Vec<ConceptSet>) {
     let mut seen = ConceptSet::default();
-    let mut left = 0;
-    let mut kept = Vec::new();
+    let (mut kept, mut left) = (Vec::new(), Vec::new());
     for s in sets {
         if s.intersects(seen) {
-            left += 1;
+            left.push(s);
         } else {
             seen = seen.union(s);
             kept.push(s);
