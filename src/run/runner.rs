@@ -525,8 +525,8 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let paid = plan.paid(budget, candidates.len());
     let unpaid = candidates.len() - paid;
     candidates.truncate(paid);
-    // Of those, the ones holding a candidate sent are left out: not distinct from it if it
-    // fails, and only one calls left over would reach.
+    // Of those, the ones holding a candidate sent are left out: were that candidate to fail,
+    // such a set would not be distinct from it.
     let (held, last): (Vec<Core>, Vec<Core>) =
         shared.into_iter().partition(|s| candidates.iter().any(|c| c.stats.set.is_subset_of(s.stats.set)));
     let (shared, last_n) = (held.len(), last.len());

@@ -164,9 +164,9 @@ pub fn search_weight(search: &SetStats, plan: &Plan) -> f64 {
 /// bar for the others as if they too could be confirmed there (driving_many seed 10: nine sent
 /// last, of little weight, halved the mean weight and put `debris_far + weather_foggy`, 0.10 of
 /// the ten others' mean, in reach; its 25 calls were the ones two modes' extension then lacked,
-/// and 4 of 19 were confirmed instead of 7). Whom it defers depends only on weights fixed before confirmation and on each
-/// candidate's own past observations, so every e-value stays valid at the point its candidate
-/// stops.
+/// and 4 of 19 were confirmed instead of 7). Whom it defers depends only on weights fixed
+/// before confirmation and on each candidate's own past observations, so every e-value stays
+/// valid at the point its candidate stops.
 pub fn within_reach(weights: &[f64], stats: &[SetStats], plan: &Plan, most: usize) -> Vec<bool> {
     let scaled = super::ebh::scaled_weights(weights).filter(|_| plan.q > 0.0 && most > 0);
     let Some(scaled) = scaled else {
