@@ -97,7 +97,7 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
 [[mode]]\nconcepts = [\"c0\", \"c7\"]\nerror = 0.95\n\
 [[mode]]\nconcepts = [\"c5\", \"c6\"]\nerror = 0.9\n";
     let profile = Profile::parse(NEAR, "near.toml", &d).unwrap();
-    let mut reached = 0;
+    let (mut reached, mut sent_last) = (0, 0);
     for seed in 0..10 {
         let dir = tempfile::tempdir().unwrap();
         let world = Arc::new(FakeWorld(d.clone()));
@@ -116,6 +116,17 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
         assert_eq!(checked.len(), c.candidates);
         // The shrink phase's cores come first, the failure modes no core explains after them.
         let (cores, loose) = checked.split_at(c.candidates - c.unexplained);
+        // The ones sharing a concept with a stronger one come last, untriaged, and none holds
+        // another candidate.
+        let (turn, last) = loose.split_at(loose.len() - c.last);
+        for k in last {
+            assert_eq!(k.triage.observations(), 0, "seed {seed}: {k:?}");
+            // (Its stronger one may be among those the budget did not pay.)
+            let shares = turn.iter().any(|t| t.stats.set.intersects(k.stats.set));
+            assert!(shares || c.unpaid > 0, "seed {seed}: {k:?} shares nothing");
+            assert!(!checked.iter().any(|o| o.stats.set != k.stats.set && o.stats.set.is_subset_of(k.stats.set)));
+        }
+        sent_last += last.len();
         let searched = |set: crate::ir::ConceptSet| r.history.iter().find(|h| h.set == set).and_then(|h| h.fr());
         for k in loose {
             let set = k.stats.set;
@@ -146,4 +157,5 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
         }
     }
     assert!(reached > 0, "no planted mode confirmed from the unexplained minimal failure modes in 10 seeds");
+    assert!(sent_last > 0, "no failure mode sharing a concept with a stronger one was sent last in 10 seeds");
 }
