@@ -525,8 +525,10 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let paid = plan.paid(budget, candidates.len());
     let unpaid = candidates.len() - paid;
     candidates.truncate(paid);
-    // Of those, the ones holding a candidate sent are left out: were that candidate to fail,
-    // such a set would not be distinct from it.
+    // Of those, the ones holding a candidate sent are left out: that candidate, stronger on the
+    // search's evidence, stands for them (a set lifting well above a part it holds is sent in
+    // turn when it is the stronger of the two). Measured with the passes of their own: sending
+    // them too took calls from the modes' extension (docs/search.md, "An eighth round").
     let (held, last): (Vec<Core>, Vec<Core>) =
         shared.into_iter().partition(|s| candidates.iter().any(|c| c.stats.set.is_subset_of(s.stats.set)));
     let (shared, last_n) = (held.len(), last.len());
