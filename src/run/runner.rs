@@ -527,8 +527,8 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     candidates.truncate(paid);
     // Of those, the ones holding a candidate sent are left out: that candidate, stronger on the
     // search's evidence, stands for them (a set lifting well above a part it holds is sent in
-    // turn when it is the stronger of the two). Measured with the passes of their own: sending
-    // them too took calls from the modes' extension (docs/search.md, "An eighth round").
+    // turn when it is the stronger of the two). Measured only together with the passes of
+    // their own (docs/search.md, "An eighth round").
     let (held, last): (Vec<Core>, Vec<Core>) =
         shared.into_iter().partition(|s| candidates.iter().any(|c| c.stats.set.is_subset_of(s.stats.set)));
     let (shared, last_n) = (held.len(), last.len());
