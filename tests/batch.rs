@@ -250,7 +250,7 @@ async fn openai_service_after(server: &MockServer, first: ResponseTemplate, look
 /// key on the configured host, the batch and the failure journaled.
 async fn openai_round_trip() -> Arc<Service> {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let svc = Arc::new(Service::default());
     svc.ended.store(true, Ordering::SeqCst);
     openai_service(&server, &svc).await;
@@ -340,8 +340,8 @@ async fn anthropic_service(server: &MockServer, svc: &Arc<Service>, results_url:
 /// host in `results_url`; that host is never called (the key never goes there).
 async fn anthropic_round_trip() -> Arc<Service> {
     init_env();
-    let server = MockServer::start().await;
-    let foreign = MockServer::start().await;
+    let server = common::mock_server().await;
+    let foreign = common::mock_server().await;
     Mock::given(wiremock::matchers::any())
         .respond_with(ResponseTemplate::new(200).set_body_string(""))
         .mount(&foreign)
@@ -384,7 +384,7 @@ async fn anthropic_results_come_from_the_configured_host_never_a_replys_url() {
 #[tokio::test(flavor = "multi_thread")]
 async fn a_malformed_batch_id_is_a_specific_error() {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     Mock::given(method("POST"))
         .and(path("/v1/messages/batches"))
         .respond_with(ResponseTemplate::new(200).set_body_json(anthropic_batch(
@@ -439,7 +439,7 @@ fn gemini_batch(svc: &Service, state: &str) -> Value {
 
 async fn gemini_round_trip() -> Arc<Service> {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let svc = Arc::new(Service::default());
     on(&server, "POST", path("/v1beta/models/gemini-3-flash-preview:batchGenerateContent"), &svc, move |s, r| {
         assert_eq!(header(r, "x-goog-api-key").as_deref(), Some(KEY));
@@ -513,7 +513,7 @@ fn batch_search(budget: &str, base: &str, out: &Path, cfg: &Path) -> Command {
 /// same command looks at the journaled batch and submits none of its requests again.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_killed_batch_run_resumes_its_pending_batch_instead_of_resubmitting() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let svc = Arc::new(Service::default());
     openai_service(&server, &svc).await;
     let dir = tempfile::tempdir().unwrap();
@@ -555,7 +555,7 @@ async fn a_killed_batch_run_resumes_its_pending_batch_instead_of_resubmitting() 
 #[tokio::test(flavor = "multi_thread")]
 async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again() {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let first = ResponseTemplate::new(200).set_body_json(json!({"id": "batch_0", "object": "batch",
         "endpoint": "/v1/chat/completions", "input_file_id": "file-in0", "completion_window": "24h", "status": "expired",
         "created_at": 1_760_000_000, "request_counts": {"total": 2, "completed": 0, "failed": 0}}));
@@ -588,7 +588,7 @@ async fn an_expired_batch_fails_its_requests_and_the_next_run_batches_them_again
 #[tokio::test(flavor = "multi_thread")]
 async fn a_malformed_status_reply_keeps_the_batch_journaled_for_the_next_run() {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let first = ResponseTemplate::new(200).set_body_string("{\"id\": \"batch_0\", \"status\":");
     let svc = openai_service_after(&server, first, 3).await;
     let dir = tempfile::tempdir().unwrap();
@@ -610,7 +610,7 @@ async fn a_malformed_status_reply_keeps_the_batch_journaled_for_the_next_run() {
 /// folder's journal.
 #[tokio::test(flavor = "multi_thread")]
 async fn validate_probe_and_transfer_ask_through_batches() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let svc = Arc::new(Service::default());
     svc.ended.store(true, Ordering::SeqCst);
     openai_service(&server, &svc).await;

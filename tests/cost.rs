@@ -3,6 +3,8 @@
 //! count is never below the real run's and its dollars are within 10 % of the spend the run
 //! reports at fixed sampling; `--max-cost` is never passed, stops with exit 1 naming the spend,
 //! and a larger cap resumes; a dry run writes nothing.
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -51,7 +53,7 @@ impl Respond for Billing {
 }
 
 async fn server() -> MockServer {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     Mock::given(method("POST")).respond_with(Billing).mount(&server).await;
     server
 }
@@ -139,7 +141,7 @@ async fn dry_run_estimates_and_the_spend_cap() {
 /// in the journal (`attempts`), in `summary.json`'s spend and on the final line.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn retries_and_rate_limit_waits_are_reported() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     Mock::given(method("POST"))
         .respond_with(ResponseTemplate::new(429).insert_header("retry-after", "0"))
         .up_to_n_times(3)
@@ -179,7 +181,7 @@ async fn retries_and_rate_limit_waits_are_reported() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_request_log_shows_retries_and_never_a_key() {
     const KEY: &str = "sk-log-CANARY-9b2d41";
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let echo = json!({"error": {"message": format!("upstream failed for key {KEY}")}});
     Mock::given(method("POST"))
         .respond_with(ResponseTemplate::new(500).set_body_json(echo))

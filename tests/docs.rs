@@ -15,7 +15,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 
 use wiremock::matchers::method;
-use wiremock::{Mock, MockServer, ResponseTemplate};
+use wiremock::{Mock, ResponseTemplate};
 
 /// Commands run in a reduced form: (as the page shows it, as the test runs it, why). The reduced
 /// form may be several commands, one per line (a run folder made first). `$MOCK` is the mock
@@ -793,7 +793,7 @@ fn every_command_shown_runs() {
 fn run_all(shown: Vec<Shown>) {
     let rt = tokio::runtime::Runtime::new().unwrap();
     let server = rt.block_on(async {
-        let s = MockServer::start().await;
+        let s = common::mock_server().await;
         Mock::given(method("POST")).respond_with(ResponseTemplate::new(200).set_body_json(reply())).mount(&s).await;
         s
     });

@@ -1,6 +1,8 @@
 //! `revelio probe`, `transfer` and `compare` as a user runs them, on a sim search of the driving
 //! domain: exit codes, the files they write, the journal phases, and resuming.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -258,9 +260,9 @@ fn probe_transfer_and_compare_on_the_indoor_domain() {
 async fn providers() -> wiremock::MockServer {
     use serde_json::json;
     use wiremock::matchers::{method, path};
-    use wiremock::{Mock, MockServer, ResponseTemplate};
+    use wiremock::{Mock, ResponseTemplate};
     let text = "S1: True\nS2: False\nS3: True\nS4: False\nThe path is clear.\nAnswer: A";
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let routes = [
         (
             "/chat/completions".to_string(),

@@ -411,8 +411,8 @@ async fn every_key_goes_only_to_its_own_providers_host() {
         for image_provider in ["gemini", "openai"] {
             // The image endpoint from the provider's own variable, then from its own flag.
             for by_flag in [false, true] {
-                let model_server = MockServer::start().await;
-                let image_server = MockServer::start().await;
+                let model_server = common::mock_server().await;
+                let image_server = common::mock_server().await;
                 wiremock::Mock::given(wiremock::matchers::any())
                     .respond_with(AnyProvider { png: png.clone() })
                     .mount(&model_server)
@@ -600,7 +600,7 @@ async fn oversized_and_endless_replies_are_api_errors() {
         assert_eq!(r.attempts, 1, "a reply too large is not asked for again");
     }
     // With a length, refused before reading.
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let big = json!({"choices": [{"message": {"content": "x".repeat(5_000_000)}, "finish_reason": "stop"}]});
     wiremock::Mock::given(wiremock::matchers::any())
         .respond_with(ResponseTemplate::new(200).set_body_json(big))
@@ -651,7 +651,7 @@ fn chat(content: &str) -> ResponseTemplate {
 fn the_journal_keeps_a_bounded_prefix_of_long_replies() {
     // A 10-inference search wrote 314 MB of journal from long replies.
     let rt = tokio::runtime::Runtime::new().unwrap();
-    let server = rt.block_on(MockServer::start());
+    let server = rt.block_on(common::mock_server());
     let long = format!("{}\nAnswer: B", "thinking aloud ".repeat(200_000));
     rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat(&long)).mount(&server));
     let dir = tempfile::tempdir().unwrap();
@@ -699,7 +699,7 @@ fn the_journal_keeps_a_bounded_prefix_of_long_replies() {
 #[test]
 fn escape_sequences_from_a_server_never_reach_the_terminal() {
     let rt = tokio::runtime::Runtime::new().unwrap();
-    let server = rt.block_on(MockServer::start());
+    let server = rt.block_on(common::mock_server());
     rt.block_on(
         wiremock::Mock::given(wiremock::matchers::any())
             .respond_with(chat("\u{1b}[2J\u{1b}]0;owned\u{7}The road is clear.\r\u{9b}31mAnswer: C"))
@@ -728,7 +728,7 @@ fn escape_sequences_from_a_server_never_reach_the_terminal() {
     assert!(!all.contains(['\u{1b}', '\u{7}', '\r', '\u{9b}']), "{all:?}");
     assert!(all.contains("\\u{1b}[2J") && all.contains("The road is clear."), "{all}");
     // An error body's message, in the error line.
-    let bad = rt.block_on(MockServer::start());
+    let bad = rt.block_on(common::mock_server());
     rt.block_on(
         wiremock::Mock::given(wiremock::matchers::any())
             .respond_with(
@@ -841,8 +841,8 @@ fn strs(v: &[String]) -> Vec<&str> {
 #[test]
 fn a_tampered_run_folder_never_chooses_where_a_key_goes() {
     let rt = tokio::runtime::Runtime::new().unwrap();
-    let own = rt.block_on(MockServer::start());
-    let capture = rt.block_on(MockServer::start());
+    let own = rt.block_on(common::mock_server());
+    let capture = rt.block_on(common::mock_server());
     rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&own));
     rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&capture));
     let (own_base, stolen) = (format!("{}/v1", own.uri()), format!("{}/v1", capture.uri()));
@@ -941,7 +941,7 @@ fn a_redirect_is_never_followed_with_a_key() {
         (sim, "imagegen:openai:img", false),
     ];
     for (model, renderer, model_redirects) in cases {
-        let (first, second) = (rt.block_on(MockServer::start()), rt.block_on(MockServer::start()));
+        let (first, second) = (rt.block_on(common::mock_server()), rt.block_on(common::mock_server()));
         rt.block_on(
             wiremock::Mock::given(wiremock::matchers::any()).respond_with(Redirect(second.uri())).mount(&first),
         );
@@ -978,7 +978,7 @@ fn a_redirect_is_never_followed_with_a_key() {
 #[test]
 fn userinfo_in_a_base_url_is_refused() {
     let rt = tokio::runtime::Runtime::new().unwrap();
-    let server = rt.block_on(MockServer::start());
+    let server = rt.block_on(common::mock_server());
     rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&server));
     let with_userinfo = format!("http://user:pass-CANARY-7@{}/v1", server.address());
     let dir = tempfile::tempdir().unwrap();
@@ -1052,7 +1052,7 @@ fn plain_http_is_refused_for_a_providers_host() {
     );
     // This machine: allowed (every mock server of these tests is one).
     let rt = tokio::runtime::Runtime::new().unwrap();
-    let server = rt.block_on(MockServer::start());
+    let server = rt.block_on(common::mock_server());
     rt.block_on(wiremock::Mock::given(wiremock::matchers::any()).respond_with(chat("Answer: A")).mount(&server));
     let local = format!("http://localhost:{}/v1", server.address().port());
     let o = ask("openai:m", &local, &[]);

@@ -45,7 +45,7 @@ fn query() -> Query {
 
 async fn served(spec: &str, route: &str, body: Value) -> (MockServer, Arc<dyn Model>) {
     init_env();
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     Mock::given(method("POST"))
         .and(path(route))
         .respond_with(ResponseTemplate::new(200).set_body_json(body))

@@ -1,6 +1,8 @@
 //! The run runtime through the `revelio` binary: one concurrency setting, model settings
 //! recorded in `config.json` but never taken from it for where a key goes, the shared reply cache under concurrent processes, the run-folder lock,
 //! Ctrl-C, and the exit codes of usage errors.
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -53,7 +55,7 @@ fn journal(dir: &Path) -> Vec<Value> {
 
 /// An OpenAI-compatible server that answers every question with option A.
 async fn server() -> MockServer {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let body = json!({"choices": [{"message": {"content": "The lane is clear.\nAnswer: A"}, "finish_reason": "stop"}],
                       "usage": {"prompt_tokens": 900, "completion_tokens": 12}});
     Mock::given(method("POST")).respond_with(ResponseTemplate::new(200).set_body_json(body)).mount(&server).await;
@@ -300,7 +302,7 @@ fn usage_errors_exit_2_everywhere() {
 /// still exits 1, saying what share of the observations failed.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_run_whose_model_calls_all_fail_exits_1() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     // 400 is not transient: no retries, so the test stays fast.
     Mock::given(method("POST"))
         .respond_with(ResponseTemplate::new(400).set_body_string("{\"error\": {\"message\": \"model not loaded\"}}"))

@@ -13,7 +13,7 @@ use revelio::outcome::Answer;
 use revelio::vlm::Query;
 use revelio::vlm::registry::{ModelOptions, build_api_model};
 use serde_json::{Value, json};
-use wiremock::{MockServer, ResponseTemplate};
+use wiremock::ResponseTemplate;
 
 fn query() -> Query {
     let options = vec!["Stop".into(), "Slow down".into(), "Continue".into()];
@@ -23,7 +23,7 @@ fn query() -> Query {
 /// Ask `spec` (with model-config `settings`) once against a server answering `reply`; the body
 /// it sent and the answer it read.
 async fn exchange(spec: &str, settings: &str, reply: &Value) -> (Value, Answer) {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     wiremock::Mock::given(wiremock::matchers::any())
         .respond_with(ResponseTemplate::new(200).set_body_json(reply.clone()))
         .mount(&server)

@@ -124,7 +124,7 @@ async fn mount(server: &MockServer, route: &str, responder: impl Respond + 'stat
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn openai_request_shape_and_reply_kinds() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let mut replies: HashMap<&'static str, ResponseTemplate> = HashMap::new();
     replies.insert("strict", chat(json!("The lane is blocked by debris.\n\nAnswer: A"), "stop"));
     replies.insert("letter", chat(json!("(C)"), "stop"));
@@ -220,7 +220,7 @@ async fn openai_retries_are_bounded_and_selective() {
         ("retry-after past the deadline", vec![limited.clone().insert_header("retry-after", "600"), answer.clone()], Answer::ApiError, 1, "deadline"),
     ];
     for (name, seq, want, attempts, msg) in cases {
-        let server = MockServer::start().await;
+        let server = common::mock_server().await;
         mount(&server, "/chat/completions", Sequence::new(seq)).await;
         let s = model("openai:vlm-test", &server, "", None, false);
         let r = s.model.ask(&query("q")).await;
@@ -233,7 +233,7 @@ async fn openai_retries_are_bounded_and_selective() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn anthropic_messages_api() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let msg = |content: Value, stop: &str| {
         ok(json!({"id": "msg_01", "type": "message", "role": "assistant", "model": "claude-test", "content": content,
                   "stop_reason": stop, "stop_sequence": null, "usage": {"input_tokens": 1200, "output_tokens": 90}}))
@@ -270,7 +270,7 @@ async fn anthropic_messages_api() {
     assert_eq!(content[1]["type"], "text");
 
     // 529 overloaded is retried.
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     mount(
         &server,
         "/v1/messages",
@@ -286,7 +286,7 @@ async fn anthropic_messages_api() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn gemini_generate_content() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let cand = |parts: Value, finish: &str| {
         ok(json!({"candidates": [{"content": {"parts": parts, "role": "model"}, "finishReason": finish, "index": 0}],
                   "usageMetadata": {"promptTokenCount": 1300, "candidatesTokenCount": 10, "thoughtsTokenCount": 240, "totalTokenCount": 1550},
@@ -327,7 +327,7 @@ async fn gemini_generate_content() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn gemini_rate_limit_with_retry_info_then_ok() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let limited = ResponseTemplate::new(429).set_body_json(json!({"error": {"code": 429, "message": "Resource has been exhausted (e.g. check quota).", "status": "RESOURCE_EXHAUSTED",
         "details": [{"@type": "type.googleapis.com/google.rpc.RetryInfo", "retryDelay": "0s"}]}}));
     let daily = ResponseTemplate::new(429).set_body_json(json!({"error": {"code": 429, "message": "Quota exceeded", "status": "RESOURCE_EXHAUSTED",
@@ -344,7 +344,7 @@ async fn gemini_rate_limit_with_retry_info_then_ok() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bedrock_converse_signed_requests() {
     use revelio::vlm::sigv4::{Credentials, Scope, SignRequest, authorization, uri_encode};
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let model_id = "us.anthropic.claude-haiku-4-5-20251001-v1:0";
     let route = format!("/model/{}/converse", uri_encode(model_id));
     let reply = ok(json!({"output": {"message": {"role": "assistant", "content": [
@@ -432,7 +432,7 @@ async fn faulty_server() -> (MockServer, Arc<Faulty>) {
             self.0.respond(r)
         }
     }
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let faulty = Arc::new(Faulty { n: AtomicU64::new(0), successes: Mutex::new(HashMap::new()) });
     mount(&server, "/chat/completions", Shared(faulty.clone())).await;
     (server, faulty)
@@ -475,7 +475,7 @@ async fn futures_join_all(m: &Arc<dyn Model>, qs: &[Query]) -> Vec<revelio::vlm:
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn cache_serves_parsed_replies_for_free() {
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let mut replies: HashMap<&'static str, ResponseTemplate> = HashMap::new();
     replies.insert("good", chat(json!("Answer: B"), "stop"));
     replies.insert("bad", chat(json!("no idea"), "stop"));
@@ -493,7 +493,7 @@ async fn cache_serves_parsed_replies_for_free() {
     let spend = s.model.spend().unwrap();
     assert_eq!((spend.calls, spend.cached), (3, 1));
     // `--no-cache` asks every time.
-    let server2 = MockServer::start().await;
+    let server2 = common::mock_server().await;
     mount(&server2, "/chat/completions", ByTag(HashMap::from([("good", chat(json!("Answer: B"), "stop"))]))).await;
     let s2 = model("openai:vlm-test", &server2, "", None, false);
     s2.model.ask(&query("good")).await;
@@ -527,7 +527,7 @@ impl Respond for Echo {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn keys_never_leak_into_replies_ids_or_cache() {
     for spec in ["openai:m", "anthropic:m", "gemini:m", "bedrock:m"] {
-        let server = MockServer::start().await;
+        let server = common::mock_server().await;
         Mock::given(method("POST")).respond_with(Echo).mount(&server).await;
         let s = model(spec, &server, "", None, true);
         let mut outputs = vec![s.model.id(), format!("{:?}", s.model.spend())];
@@ -606,7 +606,7 @@ async fn imagegen_gemini_and_openai() {
     let prompt = "A foggy two-lane road with debris far ahead, photographed from the driver's seat.";
 
     // Gemini: 503 first (retried), then an image; the second render comes from the cache.
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let image = ok(
         json!({"candidates": [{"content": {"parts": [{"text": "Here is the image."}, {"inlineData": {"mimeType": "image/png", "data": b64}}], "role": "model"}, "finishReason": "STOP"}]}),
     );
@@ -633,7 +633,7 @@ async fn imagegen_gemini_and_openai() {
     assert_eq!(b["contents"][0]["parts"][0]["text"], prompt);
 
     // Gemini: a safety block is an error that says so, and is not retried.
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     mount(
         &server,
         "/v1beta/models/g:generateContent",
@@ -645,7 +645,7 @@ async fn imagegen_gemini_and_openai() {
     assert_eq!(server.received_requests().await.unwrap().len(), 1);
 
     // OpenAI images API: b64_json output; a moderation block is reported as such.
-    let server = MockServer::start().await;
+    let server = common::mock_server().await;
     let mut replies: HashMap<&'static str, ResponseTemplate> = HashMap::new();
     replies.insert("ok", ok(json!({"created": 1_700_000_000, "data": [{"b64_json": b64}], "usage": {"input_tokens": 50, "output_tokens": 4000}})));
     replies.insert(
@@ -742,7 +742,7 @@ async fn keys_never_reach_any_output_of_a_run() {
     init_env();
     let domain = format!("{}/domains/driving.rev", env!("CARGO_MANIFEST_DIR"));
     for spec in ["openai:m", "anthropic:m", "gemini:m", "bedrock:m"] {
-        let server = MockServer::start().await;
+        let server = common::mock_server().await;
         Mock::given(method("POST")).respond_with(Echo).mount(&server).await;
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("run");

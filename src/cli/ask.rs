@@ -327,7 +327,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut outputs = Vec::new();
         for status in [200, 401] {
-            let server = wiremock::MockServer::start().await;
+            // A server of its own, not one lent from wiremock's pool (tests/common/mod.rs, `mock_server`).
+            let server = wiremock::MockServer::builder().start().await;
             wiremock::Mock::given(wiremock::matchers::method("POST")).respond_with(Echo(status)).mount(&server).await;
             let mut a = args(server.uri(), dir.path());
             // The 200 reply was cached; the error case must reach the server.

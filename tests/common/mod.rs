@@ -138,6 +138,18 @@ pub struct FakeAws {
     pub session_token: Option<&'static str>,
 }
 
+/// A mock provider server of the test's own, on a port no other test has used.
+///
+/// wiremock's `MockServer::start` lends servers from a pool shared by the binary's tests, while
+/// every client shares one process-wide connection pool ([`revelio::net::http::client`]). A
+/// server handed back by one test and lent to the next keeps its port, so the next test's
+/// request could go out on a keep-alive connection the first test's runtime still drives; when
+/// that test ends, its runtime drops the connection mid-reply and the request is retried — the
+/// server then counts two requests for one call (seen once in CI, `imagegen_gemini_and_openai`).
+pub async fn mock_server() -> wiremock::MockServer {
+    wiremock::MockServer::builder().start().await
+}
+
 /// The environment of a test binary whose model clients talk to local mock servers: `api_key`
 /// as `OPENAI_API_KEY`, `ANTHROPIC_API_KEY` and `GEMINI_API_KEY`, the `aws` credentials (in
 /// `us-east-1`) when given, and no base-URL override or default region left from the caller's
