@@ -334,7 +334,8 @@ fn fail(e: &RunError) -> ExitCode {
 
 /// Where the candidates came from, when some are failure modes no core explains:
 /// `2 of them failure modes no core explained, 1 of those sent last as each shares a concept with
-/// a stronger one, 4 more the budget could not pay; `.
+/// a stronger one, 1 of them failure modes of the search whose parts were never tested, sent last
+/// of all, 4 more the budget could not pay; `.
 fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     let mut parts = Vec::new();
     if c.unexplained > 0 {
@@ -342,6 +343,12 @@ fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     }
     if c.last > 0 {
         parts.push(format!("{} of those sent last as each shares a concept with a stronger one", c.last));
+    }
+    if c.unshrunk > 0 {
+        parts.push(format!(
+            "{} of them failure modes of the search whose parts were never tested, sent last of all",
+            c.unshrunk
+        ));
     }
     if c.shared > 0 {
         parts.push(format!("{} more left out as each shares a concept with a stronger one", c.shared));
@@ -667,10 +674,11 @@ mod tests {
             inferences: 67,
             candidates: 3,
             confirmed: 1,
-            unexplained: 2,
+            unexplained: 1,
             unpaid: 4,
             shared: 0,
             last: 1,
+            unshrunk: 1,
             checked: rows,
         });
         let mut out = Vec::new();

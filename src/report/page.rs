@@ -228,7 +228,7 @@ fn write_core(out: &mut String, c: &CoreView) -> fmt::Result {
     }
     if !c.minimal {
         out.push_str(
-            "<span>not shown minimal: the shrink budget ran out before every smaller subset was tested</span>\n",
+            "<span>not shown minimal: the shrink budget ran out before every smaller subset was tested (or before the shrink reached it)</span>\n",
         );
     }
     if let Some(v) = &c.visibility {

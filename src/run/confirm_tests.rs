@@ -114,8 +114,11 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
         assert_no_core_listed_not_distinct(&r.summary, &format!("seed {seed}"));
         let checked = r.confirmation.as_ref().unwrap();
         assert_eq!(checked.len(), c.candidates);
-        // The shrink phase's cores come first, the failure modes no core explains after them.
-        let (cores, loose) = checked.split_at(c.candidates - c.unexplained);
+        // The shrink phase's cores come first, the failure modes no core explains after them,
+        // then the other failure modes of the search that hold no candidate.
+        let sent = &checked[..c.candidates - c.unshrunk];
+        let (cores, loose) = sent.split_at(sent.len() - c.unexplained);
+        check_sent_last_of_all(&r, &d, &profile, &format!("seed {seed}"));
         // The ones sharing a concept with a stronger one come last, untriaged, and none holds
         // another candidate.
         let (turn, last) = loose.split_at(loose.len() - c.last);
@@ -158,4 +161,58 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
     }
     assert!(reached > 0, "no planted mode confirmed from the unexplained minimal failure modes in 10 seeds");
     assert!(sent_last > 0, "no failure mode sharing a concept with a stronger one was sent last in 10 seeds");
+}
+
+/// The candidates sent last of all (`confirmation.unshrunk`): each untriaged, a failure mode of
+/// the search, holding no other candidate; a confirmed one is a core not shown minimal whose
+/// true rate is above τ − δ. Returns how many were sent and confirmed.
+fn check_sent_last_of_all(r: &runner::RunReport, d: &crate::ir::Domain, profile: &Profile, at: &str) -> (usize, usize) {
+    let c = r.summary.confirmation.as_ref().unwrap();
+    let checked = r.confirmation.as_ref().unwrap();
+    let mut confirmed = 0;
+    for k in &checked[c.candidates - c.unshrunk..] {
+        let set = k.stats.set;
+        assert_eq!(k.triage.observations(), 0, "{at}: {k:?}");
+        let h = r.history.iter().find(|h| h.set == set).expect("a set the search evaluated");
+        assert!(h.is_failure_mode(r.summary.threshold), "{at}: {set:?} did not fail in the search");
+        assert!(!checked.iter().any(|o| o.stats.set != set && o.stats.set.is_subset_of(set)), "{at}: {set:?}");
+        if k.status != Status::Confirmed {
+            continue;
+        }
+        confirmed += 1;
+        let names: Vec<String> = d.set_names(set).into_iter().map(String::from).collect();
+        let core = r.summary.cores.iter().find(|c| c.set.concepts == names).expect("reported as a core");
+        assert!(!core.minimal, "{at}: {names:?} is shown minimal");
+        assert!(profile.error_for(set) > 0.5, "{at}: {names:?} is no failure mode");
+    }
+    (c.unshrunk, confirmed)
+}
+
+/// A failure mode of the search whose parts were never tested — here a four-concept set holding
+/// one of two planted triples, screened by a random search whose shrink phase runs out before
+/// reaching it — is sent to confirmation last of all, untriaged, and once confirmed it is
+/// reported as a core not shown minimal.
+#[test]
+fn a_failure_mode_with_untested_parts_is_confirmed_as_a_core_not_shown_minimal() {
+    let d = numbered(8);
+    const TRIPLES: &str = "name = \"triples\"\nbase_error = 0.04\n\
+[[mode]]\nconcepts = [\"c1\", \"c2\", \"c3\"]\nerror = 0.97\n\
+[[mode]]\nconcepts = [\"c4\", \"c5\", \"c6\"]\nerror = 0.97\n";
+    let profile = Profile::parse(TRIPLES, "triples.toml", &d).unwrap();
+    let (mut sent, mut confirmed) = (0, 0);
+    for seed in 0..10 {
+        let dir = tempfile::tempdir().unwrap();
+        let world = Arc::new(FakeWorld(d.clone()));
+        let s =
+            Setup::new(Arc::new(d.clone()), world, Arc::new(SimModel { profile: profile.clone() }), None, dir.path());
+        let space = Space::new(lattice(8, 4), 8);
+        let mut cfg = config(&s, Algo::Random);
+        cfg.params.budget = 400;
+        cfg.params.shrink = 60;
+        cfg.params.seed = seed;
+        let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        let (n, k) = check_sent_last_of_all(&r, &d, &profile, &format!("seed {seed}"));
+        (sent, confirmed) = (sent + n, confirmed + k);
+    }
+    assert!(confirmed > 0, "none of {sent} failure modes with untested parts was confirmed in 10 seeds");
 }

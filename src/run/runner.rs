@@ -359,6 +359,7 @@ pub async fn search(setup: &Setup, config: &RunConfig, space: &Space) -> Result<
             unpaid: c.unpaid,
             shared: c.shared,
             last: c.last,
+            unshrunk: c.unshrunk,
             checked: rows,
         });
     }
@@ -419,6 +420,10 @@ struct Confirmed {
     /// How many of the `unexplained` were sent last, each sharing a concept with a stronger one
     /// ([`Candidate::last`]).
     last: usize,
+    /// How many were sent last of all: failure modes of the search holding no other candidate
+    /// nor core, whose smaller subsets the search never tested (confirmed, each is a core not
+    /// shown minimal).
+    unshrunk: usize,
     /// Every candidate after confirmation, in `candidates` order.
     checked: Vec<Checked>,
     /// Inferences spent and given.
@@ -534,6 +539,20 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let (shared, last_n) = (held.len(), last.len());
     candidates.extend(last);
     let unexplained = candidates.len().saturating_sub(found.cores.len());
+    // Last of all, every other failure mode of the search that holds no set sent nor a core:
+    // mostly sets screened near the search's end whose parts were never tested. Confirmed, each
+    // is reported as a core not shown minimal (its smaller subsets untested).
+    let before = candidates.len();
+    for set in shrink::roots(&everything, params.threshold) {
+        let holds = |c: &Core| c.stats.set.is_subset_of(set);
+        if candidates.iter().any(holds) || found.cores.iter().any(holds) {
+            continue;
+        }
+        if let Some(s) = of(set) {
+            candidates.push(Core { stats: s.clone(), minimal: false, root: set });
+        }
+    }
+    let unshrunk = candidates.len() - before;
     let confirm_plan = params.confirm_plan(budget);
     let asked: Vec<Candidate> = candidates
         .iter()
@@ -568,6 +587,7 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
         unpaid,
         shared,
         last: last_n,
+        unshrunk,
         checked,
         spent: confirm_spent,
         budget,

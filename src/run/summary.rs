@@ -301,6 +301,11 @@ pub struct ConfirmSummary {
     /// candidate was settled.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub last: usize,
+    /// Candidates sent last of all (after the `last`): failure modes of the search holding no
+    /// other candidate nor core, whose smaller subsets were never tested — mostly sets screened
+    /// near the search's end. Confirmed, each is reported as a core not shown minimal.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unshrunk: usize,
     /// Every candidate with its fresh observations, e-value and status.
     pub checked: Vec<CheckedRow>,
 }

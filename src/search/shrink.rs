@@ -41,7 +41,8 @@ pub struct Core {
     /// The core and every observation of it (search and shrink).
     pub stats: SetStats,
     /// Whether every one-smaller valid subset was tested and passes (false: the budget ran out
-    /// first, and the set is only as small as the shrink got).
+    /// first, and the set is only as small as the shrink got — or, for a failure mode of the
+    /// search sent to confirmation last of all, the shrink never reached it).
     pub minimal: bool,
     /// The failure mode it was shrunk from.
     pub root: ConceptSet,
