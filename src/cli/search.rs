@@ -334,8 +334,8 @@ fn fail(e: &RunError) -> ExitCode {
 
 /// Where the candidates came from, when some are failure modes no core explains:
 /// `2 of them failure modes no core explained, 1 of those sent last as each shares a concept with
-/// a stronger one, 1 of them failure modes of the search whose parts were never tested, sent last
-/// of all, 4 more the budget could not pay; `.
+/// a stronger one, 1 of them failure modes of the search not shown minimal, sent last of all, 4
+/// more the budget could not pay; `.
 fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
     let mut parts = Vec::new();
     if c.unexplained > 0 {
@@ -345,10 +345,7 @@ fn candidates_note(c: &crate::run::summary::ConfirmSummary) -> String {
         parts.push(format!("{} of those sent last as each shares a concept with a stronger one", c.last));
     }
     if c.unshrunk > 0 {
-        parts.push(format!(
-            "{} of them failure modes of the search whose parts were never tested, sent last of all",
-            c.unshrunk
-        ));
+        parts.push(format!("{} of them failure modes of the search not shown minimal, sent last of all", c.unshrunk));
     }
     if c.shared > 0 {
         parts.push(format!("{} more left out as each shares a concept with a stronger one", c.shared));
@@ -663,7 +660,17 @@ mod tests {
             checked(&["cyclist", "light_red"], 22, 40, Status::Borderline),
             checked(&["cone"], 1, 10, Status::Passes),
         ];
-        let mut s = summary(modes, vec![core], None);
+        // The shrink line counts the shrink's own candidates: 3 sent less 1 unexplained and 1
+        // sent last of all.
+        let shrink = ShrinkSummary {
+            budget: 250,
+            inferences: 100,
+            max_samples: 20,
+            new_sets: 3,
+            refuted: vec![],
+            not_distinct: vec![],
+        };
+        let mut s = summary(modes, vec![core], Some(shrink));
         s.borderline = vec![rows[1].clone()];
         s.confirmation = Some(ConfirmSummary {
             q: 0.05,

@@ -624,7 +624,7 @@ pub fn index_page<'a>(
     });
     let cores_note = if let Some(c) = &s.confirmation {
         format!(
-            "{} of {} candidate cores confirmed. Each candidate is a set the search found failing whose parts one concept smaller did not fail, or failed at least 2δ less (a core it established above τ − δ = {:.2} by an anytime-valid test, or a failure mode no such core explains); it is then asked again on fresh scenes, after it was selected, and reported only if e-BH across all candidates confirms it at a false discovery rate of q = {} (a core is false when its true rate is ≤ τ − δ). Its rate and interval below are the fresh observations' alone.",
+            "{} of {} candidate cores confirmed. Each candidate is a set the search found failing whose parts one concept smaller did not fail, or failed at least 2δ less (a core it established above τ − δ = {:.2} by an anytime-valid test, or a failure mode no such core explains), or, last of all, another failure mode of the search not shown minimal (marked so below); it is then asked again on fresh scenes, after it was selected, and reported only if e-BH across all candidates confirms it at a false discovery rate of q = {} (a core is false when its true rate is ≤ τ − δ). Its rate and interval below are the fresh observations' alone.",
             c.confirmed,
             c.candidates,
             s.threshold - c.delta,

@@ -420,9 +420,9 @@ struct Confirmed {
     /// How many of the `unexplained` were sent last, each sharing a concept with a stronger one
     /// ([`Candidate::last`]).
     last: usize,
-    /// How many were sent last of all: failure modes of the search holding no other candidate
-    /// nor core, whose smaller subsets the search never tested (confirmed, each is a core not
-    /// shown minimal).
+    /// How many were sent last of all: the other failure modes of the search, holding no core
+    /// nor candidate, not shown minimal (mostly their smaller subsets never tested); confirmed,
+    /// each is a core not shown minimal.
     unshrunk: usize,
     /// Every candidate after confirmation, in `candidates` order.
     checked: Vec<Checked>,
@@ -528,8 +528,8 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let mut candidates = found.cores.clone();
     candidates.extend(loose);
     let paid = plan.paid(budget, candidates.len());
-    let unpaid = candidates.len() - paid;
-    candidates.truncate(paid);
+    let cut = candidates.split_off(paid);
+    let unpaid = cut.len();
     // Of those, the ones holding a candidate sent are left out: that candidate, stronger on the
     // search's evidence, stands for them (a set lifting well above a part it holds is sent in
     // turn when it is the stronger of the two). Measured only together with the passes of
@@ -539,13 +539,14 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let (shared, last_n) = (held.len(), last.len());
     candidates.extend(last);
     let unexplained = candidates.len().saturating_sub(found.cores.len());
-    // Last of all, every other failure mode of the search that holds no set sent nor a core:
-    // mostly sets screened near the search's end whose parts were never tested. Confirmed, each
-    // is reported as a core not shown minimal (its smaller subsets untested).
+    // Last of all, every other failure mode of the search, not shown minimal, that holds no core
+    // nor candidate (sent, or left out for want of budget): mostly sets screened near the
+    // search's end whose parts were never tested. Confirmed, each is reported as a core not
+    // shown minimal.
     let before = candidates.len();
     for set in shrink::roots(&everything, params.threshold) {
         let holds = |c: &Core| c.stats.set.is_subset_of(set);
-        if candidates.iter().any(holds) || found.cores.iter().any(holds) {
+        if candidates.iter().chain(&cut).chain(&found.cores).any(holds) {
             continue;
         }
         if let Some(s) = of(set) {

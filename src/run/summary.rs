@@ -301,9 +301,10 @@ pub struct ConfirmSummary {
     /// candidate was settled.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub last: usize,
-    /// Candidates sent last of all (after the `last`): failure modes of the search holding no
-    /// other candidate nor core, whose smaller subsets were never tested — mostly sets screened
-    /// near the search's end. Confirmed, each is reported as a core not shown minimal.
+    /// Candidates sent last of all (after the `last`): the other failure modes of the search,
+    /// holding no core nor candidate (sent or unpaid) and not shown minimal — mostly sets
+    /// screened near the search's end whose parts were never tested. Confirmed, each is
+    /// reported as a core not shown minimal (`minimal: false`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unshrunk: usize,
     /// Every candidate with its fresh observations, e-value and status.
@@ -467,7 +468,11 @@ impl Summary {
     /// each failure as it finds it, the calls it spent on that during the search and what the
     /// shrink phase after it added.
     pub fn shrink_text(&self, sh: &ShrinkSummary) -> String {
-        let candidates = self.confirmation.as_ref().map_or(self.cores.len(), |c| c.candidates);
+        // The shrink's own: the candidates sent less the failure modes no core explained.
+        let candidates = self
+            .confirmation
+            .as_ref()
+            .map_or(self.cores.len(), |c| c.candidates.saturating_sub(c.unexplained + c.unshrunk));
         let noun = if self.confirmation.is_some() { "candidate cores" } else { "cores" };
         let refuted = match sh.refuted.len() {
             0 => String::new(),
