@@ -267,11 +267,12 @@ fn ctrl_c_journals_the_calls_in_flight_and_the_run_resumes() {
     let summary: Value = serde_json::from_str(&resumed).unwrap();
     assert_eq!(summary, serde_json::from_str::<Value>(&fresh).unwrap());
     // The search's (the budget less the quarter set aside for shrinking), then the shrink
-    // phase's: every phase within the budget of 60.
+    // phase's and fresh confirmation's: every phase within the budget of 60, each journaled.
     let searched = summary["metrics"]["inferences"].as_u64().unwrap();
     let shrunk = summary["shrink"]["inferences"].as_u64().unwrap_or(0);
-    assert!(searched <= 45 && searched + shrunk <= 60, "{summary}");
-    assert_eq!(journal(&out).len() as u64, searched + shrunk);
+    let confirmed = summary["confirmation"]["inferences"].as_u64().unwrap_or(0);
+    assert!(searched <= 45 && searched + shrunk + confirmed <= 60, "{summary}");
+    assert_eq!(journal(&out).len() as u64, searched + shrunk + confirmed);
 }
 
 /// One exit-code policy: a bad flag value is a usage error (2) for every command.

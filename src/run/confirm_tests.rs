@@ -37,6 +37,26 @@ fn assert_no_core_listed_not_distinct(summary: &super::summary::Summary, at: &st
     }
 }
 
+/// One seeded run of `algo` against `profile` on the 8-concept lattice of up to 4, its
+/// parameters set by `tune`: the report, the config it ran under and the space.
+fn run_seed(
+    d: &crate::ir::Domain,
+    profile: &Profile,
+    algo: Algo,
+    seed: u64,
+    tune: impl FnOnce(&mut crate::search::Params),
+) -> (runner::RunReport, super::summary::RunConfig, Space) {
+    let dir = tempfile::tempdir().unwrap();
+    let world = Arc::new(FakeWorld(d.clone()));
+    let s = Setup::new(Arc::new(d.clone()), world, Arc::new(SimModel { profile: profile.clone() }), None, dir.path());
+    let space = Space::new(lattice(8, 4), 8);
+    let mut cfg = config(&s, algo);
+    cfg.params.seed = seed;
+    tune(&mut cfg.params);
+    let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+    (r, cfg, space)
+}
+
 #[test]
 fn a_graded_landscape_reports_no_false_core() {
     let d = numbered(8);
@@ -99,17 +119,9 @@ fn an_unexplained_minimal_failure_mode_is_confirmed_and_reported() {
     let profile = Profile::parse(NEAR, "near.toml", &d).unwrap();
     let (mut reached, mut sent_last) = (0, 0);
     for seed in 0..10 {
-        let dir = tempfile::tempdir().unwrap();
-        let world = Arc::new(FakeWorld(d.clone()));
-        let s =
-            Setup::new(Arc::new(d.clone()), world, Arc::new(SimModel { profile: profile.clone() }), None, dir.path());
-        let space = Space::new(lattice(8, 4), 8);
-        let mut cfg = config(&s, Algo::Interact);
-        cfg.params.budget = 400;
-        cfg.params.shrink = 300;
-        cfg.params.beam_budget = 40;
-        cfg.params.seed = seed;
-        let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        let (r, cfg, space) = run_seed(&d, &profile, Algo::Interact, seed, |p| {
+            (p.budget, p.shrink, p.beam_budget) = (400, 300, 40);
+        });
         let c = r.summary.confirmation.as_ref().unwrap();
         assert_no_core_listed_not_distinct(&r.summary, &format!("seed {seed}"));
         let checked = r.confirmation.as_ref().unwrap();
@@ -201,16 +213,7 @@ fn a_failure_mode_with_untested_parts_is_confirmed_as_a_core_not_shown_minimal()
     let profile = Profile::parse(TRIPLES, "triples.toml", &d).unwrap();
     let (mut sent, mut confirmed) = (0, 0);
     for seed in 0..10 {
-        let dir = tempfile::tempdir().unwrap();
-        let world = Arc::new(FakeWorld(d.clone()));
-        let s =
-            Setup::new(Arc::new(d.clone()), world, Arc::new(SimModel { profile: profile.clone() }), None, dir.path());
-        let space = Space::new(lattice(8, 4), 8);
-        let mut cfg = config(&s, Algo::Random);
-        cfg.params.budget = 400;
-        cfg.params.shrink = 60;
-        cfg.params.seed = seed;
-        let r = block_on(runner::search(&s, &cfg, &space)).unwrap();
+        let (r, ..) = run_seed(&d, &profile, Algo::Random, seed, |p| (p.budget, p.shrink) = (400, 60));
         let (n, k) = check_sent_last_of_all(&r, &d, &profile, &format!("seed {seed}"));
         (sent, confirmed) = (sent + n, confirmed + k);
     }
