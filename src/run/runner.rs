@@ -546,7 +546,8 @@ async fn search_and_shrink(params: &Params, space: &Space, eval: &mut Evaluator)
     let before = candidates.len();
     for set in shrink::roots(&everything, params.threshold) {
         let holds = |c: &Core| c.stats.set.is_subset_of(set);
-        if candidates.iter().chain(&cut).chain(&found.cores).any(holds) {
+        // The shrink's cores are all among `candidates` and `cut`.
+        if candidates.iter().chain(&cut).any(holds) {
             continue;
         }
         if let Some(s) = of(set) {

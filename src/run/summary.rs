@@ -468,7 +468,8 @@ impl Summary {
     /// each failure as it finds it, the calls it spent on that during the search and what the
     /// shrink phase after it added.
     pub fn shrink_text(&self, sh: &ShrinkSummary) -> String {
-        // The shrink's own: the candidates sent less the failure modes no core explained.
+        // The shrink's own: the candidates sent less the failure modes no core explained and
+        // those sent last of all.
         let candidates = self
             .confirmation
             .as_ref()
